@@ -1,0 +1,253 @@
+//! The Newton iteration of one step, with Jacobian/LU reuse and refresh (IDA's IDANls and
+//! the SUNDIALS Newton solver).
+//!
+//! The iteration matrix J = dF/dy + c_j·dF/dy' is reused across steps while c_j stays within
+//! a factor [0.6, 1.67] of the value it was built with (the solve is then rescaled by
+//! 2/(1 + c_j/c_old)). It is rebuilt when
+//! * the iteration fails to converge with a stale matrix (retried at once, no step reduction);
+//! * the previous step converged slowly (rate above `jacobian_refresh_rate`): stiff directions
+//!   are turning, and a stale matrix would soon diverge;
+//! * `max_steps_between_jacobians` steps have passed.
+
+use super::BdfSolver;
+use crate::dae::error::{Culprit, DaeError};
+use crate::dae::problem::{DaeSystem, EvalError};
+use crate::sparse::LinearSolveError;
+
+use super::linsys::SetupError;
+
+/// What made a nonlinear solve fail.
+#[derive(Debug, Clone)]
+pub(crate) enum NlsCause {
+    /// The iteration diverged or did not converge in the allowed iterations.
+    Convergence(Vec<Culprit>),
+    /// The iteration matrix could not be factorised or solved with.
+    Linear(LinearSolveError, Vec<Culprit>),
+    /// The residual was NaN or infinite.
+    NonFinite(Vec<Culprit>),
+    /// A callback reported a recoverable failure.
+    Eval(String),
+}
+
+impl NlsCause {
+    pub(crate) fn culprits(&self) -> Vec<Culprit> {
+        match self {
+            NlsCause::Convergence(c) | NlsCause::Linear(_, c) | NlsCause::NonFinite(c) => c.clone(),
+            NlsCause::Eval(_) => vec![],
+        }
+    }
+}
+
+pub(crate) enum NlsFailure {
+    Recoverable(NlsCause),
+    Fatal(DaeError),
+}
+
+impl<P: DaeSystem> BdfSolver<P> {
+    /// Evaluates F(tn, yy, yp) into `delta`, counting it and checking it is finite.
+    fn eval_residual(&mut self) -> Result<(), NlsFailure> {
+        self.stats.residual_evals += 1;
+        match self
+            .sys
+            .residual(self.tn, &self.yy, &self.yp, &self.p, &mut self.delta)
+        {
+            Ok(()) => {}
+            Err(EvalError::Recoverable(m)) => {
+                return Err(NlsFailure::Recoverable(NlsCause::Eval(m)))
+            }
+            Err(EvalError::Fatal(m)) => {
+                return Err(NlsFailure::Fatal(DaeError::Evaluation {
+                    t: self.tn,
+                    message: m,
+                }))
+            }
+        }
+        if self.delta.iter().any(|v| !v.is_finite()) {
+            let bad: Vec<f64> = self
+                .delta
+                .iter()
+                .map(|v| if v.is_finite() { 0.0 } else { 1.0 })
+                .collect();
+            let ones = vec![1.0; self.n];
+            let mut c = self.culprits(&bad, &ones, 5);
+            for x in c.iter_mut() {
+                x.weighted = self.delta[x.index];
+            }
+            return Err(NlsFailure::Recoverable(NlsCause::NonFinite(c)));
+        }
+        Ok(())
+    }
+
+    /// Builds and factorises the iteration matrix at the predictor.
+    fn setup_matrix(&mut self) -> Result<(), NlsFailure> {
+        self.stats.jacobian_evals += 1;
+        self.stats.residual_evals += self.mat.fd_cost();
+        let r0 = std::mem::take(&mut self.tmp);
+        let mut r0 = r0;
+        r0.copy_from_slice(&self.delta);
+        let res = self.mat.setup(
+            &mut self.sys,
+            self.tn,
+            &self.yy,
+            &self.yp,
+            &self.p,
+            self.cj,
+            &r0,
+            &self.ewt,
+            self.hh,
+        );
+        self.tmp = r0;
+        match res {
+            Ok(()) => {
+                self.stats.lu_factorisations += 1;
+                self.jac_current = true;
+                self.force_setup = false;
+                self.steps_since_jac = 0;
+                self.ss = 20.0;
+                Ok(())
+            }
+            Err(SetupError::Eval(EvalError::Recoverable(m))) => {
+                Err(NlsFailure::Recoverable(NlsCause::Eval(m)))
+            }
+            Err(SetupError::Eval(EvalError::Fatal(m))) => {
+                Err(NlsFailure::Fatal(DaeError::Evaluation {
+                    t: self.tn,
+                    message: m,
+                }))
+            }
+            Err(SetupError::Linear(e)) => {
+                self.stats.lu_factorisations += 1;
+                Err(NlsFailure::Recoverable(NlsCause::Linear(
+                    e,
+                    self.singular_culprits(),
+                )))
+            }
+        }
+    }
+
+    /// Names the equations and unknowns whose rows or columns of J are entirely zero.
+    pub(crate) fn singular_culprits(&self) -> Vec<Culprit> {
+        let mut out = Vec::new();
+        for r in self.mat.zero_rows() {
+            out.push(Culprit {
+                index: r,
+                name: format!("equation {} (row of zeros)", self.sys.component_name(r)),
+                weighted: 0.0,
+            });
+        }
+        for c in self.mat.zero_columns() {
+            out.push(Culprit {
+                index: c,
+                name: format!("unknown {} (column of zeros)", self.sys.component_name(c)),
+                weighted: 0.0,
+            });
+        }
+        out.truncate(8);
+        out
+    }
+
+    /// Solves the corrector equation F(tn, y_pred + e, y'_pred + c_j·e) = 0 for e (`ee`),
+    /// leaving the corrected solution in `yy`, `yp`.
+    pub(crate) fn nonlinear_solve(&mut self) -> Result<(), NlsFailure> {
+        let cjratio = if self.mat.alpha != 0.0 {
+            self.cj / self.mat.alpha
+        } else {
+            0.0
+        };
+        let mut call_setup = self.force_setup
+            || self.stats.lu_factorisations == 0
+            || !(0.6..=1.0 / 0.6).contains(&cjratio)
+            || self.steps_since_jac >= self.opts.max_steps_between_jacobians;
+        if self.cj != self.cjlast {
+            self.ss = 100.0;
+        }
+        self.jac_current = false;
+        loop {
+            match self.newton_attempt(call_setup) {
+                Ok(()) => return Ok(()),
+                Err(NlsFailure::Recoverable(cause)) => {
+                    let retry = !self.jac_current
+                        && !matches!(cause, NlsCause::Eval(_) | NlsCause::NonFinite(_));
+                    if retry {
+                        call_setup = true;
+                        continue;
+                    }
+                    // A fresh matrix will be needed after the step-size change.
+                    self.force_setup = true;
+                    return Err(NlsFailure::Recoverable(cause));
+                }
+                Err(f) => return Err(f),
+            }
+        }
+    }
+
+    fn newton_attempt(&mut self, call_setup: bool) -> Result<(), NlsFailure> {
+        self.yy.copy_from_slice(&self.ypred);
+        self.yp.copy_from_slice(&self.yppred);
+        self.ee.iter_mut().for_each(|v| *v = 0.0);
+        self.eval_residual()?;
+        if call_setup {
+            self.setup_matrix()?;
+        }
+        let scale = {
+            let r = self.cj / self.mat.alpha;
+            if (r - 1.0).abs() > 0.0 {
+                2.0 / (1.0 + r)
+            } else {
+                1.0
+            }
+        };
+        let mut oldnrm = 0.0;
+        let maxcor = self.opts.max_newton_iters;
+        for m in 0..maxcor {
+            self.stats.newton_iters += 1;
+            // delta ← J⁻¹ F
+            if let Err(e) = self.mat.solve(&mut self.delta) {
+                return Err(NlsFailure::Recoverable(NlsCause::Linear(
+                    e,
+                    self.singular_culprits(),
+                )));
+            }
+            if scale != 1.0 {
+                self.delta.iter_mut().for_each(|v| *v *= scale);
+            }
+            let cj = self.cj;
+            for i in 0..self.n {
+                self.ee[i] -= self.delta[i];
+                self.yy[i] = self.ypred[i] + self.ee[i];
+                self.yp[i] = self.yppred[i] + cj * self.ee[i];
+            }
+            let delnrm = Self::wrms(&self.delta, &self.ewt);
+            if !delnrm.is_finite() {
+                let c = self.culprits(&self.delta.clone(), &self.ewt.clone(), 3);
+                return Err(NlsFailure::Recoverable(NlsCause::Convergence(c)));
+            }
+            let mut rate = 0.0;
+            if m == 0 {
+                oldnrm = delnrm;
+                if delnrm <= 100.0 * f64::EPSILON * Self::wrms(&self.yy, &self.ewt) {
+                    return Ok(());
+                }
+            } else {
+                rate = (delnrm / oldnrm).powf(1.0 / m as f64);
+                if rate > self.opts.newton_max_rate {
+                    let c = self.culprits(&self.delta.clone(), &self.ewt.clone(), 3);
+                    return Err(NlsFailure::Recoverable(NlsCause::Convergence(c)));
+                }
+                self.ss = rate / (1.0 - rate);
+            }
+            if self.ss * delnrm <= self.opts.newton_tol {
+                if rate > self.opts.jacobian_refresh_rate {
+                    self.force_setup = true;
+                }
+                return Ok(());
+            }
+            if m + 1 == maxcor {
+                break;
+            }
+            self.eval_residual()?;
+        }
+        let c = self.culprits(&self.delta.clone(), &self.ewt.clone(), 3);
+        Err(NlsFailure::Recoverable(NlsCause::Convergence(c)))
+    }
+}

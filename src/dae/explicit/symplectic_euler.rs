@@ -1,0 +1,118 @@
+//! Fixed-step semi-implicit (symplectic) Euler for second-order systems, as used by
+//! game-style contact engines: v_{n+1} = v_n + h·a(t_n, q_n, v_n), q_{n+1} = q_n + h·v_{n+1}.
+
+use super::{ExplicitError, ExplicitStats};
+use crate::dae::problem::EvalError;
+
+/// A second-order system q'' = a(t, q, q', p).
+pub trait SecondOrderSystem {
+    /// Number of positions (= number of velocities).
+    fn npos(&self) -> usize;
+    /// Evaluates the accelerations.
+    fn acceleration(
+        &mut self,
+        t: f64,
+        q: &[f64],
+        v: &[f64],
+        p: &[f64],
+        a: &mut [f64],
+    ) -> Result<(), EvalError>;
+}
+
+/// Fixed-step symplectic Euler integrator.
+#[derive(Debug)]
+pub struct SymplecticEuler<S: SecondOrderSystem> {
+    sys: S,
+    p: Vec<f64>,
+    h: f64,
+    t: f64,
+    q: Vec<f64>,
+    v: Vec<f64>,
+    a: Vec<f64>,
+    stats: ExplicitStats,
+}
+
+impl<S: SecondOrderSystem> SymplecticEuler<S> {
+    /// Creates the integrator with the fixed step `h` (> 0).
+    pub fn new(
+        sys: S,
+        t0: f64,
+        q0: &[f64],
+        v0: &[f64],
+        p: &[f64],
+        h: f64,
+    ) -> Result<Self, ExplicitError> {
+        let n = sys.npos();
+        if q0.len() != n || v0.len() != n {
+            return Err(ExplicitError::InvalidInput(format!(
+                "q0 and v0 have lengths {} and {}, expected {n}",
+                q0.len(),
+                v0.len()
+            )));
+        }
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(ExplicitError::InvalidInput(format!(
+                "step size must be positive, got {h}"
+            )));
+        }
+        Ok(Self {
+            sys,
+            p: p.to_vec(),
+            h,
+            t: t0,
+            q: q0.to_vec(),
+            v: v0.to_vec(),
+            a: vec![0.0; n],
+            stats: ExplicitStats::default(),
+        })
+    }
+    /// Current time.
+    pub fn t(&self) -> f64 {
+        self.t
+    }
+    /// Positions.
+    pub fn q(&self) -> &[f64] {
+        &self.q
+    }
+    /// Velocities.
+    pub fn v(&self) -> &[f64] {
+        &self.v
+    }
+    /// Work counters.
+    pub fn stats(&self) -> &ExplicitStats {
+        &self.stats
+    }
+
+    /// Steps to `t_end`; the last step is shortened to land on it.
+    pub fn solve_to(&mut self, t_end: f64) -> Result<(), ExplicitError> {
+        while self.t < t_end {
+            let h = self.h.min(t_end - self.t);
+            self.sys
+                .acceleration(self.t, &self.q, &self.v, &self.p, &mut self.a)
+                .map_err(|e| match e {
+                    EvalError::Recoverable(m) | EvalError::Fatal(m) => ExplicitError::Evaluation {
+                        t: self.t,
+                        message: m,
+                    },
+                })?;
+            self.stats.rhs_evals += 1;
+            for i in 0..self.q.len() {
+                self.v[i] += h * self.a[i];
+                self.q[i] += h * self.v[i];
+            }
+            self.t = if t_end - self.t <= self.h {
+                t_end
+            } else {
+                self.t + h
+            };
+            self.stats.steps += 1;
+            if let Some(i) = self.q.iter().chain(&self.v).position(|x| !x.is_finite()) {
+                return Err(ExplicitError::NonFinite {
+                    t: self.t,
+                    index: i % self.q.len(),
+                });
+            }
+        }
+        Ok(())
+    }
+}

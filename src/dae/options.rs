@@ -1,0 +1,109 @@
+//! Solver options (every tunable in one place) and run statistics.
+
+/// Absolute tolerance: one value for all components, or one per component.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AbsTol {
+    /// The same absolute tolerance for every component.
+    Scalar(f64),
+    /// One absolute tolerance per component.
+    Vector(Vec<f64>),
+}
+
+/// Every tunable of the BDF solver. Defaults follow SUNDIALS IDA where it has one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BdfOptions {
+    /// Relative tolerance (> 0).
+    pub rtol: f64,
+    /// Absolute tolerance (> 0).
+    pub atol: AbsTol,
+    /// Largest BDF order, 1–5.
+    pub max_order: usize,
+    /// Initial step size; `None` chooses one from y'(t0) and the tolerances.
+    pub h_init: Option<f64>,
+    /// Largest step size magnitude (`f64::INFINITY` for none).
+    pub h_max: f64,
+    /// Step-size floor: a step smaller than this ends the run with an error. `None` uses
+    /// 16·ε·max(|t|, |t_end|).
+    pub h_min: Option<f64>,
+    /// Maximum number of internal steps in one call of the driver before it returns an error.
+    pub max_steps: usize,
+    /// Exclude algebraic components from the local error test (IDA's "suppress algebraic").
+    pub suppress_algebraic: bool,
+    /// Maximum Newton iterations per nonlinear solve (IDA: 4).
+    pub max_newton_iters: usize,
+    /// Newton convergence coefficient on the weighted norm of the correction (IDA: 0.33).
+    pub newton_tol: f64,
+    /// Convergence rate above which the Newton iteration is declared diverging (IDA: 0.9).
+    pub newton_max_rate: f64,
+    /// A converged Newton iteration whose rate exceeded this marks the Jacobian stale, so the
+    /// next step re-evaluates it instead of iterating slowly (or diverging when stiff
+    /// directions turn).
+    pub jacobian_refresh_rate: f64,
+    /// Error-test failures allowed within one step (IDA: 10).
+    pub max_error_test_fails: usize,
+    /// Nonlinear convergence failures allowed within one step (IDA: 10).
+    pub max_newton_fails: usize,
+    /// Re-evaluate the Jacobian at least every this many steps.
+    pub max_steps_between_jacobians: usize,
+    /// Stop time: the solver never steps past it.
+    pub stop_time: Option<f64>,
+}
+
+impl Default for BdfOptions {
+    fn default() -> Self {
+        Self {
+            rtol: 1e-6,
+            atol: AbsTol::Scalar(1e-6),
+            max_order: 5,
+            h_init: None,
+            h_max: f64::INFINITY,
+            h_min: None,
+            max_steps: 500_000,
+            suppress_algebraic: false,
+            max_newton_iters: 4,
+            newton_tol: 0.33,
+            newton_max_rate: 0.9,
+            jacobian_refresh_rate: 0.25,
+            max_error_test_fails: 10,
+            max_newton_fails: 10,
+            max_steps_between_jacobians: 50,
+            stop_time: None,
+        }
+    }
+}
+
+impl BdfOptions {
+    /// Default options with `rtol` and a scalar `atol`.
+    pub fn with_tolerances(rtol: f64, atol: f64) -> Self {
+        Self {
+            rtol,
+            atol: AbsTol::Scalar(atol),
+            ..Self::default()
+        }
+    }
+}
+
+/// Work counters of a run (cumulative).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Statistics {
+    /// Accepted steps.
+    pub steps: usize,
+    /// Steps rejected by the local error test.
+    pub error_test_failures: usize,
+    /// Steps rejected because the Newton iteration failed to converge.
+    pub newton_failures: usize,
+    /// Residual evaluations, including those spent in finite-difference Jacobians.
+    pub residual_evals: usize,
+    /// Jacobian evaluations (analytic or finite-difference).
+    pub jacobian_evals: usize,
+    /// Numeric LU factorisations.
+    pub lu_factorisations: usize,
+    /// Newton iterations.
+    pub newton_iters: usize,
+    /// Event-function evaluations.
+    pub event_evals: usize,
+    /// Order of the last step.
+    pub last_order: usize,
+    /// Size of the last step.
+    pub last_step: f64,
+}

@@ -1,0 +1,25 @@
+//! # lash
+//!
+//! Mechanisms whose joints have play (clearance), simulated with an implicit stiff-DAE
+//! integrator on sparse linear algebra — and an explanation of why a simulation disagrees
+//! with measurements.
+//!
+//! The crate is layered, each layer depending only on the ones before it:
+//!
+//! 1. [`sparse`] — compressed-sparse-column patterns, column colouring, and the sparse LU
+//!    (faer) that every implicit solve goes through. All sparse-matrix plumbing lives here.
+//! 2. [`dae`] — a generic residual-form DAE integrator F(t, y, y', p) = 0: variable-order,
+//!    variable-step BDF in the style of SUNDIALS IDA, consistent initial values, dense output,
+//!    events; plus explicit baselines (Dormand–Prince 5(4), symplectic Euler). No mechanics.
+//! 3. [`validation`] — published reference problems (Andrews' squeezer, the turning stiff
+//!    spring, Robertson, a GGL pendulum) with their reference values, run by `lash validate`
+//!    and by the test suite. Its sources live in the top-level `validation/` folder.
+//!
+//! All quantities are SI unless a doc comment says otherwise.
+#![warn(missing_docs)]
+
+pub mod dae;
+pub mod sparse;
+
+#[path = "../validation/mod.rs"]
+pub mod validation;

@@ -1,0 +1,262 @@
+//! Sparse LU through faer: symbolic analysis once per pattern, numeric factorisation reused.
+
+use super::CscPattern;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, NumericLu, SymbolicLu};
+use faer::sparse::linalg::LuError;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par};
+use thiserror::Error;
+
+/// A sparse linear solve that failed.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum LinearSolveError {
+    /// The matrix is not square.
+    #[error("matrix is not square ({nrows} × {ncols})")]
+    NotSquare {
+        /// Rows.
+        nrows: usize,
+        /// Columns.
+        ncols: usize,
+    },
+    /// The matrix is structurally or numerically singular.
+    #[error("matrix is singular{}", match .column { Some(c) => format!(" (no usable pivot in column {c})"), None => String::new() })]
+    Singular {
+        /// A column (unknown index) where elimination broke down, when known.
+        column: Option<usize>,
+    },
+    /// A matrix value is NaN or infinite.
+    #[error("matrix entry ({row}, {col}) is not finite ({value})")]
+    NonFiniteEntry {
+        /// Row of the entry.
+        row: usize,
+        /// Column of the entry.
+        col: usize,
+        /// The value.
+        value: f64,
+    },
+    /// The right-hand side length does not match the matrix.
+    #[error("right-hand side has length {got}, expected {expected}")]
+    DimensionMismatch {
+        /// Expected length.
+        expected: usize,
+        /// Given length.
+        got: usize,
+    },
+    /// faer reported an allocation or internal failure.
+    #[error("sparse LU failed inside faer: {0}")]
+    Backend(String),
+}
+
+/// Sparse LU factorisation of a square matrix with a fixed pattern.
+///
+/// [`SparseLu::new`] runs the fill-reducing ordering and symbolic analysis once;
+/// [`SparseLu::factor`] refactorises numerically, reusing the symbolic structure and the
+/// numeric storage; [`SparseLu::solve_in_place`] solves with the latest factors.
+pub struct SparseLu {
+    pattern: CscPattern,
+    symbolic: SymbolicLu<usize>,
+    numeric: NumericLu<usize, f64>,
+    factor_buf: MemBuffer,
+    solve_buf: MemBuffer,
+    factored: bool,
+    /// Reciprocal of the largest absolute matrix entry of the last factorisation (scale for
+    /// the singularity check on the solution).
+    n_factorisations: usize,
+}
+
+impl std::fmt::Debug for SparseLu {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SparseLu")
+            .field("n", &self.pattern.ncols())
+            .field("nnz", &self.pattern.nnz())
+            .field("factored", &self.factored)
+            .finish()
+    }
+}
+
+fn backend<E: std::fmt::Debug>(e: E) -> LinearSolveError {
+    LinearSolveError::Backend(format!("{e:?}"))
+}
+
+impl SparseLu {
+    /// Symbolic analysis of `pattern` (square).
+    pub fn new(pattern: &CscPattern) -> Result<Self, LinearSolveError> {
+        if pattern.nrows() != pattern.ncols() {
+            return Err(LinearSolveError::NotSquare {
+                nrows: pattern.nrows(),
+                ncols: pattern.ncols(),
+            });
+        }
+        let n = pattern.ncols();
+        let sym =
+            SymbolicSparseColMatRef::new_checked(n, n, pattern.col_ptr(), None, pattern.row_idx());
+        let symbolic = factorize_symbolic_lu(sym, Default::default()).map_err(backend)?;
+        let factor_req = symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default());
+        let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
+        Ok(Self {
+            pattern: pattern.clone(),
+            symbolic,
+            numeric: NumericLu::new(),
+            factor_buf: MemBuffer::try_new(factor_req).map_err(backend)?,
+            solve_buf: MemBuffer::try_new(solve_req).map_err(backend)?,
+            factored: false,
+            n_factorisations: 0,
+        })
+    }
+
+    /// Dimension of the system.
+    pub fn dim(&self) -> usize {
+        self.pattern.ncols()
+    }
+
+    /// Number of numeric factorisations done so far.
+    pub fn factorisations(&self) -> usize {
+        self.n_factorisations
+    }
+
+    /// Numeric factorisation of the matrix with `values` on the pattern given to [`new`](Self::new).
+    pub fn factor(&mut self, values: &[f64]) -> Result<(), LinearSolveError> {
+        self.factored = false;
+        if values.len() != self.pattern.nnz() {
+            return Err(LinearSolveError::DimensionMismatch {
+                expected: self.pattern.nnz(),
+                got: values.len(),
+            });
+        }
+        if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+            let col = self.pattern.col_ptr().partition_point(|&p| p <= k) - 1;
+            return Err(LinearSolveError::NonFiniteEntry {
+                row: self.pattern.row_idx()[k],
+                col,
+                value: values[k],
+            });
+        }
+        let n = self.dim();
+        // Safety of indices was checked when the CscPattern was built.
+        let sym = SymbolicSparseColMatRef::new_checked(
+            n,
+            n,
+            self.pattern.col_ptr(),
+            None,
+            self.pattern.row_idx(),
+        );
+        let mat = SparseColMatRef::new(sym, values);
+        let res = self.symbolic.factorize_numeric_lu(
+            &mut self.numeric,
+            mat,
+            Par::Seq,
+            MemStack::new(&mut self.factor_buf),
+            Default::default(),
+        );
+        match res {
+            Ok(_) => {}
+            Err(LuError::SymbolicSingular { index }) => {
+                return Err(LinearSolveError::Singular {
+                    column: Some(index),
+                })
+            }
+            Err(e) => return Err(backend(e)),
+        }
+        self.factored = true;
+        self.n_factorisations += 1;
+        Ok(())
+    }
+
+    /// Solves A·x = b in place (`b` becomes `x`) with the current factors.
+    ///
+    /// A solution with a non-finite entry reports [`LinearSolveError::Singular`]: faer's
+    /// partial pivoting then met a zero pivot.
+    pub fn solve_in_place(&mut self, b: &mut [f64]) -> Result<(), LinearSolveError> {
+        if !self.factored {
+            return Err(LinearSolveError::Singular { column: None });
+        }
+        if b.len() != self.dim() {
+            return Err(LinearSolveError::DimensionMismatch {
+                expected: self.dim(),
+                got: b.len(),
+            });
+        }
+        let n = b.len();
+        let rhs = MatMut::from_column_major_slice_mut(b, n, 1);
+        LuRef::new_unchecked(&self.symbolic, &self.numeric).solve_in_place_with_conj(
+            Conj::No,
+            rhs,
+            Par::Seq,
+            MemStack::new(&mut self.solve_buf),
+        );
+        if b.iter().any(|v| !v.is_finite()) {
+            return Err(LinearSolveError::Singular { column: None });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tridiag(n: usize) -> (CscPattern, Vec<f64>) {
+        let mut entries = Vec::new();
+        for i in 0..n {
+            entries.push((i, i));
+            if i > 0 {
+                entries.push((i - 1, i));
+                entries.push((i, i - 1));
+            }
+        }
+        let p = CscPattern::from_entries(n, n, entries).unwrap();
+        let mut v = vec![0.0; p.nnz()];
+        for c in 0..n {
+            for k in p.col_range(c) {
+                v[k] = if p.row_idx()[k] == c { 4.0 } else { -1.0 };
+            }
+        }
+        (p, v)
+    }
+
+    #[test]
+    fn solves_and_refactors() {
+        let (p, mut v) = tridiag(50);
+        let mut lu = SparseLu::new(&p).unwrap();
+        for round in 0..3 {
+            for x in v.iter_mut() {
+                *x *= 1.0 + round as f64;
+            }
+            lu.factor(&v).unwrap();
+            let x_true: Vec<f64> = (0..50).map(|i| (i as f64).sin()).collect();
+            let mut b = vec![0.0; 50];
+            for c in 0..50 {
+                for k in p.col_range(c) {
+                    b[p.row_idx()[k]] += v[k] * x_true[c];
+                }
+            }
+            lu.solve_in_place(&mut b).unwrap();
+            for i in 0..50 {
+                assert!((b[i] - x_true[i]).abs() < 1e-12);
+            }
+        }
+        assert_eq!(lu.factorisations(), 3);
+    }
+
+    #[test]
+    fn singular_is_an_error_not_a_panic() {
+        let p = CscPattern::dense(2, 2);
+        let mut lu = SparseLu::new(&p).unwrap();
+        let r = lu.factor(&[1.0, 2.0, 2.0, 4.0]).and_then(|_| {
+            let mut b = vec![1.0, 1.0];
+            lu.solve_in_place(&mut b)
+        });
+        assert!(matches!(r, Err(LinearSolveError::Singular { .. })), "{r:?}");
+        assert!(matches!(
+            lu.factor(&[f64::NAN, 0.0, 0.0, 1.0]),
+            Err(LinearSolveError::NonFiniteEntry { row: 0, col: 0, .. })
+        ));
+        let zero_col = CscPattern::from_entries(2, 2, [(0, 0), (1, 0)]).unwrap();
+        let mut lu = SparseLu::new(&zero_col).unwrap();
+        let r = lu
+            .factor(&[1.0, 1.0])
+            .and_then(|_| lu.solve_in_place(&mut [1.0, 1.0]));
+        assert!(r.is_err());
+    }
+}

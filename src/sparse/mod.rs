@@ -1,0 +1,17 @@
+//! Sparse-matrix plumbing: every sparse structure and factorisation in lash goes through here.
+//!
+//! * [`CscPattern`] — a validated compressed-sparse-column pattern, declared once per problem.
+//! * [`CscMatrix`] — values on a shared pattern (the pattern is reference-counted, so a
+//!   Jacobian and its copies never duplicate the index arrays).
+//! * [`SparseLu`] — faer's sparse LU with the symbolic analysis done once per pattern and the
+//!   numeric factorisation redone in place.
+//! * [`column_colouring`] — a greedy colouring of the columns so a finite-difference Jacobian
+//!   needs one residual evaluation per colour rather than per column.
+
+mod colouring;
+mod lu;
+mod pattern;
+
+pub use colouring::column_colouring;
+pub use lu::{LinearSolveError, SparseLu};
+pub use pattern::{CscMatrix, CscPattern, PatternError};
