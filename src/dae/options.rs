@@ -22,8 +22,8 @@ pub struct BdfOptions {
     pub h_init: Option<f64>,
     /// Largest step size magnitude (`f64::INFINITY` for none).
     pub h_max: f64,
-    /// Step-size floor: a step smaller than this ends the run with an error. `None` uses
-    /// 16·ε·max(|t|, |t_end|).
+    /// Step-size floor: a step smaller than this ends the run with an error. The floor is
+    /// never below 16·ε·|t| (a step that would not change t); `None` uses just that.
     pub h_min: Option<f64>,
     /// Maximum number of internal steps in one call of the driver before it returns an error.
     pub max_steps: usize,
@@ -47,6 +47,14 @@ pub struct BdfOptions {
     pub max_steps_between_jacobians: usize,
     /// Stop time: the solver never steps past it.
     pub stop_time: Option<f64>,
+    /// Filter the local error estimates through the iteration matrix so transients in stiff
+    /// directions (already damped by BDF) do not force tiny steps; see `dae::bdf::estimate`.
+    /// Costs about one residual evaluation and one LU solve per estimate.
+    pub filter_error_estimate: bool,
+    /// With an iteration matrix from an earlier step, always take a second Newton iteration
+    /// so the convergence rate of this step is measured (and a slow rate refreshes the
+    /// matrix) instead of trusting the previous step's rate.
+    pub measure_rate_with_stale_jacobian: bool,
 }
 
 impl Default for BdfOptions {
@@ -68,6 +76,8 @@ impl Default for BdfOptions {
             max_newton_fails: 10,
             max_steps_between_jacobians: 50,
             stop_time: None,
+            filter_error_estimate: true,
+            measure_rate_with_stale_jacobian: true,
         }
     }
 }

@@ -10,9 +10,11 @@
 //! | `step.rs` | one step: coefficients, predictor, error test, order/step selection |
 //! | `newton.rs` | the Newton iteration with Jacobian/LU reuse and refresh |
 //! | `linsys.rs` | the iteration matrix dF/dy + α·dF/dy' and its sparse LU |
+//! | `estimate.rs` | filtering of the local error estimates in stiff directions |
 //! | `ic.rs` | consistent initial values (index 1) and the consistency check |
 //! | `output.rs` | dense output, the output-time driver, stop times, events, restarts |
 
+mod estimate;
 mod ic;
 pub(crate) mod linsys;
 mod newton;
@@ -99,6 +101,14 @@ pub struct BdfSolver<P: DaeSystem> {
     /// Weights of the error test: `ewt` with algebraic components zeroed when suppressed.
     pub(crate) ewt_err: Vec<f64>,
     pub(crate) tmp: Vec<f64>,
+    /// Weights of the Newton convergence test.
+    pub(crate) ewt_newton: Vec<f64>,
+    /// Filtered local error estimate of the current attempt (equals `ee` without filtering).
+    pub(crate) ee_est: Vec<f64>,
+    pub(crate) res_base: Vec<f64>,
+    pub(crate) res_work: Vec<f64>,
+    pub(crate) yp_work: Vec<f64>,
+    pub(crate) filter_ok: bool,
     // --- linear algebra ---
     pub(crate) mat: IterationMatrix,
     /// The iteration matrix was evaluated at the current step's predictor.
@@ -261,6 +271,12 @@ impl<P: DaeSystem> BdfSolver<P> {
             ewt: vec![0.0; n],
             ewt_err: vec![0.0; n],
             tmp: vec![0.0; n],
+            ewt_newton: vec![0.0; n],
+            ee_est: vec![0.0; n],
+            res_base: vec![0.0; n],
+            res_work: vec![0.0; n],
+            yp_work: vec![0.0; n],
+            filter_ok: false,
             mat,
             jac_current: false,
             force_setup: true,

@@ -181,7 +181,27 @@ impl<P: DaeSystem> BdfSolver<P> {
         }
     }
 
+    /// Weights of the Newton convergence test: the error weights, with algebraic components
+    /// scaled by min(|h|, 1) when they are suppressed from the error test. Multipliers of an
+    /// index-2 formulation act on the solution only through h·λ (an impulse over the step),
+    /// and the iteration matrix has condition ~1/h², so their round-off grows like 1/h and
+    /// must not stop the iteration at tiny steps (Hairer & Wanner II, VII.3 scale index-2
+    /// variables the same way).
+    fn update_newton_weights(&mut self) {
+        let scale = self.hh.abs().min(1.0);
+        for i in 0..self.n {
+            self.ewt_newton[i] = if self.opts.suppress_algebraic
+                && self.kinds[i] == crate::dae::VarKind::Algebraic
+            {
+                self.ewt[i] * scale
+            } else {
+                self.ewt[i]
+            };
+        }
+    }
+
     fn newton_attempt(&mut self, call_setup: bool) -> Result<(), NlsFailure> {
+        self.update_newton_weights();
         self.yy.copy_from_slice(&self.ypred);
         self.yp.copy_from_slice(&self.yppred);
         self.ee.iter_mut().for_each(|v| *v = 0.0);
@@ -217,26 +237,30 @@ impl<P: DaeSystem> BdfSolver<P> {
                 self.yy[i] = self.ypred[i] + self.ee[i];
                 self.yp[i] = self.yppred[i] + cj * self.ee[i];
             }
-            let delnrm = Self::wrms(&self.delta, &self.ewt);
+            let delnrm = Self::wrms(&self.delta, &self.ewt_newton);
             if !delnrm.is_finite() {
-                let c = self.culprits(&self.delta.clone(), &self.ewt.clone(), 3);
+                let c = self.culprits(&self.delta.clone(), &self.ewt_newton.clone(), 3);
                 return Err(NlsFailure::Recoverable(NlsCause::Convergence(c)));
             }
             let mut rate = 0.0;
             if m == 0 {
                 oldnrm = delnrm;
-                if delnrm <= 100.0 * f64::EPSILON * Self::wrms(&self.yy, &self.ewt) {
+                if delnrm <= 100.0 * f64::EPSILON * Self::wrms(&self.yy, &self.ewt_newton) {
                     return Ok(());
                 }
             } else {
                 rate = (delnrm / oldnrm).powf(1.0 / m as f64);
                 if rate > self.opts.newton_max_rate {
-                    let c = self.culprits(&self.delta.clone(), &self.ewt.clone(), 3);
+                    let c = self.culprits(&self.delta.clone(), &self.ewt_newton.clone(), 3);
                     return Err(NlsFailure::Recoverable(NlsCause::Convergence(c)));
                 }
                 self.ss = rate / (1.0 - rate);
             }
-            if self.ss * delnrm <= self.opts.newton_tol {
+            // With a matrix from an earlier step, the rate estimate of that step says nothing
+            // about this one (stiff directions may have turned): measure it, i.e. do not
+            // accept the first iterate.
+            let trust = m > 0 || self.jac_current || !self.opts.measure_rate_with_stale_jacobian;
+            if trust && self.ss * delnrm <= self.opts.newton_tol {
                 if rate > self.opts.jacobian_refresh_rate {
                     self.force_setup = true;
                 }
@@ -247,7 +271,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             }
             self.eval_residual()?;
         }
-        let c = self.culprits(&self.delta.clone(), &self.ewt.clone(), 3);
+        let c = self.culprits(&self.delta.clone(), &self.ewt_newton.clone(), 3);
         Err(NlsFailure::Recoverable(NlsCause::Convergence(c)))
     }
 }

@@ -109,10 +109,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             )));
         }
         let dir = (tout - t0).signum();
-        self.h_min = self
-            .opts
-            .h_min
-            .unwrap_or(16.0 * f64::EPSILON * t0.abs().max(tout.abs()).max(tdist));
+        self.h_min = self.opts.h_min.unwrap_or(0.0);
         self.yy.copy_from_slice(&self.phi[0]);
         self.yp.copy_from_slice(&self.phi[1]);
         let y0 = self.yy.clone();

@@ -62,7 +62,8 @@ impl<P: DaeSystem> BdfSolver<P> {
                         StepFailure::ErrorTest(est) => {
                             nef += 1;
                             self.stats.error_test_failures += 1;
-                            culprits = self.culprits(&self.ee.clone(), &self.ewt_err.clone(), 3);
+                            culprits =
+                                self.culprits(&self.ee_est.clone(), &self.ewt_err.clone(), 3);
                             if nef >= self.opts.max_error_test_fails {
                                 return Err(DaeError::ErrorTestFailures {
                                     t: saved_t,
@@ -100,11 +101,15 @@ impl<P: DaeSystem> BdfSolver<P> {
                         }
                     }
                     self.hh *= rr;
-                    if self.hh.abs() < self.h_min {
+                    let floor = self
+                        .h_min
+                        .max(16.0 * f64::EPSILON * saved_t.abs())
+                        .max(1e-290);
+                    if self.hh.abs() < floor {
                         return Err(DaeError::StepTooSmall {
                             t: saved_t,
                             h: self.hh,
-                            h_min: self.h_min,
+                            h_min: floor,
                             culprits,
                         });
                     }
@@ -186,23 +191,41 @@ impl<P: DaeSystem> BdfSolver<P> {
     /// order `knew` for a retry.
     fn test_error(&mut self) -> Result<ErrorEstimates, ErrorEstimates> {
         let kk = self.kk;
-        let enorm_k = Self::wrms(&self.ee, &self.ewt_err);
+        let filter = self.opts.filter_error_estimate && self.filter_prepare();
+        let mut e = std::mem::take(&mut self.ee_est);
+        e.copy_from_slice(&self.ee);
+        if filter {
+            self.filter_estimate(&mut e);
+        }
+        self.ee_est = e;
+        let enorm_k = Self::wrms(&self.ee_est, &self.ewt_err);
         let err_k = self.sigma[kk] * enorm_k;
         let terr_k = (kk as f64 + 1.0) * err_k;
         let mut err_km1 = 0.0;
         self.knew = kk;
         if kk > 1 {
-            for i in 0..self.n {
-                self.delta[i] = self.phi[kk][i] + self.ee[i];
+            let mut d = std::mem::take(&mut self.delta);
+            d.copy_from_slice(&self.phi[kk]);
+            if filter {
+                self.filter_estimate(&mut d);
             }
-            let enorm_km1 = Self::wrms(&self.delta, &self.ewt_err);
+            for i in 0..self.n {
+                d[i] += self.ee_est[i];
+            }
+            let enorm_km1 = Self::wrms(&d, &self.ewt_err);
             err_km1 = self.sigma[kk - 1] * enorm_km1;
             let terr_km1 = kk as f64 * err_km1;
             if kk > 2 {
-                for i in 0..self.n {
-                    self.delta[i] += self.phi[kk - 1][i];
+                let mut d2 = std::mem::take(&mut self.tmp);
+                d2.copy_from_slice(&self.phi[kk - 1]);
+                if filter {
+                    self.filter_estimate(&mut d2);
                 }
-                let enorm_km2 = Self::wrms(&self.delta, &self.ewt_err);
+                for i in 0..self.n {
+                    d[i] += d2[i];
+                }
+                self.tmp = d2;
+                let enorm_km2 = Self::wrms(&d, &self.ewt_err);
                 let err_km2 = self.sigma[kk - 2] * enorm_km2;
                 let terr_km2 = (kk as f64 - 1.0) * err_km2;
                 if terr_km1.max(terr_km2) <= terr_k {
@@ -211,6 +234,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             } else if terr_km1 <= 0.5 * terr_k {
                 self.knew = kk - 1;
             }
+            self.delta = d;
         }
         let est = ErrorEstimates { err_k, err_km1 };
         if self.ck * enorm_k > 1.0 || !enorm_k.is_finite() {
@@ -277,9 +301,15 @@ impl<P: DaeSystem> BdfSolver<P> {
             }
             let mut err_kp1 = 0.0;
             if action == Action::Unset {
-                for i in 0..self.n {
-                    self.tmp[i] = self.ee[i] - self.phi[kk + 1][i];
+                let mut d = std::mem::take(&mut self.tmp);
+                d.copy_from_slice(&self.phi[kk + 1]);
+                if self.opts.filter_error_estimate && self.filter_ok {
+                    self.filter_estimate(&mut d);
                 }
+                for i in 0..self.n {
+                    d[i] = self.ee_est[i] - d[i];
+                }
+                self.tmp = d;
                 let enorm_kp1 = Self::wrms(&self.tmp, &self.ewt_err);
                 err_kp1 = enorm_kp1 / (kk as f64 + 2.0);
                 action = if kk == 1 {
