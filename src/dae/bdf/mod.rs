@@ -116,6 +116,9 @@ pub struct BdfSolver<P: DaeSystem> {
     /// Set-up forced on the next Newton iteration (slow convergence, restart, …).
     pub(crate) force_setup: bool,
     pub(crate) steps_since_jac: usize,
+    /// Current limit on Jacobian reuse (adapted; see `newton.rs`).
+    pub(crate) jac_age_limit: usize,
+    pub(crate) fresh_streak: usize,
     // --- output driver state ---
     pub(crate) started: bool,
     pub(crate) tret: f64,
@@ -236,6 +239,7 @@ impl<P: DaeSystem> BdfSolver<P> {
         let mut phi = vec![vec![0.0; n]; MAX_ORDER + 2];
         phi[0].copy_from_slice(y0);
         phi[1].copy_from_slice(yp0);
+        let opts_max_age = opts.max_steps_between_jacobians.max(1);
         let mut s = Self {
             sys,
             p: p.to_vec(),
@@ -281,6 +285,8 @@ impl<P: DaeSystem> BdfSolver<P> {
             jac_current: false,
             force_setup: true,
             steps_since_jac: 0,
+            jac_age_limit: opts_max_age,
+            fresh_streak: 0,
             started: false,
             tret: t0,
             yret: y0.to_vec(),

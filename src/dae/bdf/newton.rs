@@ -157,18 +157,22 @@ impl<P: DaeSystem> BdfSolver<P> {
         let mut call_setup = self.force_setup
             || self.stats.lu_factorisations == 0
             || !(0.6..=1.0 / 0.6).contains(&cjratio)
-            || self.steps_since_jac >= self.opts.max_steps_between_jacobians;
+            || self.steps_since_jac >= self.jac_age_limit;
         if self.cj != self.cjlast {
             self.ss = 100.0;
         }
         self.jac_current = false;
         loop {
             match self.newton_attempt(call_setup) {
-                Ok(()) => return Ok(()),
+                Ok(rate) => {
+                    self.adapt_jacobian_age(!call_setup, rate <= self.opts.jacobian_refresh_rate);
+                    return Ok(());
+                }
                 Err(NlsFailure::Recoverable(cause)) => {
                     let retry = !self.jac_current
                         && !matches!(cause, NlsCause::Eval(_) | NlsCause::NonFinite(_));
                     if retry {
+                        self.adapt_jacobian_age(true, false);
                         call_setup = true;
                         continue;
                     }
@@ -200,7 +204,31 @@ impl<P: DaeSystem> BdfSolver<P> {
         }
     }
 
-    fn newton_attempt(&mut self, call_setup: bool) -> Result<(), NlsFailure> {
+    /// Adapts how many steps a Jacobian may be reused. A reused matrix that failed or
+    /// converged slowly drops the limit to 1 (a fresh matrix every step: stiff directions are
+    /// turning); successful reuse doubles it back towards `max_steps_between_jacobians`, and
+    /// after 8 steps at limit 1 reuse is probed again.
+    fn adapt_jacobian_age(&mut self, reused: bool, good: bool) {
+        let max = self.opts.max_steps_between_jacobians.max(1);
+        if reused {
+            self.jac_age_limit = if good {
+                (2 * self.jac_age_limit).min(max)
+            } else {
+                1
+            };
+            self.fresh_streak = 0;
+        } else if self.jac_age_limit == 1 {
+            self.fresh_streak += 1;
+            if self.fresh_streak >= 8 {
+                self.jac_age_limit = 2.min(max);
+                self.fresh_streak = 0;
+            }
+        }
+    }
+
+    /// One Newton iteration run; returns the last measured convergence rate (0 if the first
+    /// iterate was accepted).
+    fn newton_attempt(&mut self, call_setup: bool) -> Result<f64, NlsFailure> {
         self.update_newton_weights();
         self.yy.copy_from_slice(&self.ypred);
         self.yp.copy_from_slice(&self.yppred);
@@ -246,7 +274,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             if m == 0 {
                 oldnrm = delnrm;
                 if delnrm <= 100.0 * f64::EPSILON * Self::wrms(&self.yy, &self.ewt_newton) {
-                    return Ok(());
+                    return Ok(0.0);
                 }
             } else {
                 rate = (delnrm / oldnrm).powf(1.0 / m as f64);
@@ -264,7 +292,7 @@ impl<P: DaeSystem> BdfSolver<P> {
                 if rate > self.opts.jacobian_refresh_rate {
                     self.force_setup = true;
                 }
-                return Ok(());
+                return Ok(rate);
             }
             if m + 1 == maxcor {
                 break;
