@@ -18,7 +18,9 @@
 //! All quantities are SI unless a doc comment says otherwise.
 #![warn(missing_docs)]
 
+pub mod bench;
 pub mod dae;
+pub mod peers;
 pub mod sparse;
 
 #[path = "../validation/mod.rs"]

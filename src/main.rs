@@ -19,6 +19,24 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Benchmarks measured side by side in one run, reported as ratios to lash.
+    Bench {
+        #[command(subcommand)]
+        what: BenchWhat,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchWhat {
+    /// The DAE layer: lash's BDF against diffsol's BDF and explicit stepping.
+    Dae {
+        /// Print the rows as JSON.
+        #[arg(long)]
+        json: bool,
+        /// Repeats per timing (the best is kept).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+    },
 }
 
 fn main() -> ExitCode {
@@ -46,6 +64,50 @@ fn main() -> ExitCode {
             } else {
                 ExitCode::FAILURE
             }
+        }
+        Command::Bench {
+            what: BenchWhat::Dae { json, repeats },
+        } => {
+            let rows = lash::bench::bench_dae(repeats);
+            if json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&rows).expect("rows serialise")
+                );
+            } else {
+                println!(
+                    "{:<22} {:<20} {:<40} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9}",
+                    "problem",
+                    "solver",
+                    "setting",
+                    "error",
+                    "steps",
+                    "rhs evals",
+                    "wall s",
+                    "steps/x",
+                    "time/x"
+                );
+                for r in &rows {
+                    println!(
+                        "{:<22} {:<20} {:<40} {:>10.2e} {:>9} {:>10} {:>10.4} {:>9.2} {:>9.2}{}",
+                        r.problem,
+                        r.solver,
+                        r.setting,
+                        r.error,
+                        r.steps,
+                        r.rhs_evals,
+                        r.wall_s,
+                        r.steps_ratio,
+                        r.time_ratio,
+                        r.failure
+                            .as_ref()
+                            .map(|f| format!("  FAILED: {f}"))
+                            .unwrap_or_default()
+                    );
+                }
+                println!("(steps/x, time/x: ratio to lash BDF on the same problem, measured in this run)");
+            }
+            ExitCode::SUCCESS
         }
     }
 }

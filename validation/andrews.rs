@@ -18,6 +18,20 @@ pub enum AndrewsIndex {
     Two,
     /// Acceleration constraints g_qq(q, v) + G(q)w = 0.
     One,
+    /// Gear–Gupta–Leimkuhler stabilised index 2: velocity constraints G(q)v = 0 and position
+    /// constraints g(q) = 0 with six more multipliers μ in q' = v − G(q)ᵀμ (33 unknowns).
+    Ggl,
+}
+
+impl AndrewsIndex {
+    /// Number of unknowns of the formulation.
+    pub fn dim(self) -> usize {
+        if self == AndrewsIndex::Ggl {
+            33
+        } else {
+            27
+        }
+    }
 }
 
 // Constants of the Bari test set (kg, m, N/m, kg·m², N·m).
@@ -66,7 +80,12 @@ const MOM: f64 = 0.033;
 
 /// Consistent initial values y0 (27 components) of the test set.
 pub fn initial_values() -> (Vec<f64>, Vec<f64>) {
-    let mut y = vec![0.0; 27];
+    initial_values_for(AndrewsIndex::Two)
+}
+
+/// Consistent initial values for a formulation (μ = 0 for GGL).
+pub fn initial_values_for(index: AndrewsIndex) -> (Vec<f64>, Vec<f64>) {
+    let mut y = vec![0.0; index.dim()];
     y[0] = -0.0617138900142764496358948458001;
     y[1] = 0.0;
     y[2] = 0.455279819163070380255912382449;
@@ -78,9 +97,18 @@ pub fn initial_values() -> (Vec<f64>, Vec<f64>) {
     y[15] = -10666.8329399655854029433719415;
     y[21] = 98.5668703962410896057654982170;
     y[22] = -6.12268834425566265503114393122;
-    let mut yp = vec![0.0; 27];
+    let mut yp = vec![0.0; index.dim()];
     yp[..14].copy_from_slice(&y[7..21]);
     (y, yp)
+}
+
+/// Largest relative error of the seven angles in `y` against the published values at
+/// t = 0.03 s.
+pub fn angle_error(y: &[f64]) -> f64 {
+    let r = &super::reference::ANDREWS_ANGLES_T003;
+    (0..7)
+        .map(|i| ((y[i] - r[i]) / r[i]).abs())
+        .fold(0.0, f64::max)
 }
 
 /// Mass matrix M(q) (7 × 7, symmetric).
@@ -211,18 +239,75 @@ pub fn gqq(q: &[f64], v: &[f64]) -> [f64; 6] {
     ]
 }
 
-/// The squeezer as a [`DaeSystem`] in the 27-unknown form.
+/// The squeezer as a [`DaeSystem`] in the 27-unknown form (33 for GGL).
 #[derive(Debug, Clone)]
 pub struct Andrews {
     /// Constraint level.
     pub index: AndrewsIndex,
+    /// Project accepted steps onto g(q) = 0 and G(q)v = 0 (only meaningful for index 1,
+    /// whose solution otherwise drifts off both).
+    pub project: bool,
+}
+
+impl Andrews {
+    /// The formulation without projection.
+    pub fn new(index: AndrewsIndex) -> Self {
+        Self {
+            index,
+            project: false,
+        }
+    }
+}
+
+/// Solves the 6 × 6 system A·x = b in place (Gaussian elimination, partial pivoting).
+fn solve6(mut a: [[f64; 6]; 6], b: &mut [f64; 6]) -> bool {
+    for c in 0..6 {
+        let p = (c..6)
+            .max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))
+            .unwrap_or(c);
+        if a[p][c] == 0.0 {
+            return false;
+        }
+        a.swap(c, p);
+        b.swap(c, p);
+        for r in c + 1..6 {
+            let f = a[r][c] / a[c][c];
+            for k in c..6 {
+                a[r][k] -= f * a[c][k];
+            }
+            b[r] -= f * b[c];
+        }
+    }
+    for c in (0..6).rev() {
+        let s: f64 = (c + 1..6).map(|k| a[c][k] * b[k]).sum();
+        b[c] = (b[c] - s) / a[c][c];
+    }
+    true
+}
+
+/// Minimum-norm correction x ← x − Gᵀ(GGᵀ)⁻¹·r.
+fn correct(g: &[[f64; 7]; 6], r: [f64; 6], x: &mut [f64]) -> bool {
+    let mut ggt = [[0.0; 6]; 6];
+    for i in 0..6 {
+        for j in 0..6 {
+            ggt[i][j] = (0..7).map(|k| g[i][k] * g[j][k]).sum();
+        }
+    }
+    let mut m = r;
+    if !solve6(ggt, &mut m) {
+        return false;
+    }
+    for k in 0..7 {
+        x[k] -= (0..6).map(|i| g[i][k] * m[i]).sum::<f64>();
+    }
+    true
 }
 
 const NAMES: [&str; 7] = ["beta", "Theta", "gamma", "Phi", "delta", "Omega", "epsilon"];
 
 impl DaeSystem for Andrews {
     fn dim(&self) -> usize {
-        27
+        self.index.dim()
     }
 
     fn residual(
@@ -252,15 +337,23 @@ impl DaeSystem for Andrews {
             r[14 + i] = s;
         }
         let extra = match self.index {
-            AndrewsIndex::Two => [0.0; 6],
             AndrewsIndex::One => gqq(q, v),
+            _ => [0.0; 6],
         };
         for k in 0..6 {
             let x = match self.index {
-                AndrewsIndex::Two => v,
                 AndrewsIndex::One => w,
+                _ => v,
             };
             r[21 + k] = extra[k] + (0..7).map(|j| g[k][j] * x[j]).sum::<f64>();
+        }
+        if self.index == AndrewsIndex::Ggl {
+            let mu = &y[27..33];
+            for i in 0..7 {
+                r[i] += (0..6).map(|k| g[k][i] * mu[k]).sum::<f64>();
+            }
+            let gp = constraints(q);
+            r[27..33].copy_from_slice(&gp);
         }
         Ok(())
     }
@@ -288,11 +381,46 @@ impl DaeSystem for Andrews {
                 }
             }
         }
-        CscPattern::from_entries(27, 27, e).expect("static pattern is valid")
+        if self.index == AndrewsIndex::Ggl {
+            for i in 0..7 {
+                for c in 0..7 {
+                    e.push((i, c));
+                }
+                for c in 27..33 {
+                    e.push((i, c));
+                }
+            }
+            for i in 27..33 {
+                for c in 0..7 {
+                    e.push((i, c));
+                }
+            }
+        }
+        let n = self.index.dim();
+        CscPattern::from_entries(n, n, e).expect("static pattern is valid")
+    }
+
+    fn project(&mut self, _t: f64, y: &mut [f64], _p: &[f64]) -> bool {
+        if !self.project {
+            return false;
+        }
+        for _ in 0..3 {
+            let g = constraint_jacobian(&y[0..7]);
+            let r = constraints(&y[0..7]);
+            if !correct(&g, r, &mut y[0..7]) {
+                return false;
+            }
+        }
+        let g = constraint_jacobian(&y[0..7]);
+        let mut gv = [0.0; 6];
+        for (k, row) in g.iter().enumerate() {
+            gv[k] = (0..7).map(|j| row[j] * y[7 + j]).sum();
+        }
+        correct(&g, gv, &mut y[7..14])
     }
 
     fn var_kinds(&self) -> Vec<VarKind> {
-        (0..27)
+        (0..self.index.dim())
             .map(|i| {
                 if i < 14 {
                     VarKind::Differential
@@ -308,7 +436,8 @@ impl DaeSystem for Andrews {
             0..=6 => NAMES[i].to_string(),
             7..=13 => format!("{}'", NAMES[i - 7]),
             14..=20 => format!("{}''", NAMES[i - 14]),
-            _ => format!("lambda{}", i - 20),
+            21..=26 => format!("lambda{}", i - 20),
+            _ => format!("mu{}", i - 26),
         }
     }
 }
@@ -322,7 +451,7 @@ mod tests {
         let (y, yp) = initial_values();
         for idx in [AndrewsIndex::One, AndrewsIndex::Two] {
             let mut r = vec![0.0; 27];
-            Andrews { index: idx }
+            Andrews::new(idx)
                 .residual(0.0, &y, &yp, &[], &mut r)
                 .unwrap();
             let worst = r.iter().fold(0.0f64, |a, b| a.max(b.abs()));

@@ -17,6 +17,14 @@ impl Robertson {
     pub fn initial_values() -> (Vec<f64>, Vec<f64>) {
         (vec![1.0, 0.0, 0.0], vec![-0.04, 0.04, 0.0])
     }
+
+    /// Largest relative error of y against the reference at t = 1e11.
+    pub fn relative_error(y: &[f64]) -> f64 {
+        let r = &super::reference::ROBERTSON_T1E11;
+        (0..3)
+            .map(|i| ((y[i] - r[i]) / r[i]).abs())
+            .fold(0.0, f64::max)
+    }
 }
 
 impl DaeSystem for Robertson {

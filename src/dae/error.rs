@@ -121,7 +121,7 @@ pub enum DaeError {
         culprits: Vec<Culprit>,
     },
     /// The initial values do not satisfy F(t0, y0, y'0) = 0 within tolerance.
-    #[error("initial values are inconsistent at t = {t:e}: weighted residual norm {norm:e}{}", fmt_culprits(.culprits))]
+    #[error("initial values are inconsistent at t = {t:e}: the first Newton correction has weighted norm {norm:e} (> 1: off by more than the tolerances){}", fmt_culprits(.culprits))]
     InconsistentInitialValues {
         /// Initial time.
         t: f64,

@@ -76,7 +76,7 @@ impl Default for BdfOptions {
             max_newton_fails: 10,
             max_steps_between_jacobians: 50,
             stop_time: None,
-            filter_error_estimate: true,
+            filter_error_estimate: false,
             measure_rate_with_stale_jacobian: true,
         }
     }

@@ -87,6 +87,24 @@ pub trait DaeSystem {
         vec![VarKind::Differential; self.dim()]
     }
 
+    /// Error-test index of each component (1, 2 or 3), as in Hairer & Wanner's RADAU5: the
+    /// local error of a component of index j is measured multiplied by min(|h|, 1)^(j−1).
+    /// Use 2 for the velocities of a mechanical system with very stiff forces (they behave
+    /// like index-2 variables along the stiff directions) and for index-2 multipliers kept
+    /// in the error test. Default: all 1.
+    fn error_index(&self) -> Vec<u8> {
+        vec![1; self.dim()]
+    }
+
+    /// Projects an accepted solution `y` at time `t` onto invariants the formulation does not
+    /// enforce by itself (e.g. position and velocity constraints of an index-1 multibody
+    /// formulation, which otherwise drift). Returns `true` if `y` was changed. Default: no
+    /// projection.
+    fn project(&mut self, t: f64, y: &mut [f64], p: &[f64]) -> bool {
+        let _ = (t, y, p);
+        false
+    }
+
     /// A readable name of component `i` (used in error reports). Default `y[i]`.
     fn component_name(&self, i: usize) -> String {
         format!("y[{i}]")

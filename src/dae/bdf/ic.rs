@@ -32,7 +32,7 @@ impl<P: DaeSystem> BdfSolver<P> {
 
     /// Checks F(t0, y0, y'0) ≈ 0 at the start: the first Newton correction
     /// δ = J⁻¹F(t0, y0, y'0), with J the iteration matrix for the initial step, must be within
-    /// the tolerances (weighted RMS norm ≤ 1). The factorisation is reused by the first step.
+    /// the tolerances (weighted RMS norm ≤ 1, with the Newton iteration's weights). The factorisation is reused by the first step.
     pub(crate) fn check_consistency(&mut self) -> Result<(), DaeError> {
         let t0 = self.tn;
         let mut r = vec![0.0; self.n];
@@ -66,9 +66,10 @@ impl<P: DaeSystem> BdfSolver<P> {
                 culprits: self.singular_culprits(),
             });
         }
-        let norm = Self::wrms(&d, &self.ewt);
+        self.update_newton_weights();
+        let norm = Self::wrms(&d, &self.ewt_newton);
         if norm > 1.0 {
-            let culprits = self.culprits(&d, &self.ewt.clone(), 3);
+            let culprits = self.culprits(&d, &self.ewt_newton.clone(), 3);
             return Err(DaeError::InconsistentInitialValues {
                 t: t0,
                 norm,

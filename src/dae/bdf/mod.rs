@@ -57,6 +57,8 @@ pub struct BdfSolver<P: DaeSystem> {
     pub(crate) opts: BdfOptions,
     pub(crate) n: usize,
     pub(crate) kinds: Vec<VarKind>,
+    /// Error-test index of each component (see `DaeSystem::error_index`).
+    pub(crate) err_index: Vec<u8>,
     atol: Vec<f64>,
     // --- history (modified divided differences) and coefficients ---
     pub(crate) phi: Vec<Vec<f64>>,
@@ -100,6 +102,8 @@ pub struct BdfSolver<P: DaeSystem> {
     pub(crate) ewt: Vec<f64>,
     /// Weights of the error test: `ewt` with algebraic components zeroed when suppressed.
     pub(crate) ewt_err: Vec<f64>,
+    /// Error-test weights scaled by the error index for the current step.
+    pub(crate) ewt_test: Vec<f64>,
     pub(crate) tmp: Vec<f64>,
     /// Weights of the Newton convergence test.
     pub(crate) ewt_newton: Vec<f64>,
@@ -220,6 +224,12 @@ impl<P: DaeSystem> BdfSolver<P> {
                 kinds.len()
             )));
         }
+        let err_index = sys.error_index();
+        if err_index.len() != n || err_index.iter().any(|&j| !(1..=3).contains(&j)) {
+            return Err(DaeError::InvalidInput(format!(
+                "error_index() must give {n} values in 1..=3"
+            )));
+        }
         let pattern = sys.jacobian_pattern();
         if pattern.nrows() != n || pattern.ncols() != n {
             return Err(DaeError::InvalidInput(format!(
@@ -246,6 +256,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             opts,
             n,
             kinds,
+            err_index,
             atol,
             phi,
             psi: [0.0; MAX_ORDER + 2],
@@ -274,6 +285,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             yppred: vec![0.0; n],
             ewt: vec![0.0; n],
             ewt_err: vec![0.0; n],
+            ewt_test: vec![0.0; n],
             tmp: vec![0.0; n],
             ewt_newton: vec![0.0; n],
             ee_est: vec![0.0; n],
@@ -356,6 +368,18 @@ impl<P: DaeSystem> BdfSolver<P> {
                 0.0
             } else {
                 w
+            };
+        }
+    }
+
+    /// Error-test weights for the current step size: `ewt_err` times min(|h|, 1)^(index − 1).
+    pub(crate) fn update_test_weights(&mut self) {
+        let hs = self.hh.abs().min(1.0);
+        for i in 0..self.n {
+            self.ewt_test[i] = match self.err_index[i] {
+                1 => self.ewt_err[i],
+                2 => self.ewt_err[i] * hs,
+                _ => self.ewt_err[i] * hs * hs,
             };
         }
     }

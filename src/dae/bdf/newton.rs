@@ -191,7 +191,7 @@ impl<P: DaeSystem> BdfSolver<P> {
     /// and the iteration matrix has condition ~1/h², so their round-off grows like 1/h and
     /// must not stop the iteration at tiny steps (Hairer & Wanner II, VII.3 scale index-2
     /// variables the same way).
-    fn update_newton_weights(&mut self) {
+    pub(crate) fn update_newton_weights(&mut self) {
         let scale = self.hh.abs().min(1.0);
         for i in 0..self.n {
             self.ewt_newton[i] = if self.opts.suppress_algebraic

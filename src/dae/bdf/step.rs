@@ -63,7 +63,7 @@ impl<P: DaeSystem> BdfSolver<P> {
                             nef += 1;
                             self.stats.error_test_failures += 1;
                             culprits =
-                                self.culprits(&self.ee_est.clone(), &self.ewt_err.clone(), 3);
+                                self.culprits(&self.ee_est.clone(), &self.ewt_test.clone(), 3);
                             if nef >= self.opts.max_error_test_fails {
                                 return Err(DaeError::ErrorTestFailures {
                                     t: saved_t,
@@ -191,6 +191,7 @@ impl<P: DaeSystem> BdfSolver<P> {
     /// order `knew` for a retry.
     fn test_error(&mut self) -> Result<ErrorEstimates, ErrorEstimates> {
         let kk = self.kk;
+        self.update_test_weights();
         let filter = self.opts.filter_error_estimate && self.filter_prepare();
         let mut e = std::mem::take(&mut self.ee_est);
         e.copy_from_slice(&self.ee);
@@ -198,7 +199,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             self.filter_estimate(&mut e);
         }
         self.ee_est = e;
-        let enorm_k = Self::wrms(&self.ee_est, &self.ewt_err);
+        let enorm_k = Self::wrms(&self.ee_est, &self.ewt_test);
         let err_k = self.sigma[kk] * enorm_k;
         let terr_k = (kk as f64 + 1.0) * err_k;
         let mut err_km1 = 0.0;
@@ -212,7 +213,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             for i in 0..self.n {
                 d[i] += self.ee_est[i];
             }
-            let enorm_km1 = Self::wrms(&d, &self.ewt_err);
+            let enorm_km1 = Self::wrms(&d, &self.ewt_test);
             err_km1 = self.sigma[kk - 1] * enorm_km1;
             let terr_km1 = kk as f64 * err_km1;
             if kk > 2 {
@@ -225,7 +226,7 @@ impl<P: DaeSystem> BdfSolver<P> {
                     d[i] += d2[i];
                 }
                 self.tmp = d2;
-                let enorm_km2 = Self::wrms(&d, &self.ewt_err);
+                let enorm_km2 = Self::wrms(&d, &self.ewt_test);
                 let err_km2 = self.sigma[kk - 2] * enorm_km2;
                 let terr_km2 = (kk as f64 - 1.0) * err_km2;
                 if terr_km1.max(terr_km2) <= terr_k {
@@ -310,7 +311,7 @@ impl<P: DaeSystem> BdfSolver<P> {
                     d[i] = self.ee_est[i] - d[i];
                 }
                 self.tmp = d;
-                let enorm_kp1 = Self::wrms(&self.tmp, &self.ewt_err);
+                let enorm_kp1 = Self::wrms(&self.tmp, &self.ewt_test);
                 err_kp1 = enorm_kp1 / (kk as f64 + 2.0);
                 action = if kk == 1 {
                     if err_kp1 >= 0.5 * err_k {
@@ -366,10 +367,14 @@ impl<P: DaeSystem> BdfSolver<P> {
         }
         self.stats.last_order = self.kused;
         self.stats.last_step = self.hused;
-        self.yy.copy_from_slice(&self.phi[0]);
-        let y = std::mem::take(&mut self.tmp);
-        let mut y = y;
+        // Optional projection onto the problem's invariants (Eich 1993: projecting the
+        // current value only keeps a multistep method's order).
+        let mut y = std::mem::take(&mut self.tmp);
         y.copy_from_slice(&self.phi[0]);
+        if self.sys.project(self.tn, &mut y, &self.p) {
+            self.phi[0].copy_from_slice(&y);
+        }
+        self.yy.copy_from_slice(&y);
         self.update_weights_from(&y);
         self.tmp = y;
     }
