@@ -15,6 +15,9 @@
 //!    spring, Robertson, a GGL pendulum) with their reference values, run by `lash validate`
 //!    and by the test suite. Its sources live in the top-level `validation/` folder.
 //!
+//! Beside them: [`peers`] (diffsol's BDF as an independent cross-check) and [`bench`]
+//! (side-by-side benchmarks behind `lash bench`), which use the layers above.
+//!
 //! All quantities are SI unless a doc comment says otherwise.
 #![warn(missing_docs)]
 
@@ -25,3 +28,8 @@ pub mod sparse;
 
 #[path = "../validation/mod.rs"]
 pub mod validation;
+
+/// The README's code blocks, compiled and run as doc tests.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

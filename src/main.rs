@@ -45,18 +45,41 @@ fn main() -> ExitCode {
         Command::Validate { json } => {
             let rows = lash::validation::run_all();
             if json {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&rows).expect("rows serialise")
-                );
+                println!("{}", serde_json::to_string_pretty(&rows).expect("rows serialise"));
             } else {
-                for r in &rows {
+                println!(
+                    "{:<21} {:<56} {:>6} {:>9} {:>7} {:>6} {:>4} {:>4} {:>6} {:>5} {:>5} {:>6}  result",
+                    "problem",
+                    "variant",
+                    "rtol",
+                    "error",
+                    "limit",
+                    "steps",
+                    "etf",
+                    "ncf",
+                    "res",
+                    "jac",
+                    "lu",
+                    "nni"
+                );
+                let mut notes = vec![];
+                for (k, r) in rows.iter().enumerate() {
                     println!(
-                        "{:<22} {:<48} rtol {:.0e} err {:.3e} (limit {:.0e}) steps {:>6} etf {:>4} ncf {:>4} res {:>7} jac {:>5} lu {:>5} nni {:>7} {:>8.3}s {}  {}",
+                        "{:<21} {:<56} {:>6.0e} {:>9.3e} {:>7.0e} {:>6} {:>4} {:>4} {:>6} {:>5} {:>5} {:>6}  {} [{}]",
                         r.problem, r.variant, r.rtol, r.error, r.error_limit, r.steps, r.error_test_failures, r.newton_failures,
-                        r.residual_evals, r.jacobian_evals, r.lu_factorisations, r.newton_iters, r.wall_s,
-                        if r.pass { "PASS" } else { "FAIL" }, r.note
+                        r.residual_evals, r.jacobian_evals, r.lu_factorisations, r.newton_iters,
+                        if r.pass { "PASS" } else { "FAIL" },
+                        k + 1
                     );
+                    if !r.note.is_empty() {
+                        notes.push(format!("[{}] {}: {}", k + 1, r.error_measure, r.note));
+                    } else {
+                        notes.push(format!("[{}] {}", k + 1, r.error_measure));
+                    }
+                }
+                println!("\netf: error-test failures, ncf: Newton failures, res/jac/lu/nni: residual evaluations, Jacobians, LU factorisations, Newton iterations");
+                for n in notes {
+                    println!("{n}");
                 }
             }
             if rows.iter().all(|r| r.pass) {
@@ -70,10 +93,7 @@ fn main() -> ExitCode {
         } => {
             let rows = lash::bench::bench_dae(repeats);
             if json {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&rows).expect("rows serialise")
-                );
+                println!("{}", serde_json::to_string_pretty(&rows).expect("rows serialise"));
             } else {
                 println!(
                     "{:<22} {:<20} {:<40} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9}",

@@ -106,9 +106,7 @@ pub fn initial_values_for(index: AndrewsIndex) -> (Vec<f64>, Vec<f64>) {
 /// t = 0.03 s.
 pub fn angle_error(y: &[f64]) -> f64 {
     let r = &super::reference::ANDREWS_ANGLES_T003;
-    (0..7)
-        .map(|i| ((y[i] - r[i]) / r[i]).abs())
-        .fold(0.0, f64::max)
+    (0..7).map(|i| ((y[i] - r[i]) / r[i]).abs()).fold(0.0, f64::max)
 }
 
 /// Mass matrix M(q) (7 × 7, symmetric).
@@ -123,16 +121,12 @@ pub fn mass_matrix(q: &[f64]) -> [[f64; 7]; 7] {
     m[2][2] = M3 * (SA * SA + SB * SB) + I3;
     m[3][3] = M4 * (E - EA).powi(2) + I4;
     m[4][3] = M4 * ((E - EA).powi(2) + ZT * (E - EA) * siph) + I4;
-    m[4][4] = M4 * (ZT * ZT + 2.0 * ZT * (E - EA) * siph + (E - EA).powi(2))
-        + M5 * (TA * TA + TB * TB)
-        + I4
-        + I5;
+    m[4][4] =
+        M4 * (ZT * ZT + 2.0 * ZT * (E - EA) * siph + (E - EA).powi(2)) + M5 * (TA * TA + TB * TB) + I4 + I5;
     m[5][5] = M6 * (ZF - FA).powi(2) + I6;
     m[6][5] = M6 * ((ZF - FA).powi(2) - U * (ZF - FA) * siom) + I6;
-    m[6][6] = M6 * ((ZF - FA).powi(2) - 2.0 * U * (ZF - FA) * siom + U * U)
-        + M7 * (UA * UA + UB * UB)
-        + I6
-        + I7;
+    m[6][6] =
+        M6 * ((ZF - FA).powi(2) - 2.0 * U * (ZF - FA) * siom + U * U) + M7 * (UA * UA + UB * UB) + I6 + I7;
     for i in 0..7 {
         for j in 0..i {
             m[j][i] = m[i][j];
@@ -451,9 +445,7 @@ mod tests {
         let (y, yp) = initial_values();
         for idx in [AndrewsIndex::One, AndrewsIndex::Two] {
             let mut r = vec![0.0; 27];
-            Andrews::new(idx)
-                .residual(0.0, &y, &yp, &[], &mut r)
-                .unwrap();
+            Andrews::new(idx).residual(0.0, &y, &yp, &[], &mut r).unwrap();
             let worst = r.iter().fold(0.0f64, |a, b| a.max(b.abs()));
             assert!(worst < 1e-10, "{idx:?}: {worst}");
         }

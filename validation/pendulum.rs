@@ -24,11 +24,7 @@ pub struct GglPendulum {
 
 impl Default for GglPendulum {
     fn default() -> Self {
-        Self {
-            m: 1.0,
-            l: 1.0,
-            g: G,
-        }
+        Self { m: 1.0, l: 1.0, g: G }
     }
 }
 
@@ -42,10 +38,7 @@ impl GglPendulum {
         let lam = -self.m * self.g * y / (self.l * self.l);
         let ax = -lam * x / self.m;
         let ay = -lam * y / self.m - self.g;
-        (
-            vec![x, y, 0.0, 0.0, lam, 0.0],
-            vec![0.0, 0.0, ax, ay, 0.0, 0.0],
-        )
+        (vec![x, y, 0.0, 0.0, lam, 0.0], vec![0.0, 0.0, ax, ay, 0.0, 0.0])
     }
 
     /// Position-constraint violation |x² + y² − L²|/2, m².

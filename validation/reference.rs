@@ -37,11 +37,7 @@ pub const STIFF_SPRING_TSIT5_STEPS: usize = 183_616;
 /// Robertson's kinetics at t = 1e11 (y1, y2, y3).
 ///
 /// Source: Test Set for IVP Solvers (Bari), problem `rober`, reference solution at t = 1e11.
-pub const ROBERTSON_T1E11: [f64; 3] = [
-    0.2083340149701255e-07,
-    0.8333360770334713e-13,
-    0.9999999791665050,
-];
+pub const ROBERTSON_T1E11: [f64; 3] = [0.2083340149701255e-07, 0.8333360770334713e-13, 0.9999999791665050];
 
 /// Robertson: end time, s.
 pub const ROBERTSON_T_END: f64 = 1e11;

@@ -21,9 +21,7 @@ impl Robertson {
     /// Largest relative error of y against the reference at t = 1e11.
     pub fn relative_error(y: &[f64]) -> f64 {
         let r = &super::reference::ROBERTSON_T1E11;
-        (0..3)
-            .map(|i| ((y[i] - r[i]) / r[i]).abs())
-            .fold(0.0, f64::max)
+        (0..3).map(|i| ((y[i] - r[i]) / r[i]).abs()).fold(0.0, f64::max)
     }
 }
 
@@ -77,11 +75,7 @@ impl DaeSystem for Robertson {
     }
 
     fn var_kinds(&self) -> Vec<VarKind> {
-        vec![
-            VarKind::Differential,
-            VarKind::Differential,
-            VarKind::Algebraic,
-        ]
+        vec![VarKind::Differential, VarKind::Differential, VarKind::Algebraic]
     }
 
     fn component_name(&self, i: usize) -> String {

@@ -94,8 +94,8 @@ fn lash_bdf<P: DaeSystem + Clone>(
     repeats: usize,
 ) -> Result<(Run, f64), String> {
     let (res, wall) = best_of(repeats, || {
-        let mut s = BdfSolver::new(sys.clone(), 0.0, y0, yp0, &[], opts.clone())
-            .map_err(|e| e.to_string())?;
+        let mut s =
+            BdfSolver::new(sys.clone(), 0.0, y0, yp0, &[], opts.clone()).map_err(|e| e.to_string())?;
         s.solve_to(t_end).map_err(|e| e.to_string())?;
         Ok::<_, String>(Run {
             y: s.y().to_vec(),
@@ -122,8 +122,7 @@ pub fn stiff_spring_rows(repeats: usize) -> Vec<BenchRow> {
     let (y0, yp0) = sys.initial_values();
     let tol = 1e-6;
     let measure = "|theta(10) - theta_ref| rad";
-    let err =
-        |y: &[f64]| (stiff_spring::StiffSpring::angle(y) - reference::STIFF_SPRING_THETA_T10).abs();
+    let err = |y: &[f64]| (stiff_spring::StiffSpring::angle(y) - reference::STIFF_SPRING_THETA_T10).abs();
     let name = "turning stiff spring";
     let mut rows = vec![row(
         name,
@@ -196,8 +195,8 @@ pub fn stiff_spring_rows(repeats: usize) -> Vec<BenchRow> {
     let omega = (sys.k / sys.m).sqrt();
     let h = 0.5 / omega;
     let (res, wall) = best_of(1, || {
-        let mut s = SymplecticEuler::new(sys, 0.0, &y0[0..2], &y0[2..4], &[], h)
-            .map_err(|e| e.to_string())?;
+        let mut s =
+            SymplecticEuler::new(sys, 0.0, &y0[0..2], &y0[2..4], &[], h).map_err(|e| e.to_string())?;
         s.solve_to(10.0).map_err(|e| e.to_string())?;
         let y = [s.q(), s.v()].concat();
         Ok::<_, String>(Run {
@@ -240,14 +239,7 @@ pub fn andrews_rows(repeats: usize) -> Vec<BenchRow> {
         "lash BDF idx2+proj",
         format!("rtol=atol={tol:e}"),
         measure,
-        lash_bdf(
-            &two,
-            &y0,
-            &yp0,
-            &suppressed,
-            reference::ANDREWS_T_END,
-            repeats,
-        ),
+        lash_bdf(&two, &y0, &yp0, &suppressed, reference::ANDREWS_T_END, repeats),
         err,
     )];
     let two_raw = andrews::Andrews::new(andrews::AndrewsIndex::Two);
@@ -273,14 +265,7 @@ pub fn andrews_rows(repeats: usize) -> Vec<BenchRow> {
         "lash BDF GGL",
         format!("rtol=atol={tol:e}"),
         measure,
-        lash_bdf(
-            &ggl,
-            &yg,
-            &ypg,
-            &suppressed,
-            reference::ANDREWS_T_END,
-            repeats,
-        ),
+        lash_bdf(&ggl, &yg, &ypg, &suppressed, reference::ANDREWS_T_END, repeats),
         err,
     ));
     let one = andrews::Andrews {
@@ -300,14 +285,7 @@ pub fn andrews_rows(repeats: usize) -> Vec<BenchRow> {
     {
         let mass: Vec<f64> = (0..27).map(|i| if i < 14 { 1.0 } else { 0.0 }).collect();
         let (res, wall) = best_of(repeats, || {
-            crate::peers::diffsol_dae(
-                sys.clone(),
-                &mass,
-                &y0,
-                tol,
-                &[tol],
-                reference::ANDREWS_T_END,
-            )
+            crate::peers::diffsol_dae(sys.clone(), &mass, &y0, tol, &[tol], reference::ANDREWS_T_END)
         });
         rows.push(row(
             name,

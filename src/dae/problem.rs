@@ -47,14 +47,7 @@ pub trait DaeSystem {
     fn dim(&self) -> usize;
 
     /// Evaluates the residual `r = F(t, y, yp, p)`.
-    fn residual(
-        &mut self,
-        t: f64,
-        y: &[f64],
-        yp: &[f64],
-        p: &[f64],
-        r: &mut [f64],
-    ) -> Result<(), EvalError>;
+    fn residual(&mut self, t: f64, y: &[f64], yp: &[f64], p: &[f64], r: &mut [f64]) -> Result<(), EvalError>;
 
     /// Sparsity pattern of dF/dy + α·dF/dy' (the union of both patterns), declared once.
     fn jacobian_pattern(&self) -> CscPattern;

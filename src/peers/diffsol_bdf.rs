@@ -99,9 +99,7 @@ where
         };
         let mut problem = builder.mass(mass).build().map_err(|e| e.to_string())?;
         relax_limits(&mut problem.ode_options);
-        let mut solver = problem
-            .bdf::<NalgebraLU<f64>>()
-            .map_err(|e| e.to_string())?;
+        let mut solver = problem.bdf::<NalgebraLU<f64>>().map_err(|e| e.to_string())?;
         solver.solve(t_end).map_err(|e| e.to_string())?;
         let st = solver.get_statistics().clone();
         let ops = problem.eqn.rhs().statistics();
@@ -109,9 +107,7 @@ where
     } else {
         let mut problem = builder.build().map_err(|e| e.to_string())?;
         relax_limits(&mut problem.ode_options);
-        let mut solver = problem
-            .bdf::<NalgebraLU<f64>>()
-            .map_err(|e| e.to_string())?;
+        let mut solver = problem.bdf::<NalgebraLU<f64>>().map_err(|e| e.to_string())?;
         solver.solve(t_end).map_err(|e| e.to_string())?;
         let st = solver.get_statistics().clone();
         let ops = problem.eqn.rhs().statistics();

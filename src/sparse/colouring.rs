@@ -30,13 +30,11 @@ pub fn column_colouring(pattern: &CscPattern) -> (Vec<usize>, usize) {
                 }
             }
         }
-        let k = (0..ncolours)
-            .find(|&k| forbidden[k] != c + 1)
-            .unwrap_or_else(|| {
-                forbidden.push(0);
-                ncolours += 1;
-                ncolours - 1
-            });
+        let k = (0..ncolours).find(|&k| forbidden[k] != c + 1).unwrap_or_else(|| {
+            forbidden.push(0);
+            ncolours += 1;
+            ncolours - 1
+        });
         colour[c] = k;
     }
     (colour, ncolours)

@@ -89,8 +89,7 @@ impl SparseLu {
             });
         }
         let n = pattern.ncols();
-        let sym =
-            SymbolicSparseColMatRef::new_checked(n, n, pattern.col_ptr(), None, pattern.row_idx());
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, pattern.col_ptr(), None, pattern.row_idx());
         let symbolic = factorize_symbolic_lu(sym, Default::default()).map_err(backend)?;
         let factor_req = symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default());
         let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
@@ -134,13 +133,8 @@ impl SparseLu {
         }
         let n = self.dim();
         // Safety of indices was checked when the CscPattern was built.
-        let sym = SymbolicSparseColMatRef::new_checked(
-            n,
-            n,
-            self.pattern.col_ptr(),
-            None,
-            self.pattern.row_idx(),
-        );
+        let sym =
+            SymbolicSparseColMatRef::new_checked(n, n, self.pattern.col_ptr(), None, self.pattern.row_idx());
         let mat = SparseColMatRef::new(sym, values);
         let res = self.symbolic.factorize_numeric_lu(
             &mut self.numeric,
@@ -152,9 +146,7 @@ impl SparseLu {
         match res {
             Ok(_) => {}
             Err(LuError::SymbolicSingular { index }) => {
-                return Err(LinearSolveError::Singular {
-                    column: Some(index),
-                })
+                return Err(LinearSolveError::Singular { column: Some(index) })
             }
             Err(e) => return Err(backend(e)),
         }

@@ -173,10 +173,7 @@ impl CscPattern {
     pub fn find(&self, r: usize, c: usize) -> Option<usize> {
         let range = self.col_range(c);
         let start = range.start;
-        self.row_idx[range]
-            .binary_search(&r)
-            .ok()
-            .map(|k| start + k)
+        self.row_idx[range].binary_search(&r).ok().map(|k| start + k)
     }
 }
 

@@ -47,13 +47,7 @@ impl<P: DaeSystem> BdfSolver<P> {
         self.stats.residual_evals += 1;
         if self
             .sys
-            .residual(
-                self.tn,
-                &self.yy,
-                &self.yp_work,
-                &self.p,
-                &mut self.res_work,
-            )
+            .residual(self.tn, &self.yy, &self.yp_work, &self.p, &mut self.res_work)
             .is_err()
         {
             return;
@@ -62,8 +56,7 @@ impl<P: DaeSystem> BdfSolver<P> {
         for i in 0..self.n {
             self.res_work[i] = (self.res_work[i] - self.res_base[i]) * scale;
         }
-        if self.mat.solve(&mut self.res_work).is_ok() && self.res_work.iter().all(|v| v.is_finite())
-        {
+        if self.mat.solve(&mut self.res_work).is_ok() && self.res_work.iter().all(|v| v.is_finite()) {
             x.copy_from_slice(&self.res_work);
         }
     }

@@ -13,15 +13,10 @@ impl<P: DaeSystem> BdfSolver<P> {
         self.sys
             .residual(t, &self.yy, &self.yp, &self.p, r)
             .map_err(|e| match e {
-                EvalError::Recoverable(m) | EvalError::Fatal(m) => {
-                    DaeError::Evaluation { t, message: m }
-                }
+                EvalError::Recoverable(m) | EvalError::Fatal(m) => DaeError::Evaluation { t, message: m },
             })?;
         if r.iter().any(|v| !v.is_finite()) {
-            let bad: Vec<f64> = r
-                .iter()
-                .map(|v| if v.is_finite() { 0.0 } else { 1.0 })
-                .collect();
+            let bad: Vec<f64> = r.iter().map(|v| if v.is_finite() { 0.0 } else { 1.0 }).collect();
             return Err(DaeError::NonFiniteResidual {
                 t,
                 culprits: self.culprits(&bad, &vec![1.0; self.n], 5),
@@ -101,12 +96,10 @@ impl<P: DaeSystem> BdfSolver<P> {
                 self.steps_since_jac = 0;
                 Ok(())
             }
-            Err(super::linsys::SetupError::Eval(
-                EvalError::Recoverable(m) | EvalError::Fatal(m),
-            )) => Err(NlsCause::Eval(m)),
-            Err(super::linsys::SetupError::Linear(e)) => {
-                Err(NlsCause::Linear(e, self.singular_culprits()))
+            Err(super::linsys::SetupError::Eval(EvalError::Recoverable(m) | EvalError::Fatal(m))) => {
+                Err(NlsCause::Eval(m))
             }
+            Err(super::linsys::SetupError::Linear(e)) => Err(NlsCause::Linear(e, self.singular_culprits())),
         }
     }
 
@@ -148,9 +141,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             // dF/dy (α = 0), then dF/dy + dF/dy' (α = 1).
             let (yy, yp, p) = (self.yy.clone(), self.yp.clone(), self.p.clone());
             let eval_err = |e: EvalError| match e {
-                EvalError::Recoverable(m) | EvalError::Fatal(m) => {
-                    DaeError::Evaluation { t: t0, message: m }
-                }
+                EvalError::Recoverable(m) | EvalError::Fatal(m) => DaeError::Evaluation { t: t0, message: m },
             };
             self.stats.jacobian_evals += 2;
             self.stats.residual_evals += 2 * self.mat.fd_cost();

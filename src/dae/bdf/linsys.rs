@@ -29,10 +29,7 @@ pub(crate) enum SetupError {
 }
 
 impl IterationMatrix {
-    pub(crate) fn new(
-        pattern: CscPattern,
-        source: JacobianSource,
-    ) -> Result<Self, LinearSolveError> {
+    pub(crate) fn new(pattern: CscPattern, source: JacobianSource) -> Result<Self, LinearSolveError> {
         let lu = SparseLu::new(&pattern)?;
         let n = pattern.ncols();
         let groups = if source == JacobianSource::FiniteDifference {

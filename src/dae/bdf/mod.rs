@@ -320,6 +320,7 @@ impl<P: DaeSystem> BdfSolver<P> {
         &self.yret
     }
     /// Derivative at [`t`](Self::t).
+    #[allow(clippy::misnamed_getters)] // `yp` is the internal corrector value at t_n
     pub fn yp(&self) -> &[f64] {
         &self.ypret
     }
@@ -335,6 +336,21 @@ impl<P: DaeSystem> BdfSolver<P> {
     /// The parameters p.
     pub fn params(&self) -> &[f64] {
         &self.p
+    }
+    /// Replaces the parameters p (same length). A change is a discontinuity for the
+    /// integrator: follow it with [`restart`](Self::restart) or
+    /// [`restart_from`](Self::restart_from).
+    pub fn set_params(&mut self, p: &[f64]) -> Result<(), DaeError> {
+        if p.len() != self.p.len() {
+            return Err(DaeError::InvalidInput(format!(
+                "parameter vector has length {}, expected {}",
+                p.len(),
+                self.p.len()
+            )));
+        }
+        self.p.copy_from_slice(p);
+        self.force_setup = true;
+        Ok(())
     }
     /// The problem (read-only).
     pub fn system(&self) -> &P {

@@ -52,9 +52,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             .residual(self.tn, &self.yy, &self.yp, &self.p, &mut self.delta)
         {
             Ok(()) => {}
-            Err(EvalError::Recoverable(m)) => {
-                return Err(NlsFailure::Recoverable(NlsCause::Eval(m)))
-            }
+            Err(EvalError::Recoverable(m)) => return Err(NlsFailure::Recoverable(NlsCause::Eval(m))),
             Err(EvalError::Fatal(m)) => {
                 return Err(NlsFailure::Fatal(DaeError::Evaluation {
                     t: self.tn,
@@ -109,12 +107,10 @@ impl<P: DaeSystem> BdfSolver<P> {
             Err(SetupError::Eval(EvalError::Recoverable(m))) => {
                 Err(NlsFailure::Recoverable(NlsCause::Eval(m)))
             }
-            Err(SetupError::Eval(EvalError::Fatal(m))) => {
-                Err(NlsFailure::Fatal(DaeError::Evaluation {
-                    t: self.tn,
-                    message: m,
-                }))
-            }
+            Err(SetupError::Eval(EvalError::Fatal(m))) => Err(NlsFailure::Fatal(DaeError::Evaluation {
+                t: self.tn,
+                message: m,
+            })),
             Err(SetupError::Linear(e)) => {
                 self.stats.lu_factorisations += 1;
                 Err(NlsFailure::Recoverable(NlsCause::Linear(
@@ -169,8 +165,8 @@ impl<P: DaeSystem> BdfSolver<P> {
                     return Ok(());
                 }
                 Err(NlsFailure::Recoverable(cause)) => {
-                    let retry = !self.jac_current
-                        && !matches!(cause, NlsCause::Eval(_) | NlsCause::NonFinite(_));
+                    let retry =
+                        !self.jac_current && !matches!(cause, NlsCause::Eval(_) | NlsCause::NonFinite(_));
                     if retry {
                         self.adapt_jacobian_age(true, false);
                         call_setup = true;
@@ -194,13 +190,12 @@ impl<P: DaeSystem> BdfSolver<P> {
     pub(crate) fn update_newton_weights(&mut self) {
         let scale = self.hh.abs().min(1.0);
         for i in 0..self.n {
-            self.ewt_newton[i] = if self.opts.suppress_algebraic
-                && self.kinds[i] == crate::dae::VarKind::Algebraic
-            {
-                self.ewt[i] * scale
-            } else {
-                self.ewt[i]
-            };
+            self.ewt_newton[i] =
+                if self.opts.suppress_algebraic && self.kinds[i] == crate::dae::VarKind::Algebraic {
+                    self.ewt[i] * scale
+                } else {
+                    self.ewt[i]
+                };
         }
     }
 

@@ -159,9 +159,7 @@ impl<P: DaeSystem> BdfSolver<P> {
     /// the solution there ([`t`](Self::t), [`y`](Self::y), [`yp`](Self::yp)).
     pub fn solve_to(&mut self, tout: f64) -> Result<Outcome, DaeError> {
         if !tout.is_finite() {
-            return Err(DaeError::InvalidInput(format!(
-                "t_out = {tout} is not finite"
-            )));
+            return Err(DaeError::InvalidInput(format!("t_out = {tout} is not finite")));
         }
         if !self.started {
             self.start(tout)?;
@@ -215,8 +213,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             nsteps += 1;
             if self.events.n > 0 {
                 let (y, yp) = (self.yy.clone(), self.yp.clone());
-                self.sys
-                    .events(self.tn, &y, &yp, &self.p, &mut self.events.ghi);
+                self.sys.events(self.tn, &y, &yp, &self.p, &mut self.events.ghi);
                 self.stats.event_evals += 1;
                 self.search_roots();
             }

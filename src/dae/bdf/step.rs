@@ -31,9 +31,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             self.set_coeffs();
             self.tn = saved_t + self.hh;
             if let Some(ts) = self.opts.stop_time {
-                if (self.tn - ts) * self.hh > 0.0
-                    || (self.tn - ts).abs() <= 4.0 * f64::EPSILON * ts.abs()
-                {
+                if (self.tn - ts) * self.hh > 0.0 || (self.tn - ts).abs() <= 4.0 * f64::EPSILON * ts.abs() {
                     self.tn = ts;
                 }
             }
@@ -58,12 +56,12 @@ impl<P: DaeSystem> BdfSolver<P> {
                     self.restore(saved_t);
                     let rr;
                     let culprits;
+                    let mut specific: Option<NlsCause> = None;
                     match fail {
                         StepFailure::ErrorTest(est) => {
                             nef += 1;
                             self.stats.error_test_failures += 1;
-                            culprits =
-                                self.culprits(&self.ee_est.clone(), &self.ewt_test.clone(), 3);
+                            culprits = self.culprits(&self.ee_est.clone(), &self.ewt_test.clone(), 3);
                             if nef >= self.opts.max_error_test_fails {
                                 return Err(DaeError::ErrorTestFailures {
                                     t: saved_t,
@@ -79,9 +77,8 @@ impl<P: DaeSystem> BdfSolver<P> {
                                     est.err_km1
                                 };
                                 self.kk = self.knew;
-                                rr = (0.9
-                                    * (2.0 * err_knew + 1e-4).powf(-1.0 / (self.kk as f64 + 1.0)))
-                                .clamp(0.25, 0.9);
+                                rr = (0.9 * (2.0 * err_knew + 1e-4).powf(-1.0 / (self.kk as f64 + 1.0)))
+                                    .clamp(0.25, 0.9);
                             } else if nef == 2 {
                                 self.kk = self.knew;
                                 rr = 0.25;
@@ -97,15 +94,20 @@ impl<P: DaeSystem> BdfSolver<P> {
                             if ncf >= self.opts.max_newton_fails {
                                 return Err(self.newton_error(saved_t, ncf, cause));
                             }
+                            if !matches!(cause, NlsCause::Convergence(_)) {
+                                specific = Some(cause);
+                            }
                             rr = 0.25;
                         }
                     }
                     self.hh *= rr;
-                    let floor = self
-                        .h_min
-                        .max(16.0 * f64::EPSILON * saved_t.abs())
-                        .max(1e-290);
+                    let floor = self.h_min.max(16.0 * f64::EPSILON * saved_t.abs()).max(1e-290);
                     if self.hh.abs() < floor {
+                        // A NaN residual, a singular matrix or a failing callback is the
+                        // cause, not the step size: report it.
+                        if let Some(cause) = specific {
+                            return Err(self.newton_error(saved_t, ncf, cause));
+                        }
                         return Err(DaeError::StepTooSmall {
                             t: saved_t,
                             h: self.hh,

@@ -88,21 +88,13 @@ pub struct Dopri5<S: OdeSystem> {
 
 fn eval_err(t: f64, e: EvalError) -> ExplicitError {
     match e {
-        EvalError::Recoverable(m) | EvalError::Fatal(m) => {
-            ExplicitError::Evaluation { t, message: m }
-        }
+        EvalError::Recoverable(m) | EvalError::Fatal(m) => ExplicitError::Evaluation { t, message: m },
     }
 }
 
 impl<S: OdeSystem> Dopri5<S> {
     /// Creates the integrator at (t0, y0) with parameters `p`.
-    pub fn new(
-        sys: S,
-        t0: f64,
-        y0: &[f64],
-        p: &[f64],
-        opts: Dopri5Options,
-    ) -> Result<Self, ExplicitError> {
+    pub fn new(sys: S, t0: f64, y0: &[f64], p: &[f64], opts: Dopri5Options) -> Result<Self, ExplicitError> {
         let n = sys.dim();
         if y0.len() != n {
             return Err(ExplicitError::InvalidInput(format!(
@@ -154,21 +146,8 @@ impl<S: OdeSystem> Dopri5<S> {
         let sc: Vec<f64> = (0..n)
             .map(|i| self.opts.atol + self.opts.rtol * self.y[i].abs())
             .collect();
-        let d0 = (self
-            .y
-            .iter()
-            .zip(&sc)
-            .map(|(a, s)| (a / s).powi(2))
-            .sum::<f64>()
-            / n as f64)
-            .sqrt();
-        let d1 = (f0
-            .iter()
-            .zip(&sc)
-            .map(|(a, s)| (a / s).powi(2))
-            .sum::<f64>()
-            / n as f64)
-            .sqrt();
+        let d0 = (self.y.iter().zip(&sc).map(|(a, s)| (a / s).powi(2)).sum::<f64>() / n as f64).sqrt();
+        let d1 = (f0.iter().zip(&sc).map(|(a, s)| (a / s).powi(2)).sum::<f64>() / n as f64).sqrt();
         let h0 = if d0 < 1e-5 || d1 < 1e-5 {
             1e-6
         } else {
@@ -180,12 +159,7 @@ impl<S: OdeSystem> Dopri5<S> {
             .rhs(self.t + dir * h0, &y1, &self.p, &mut f1)
             .map_err(|e| eval_err(self.t, e))?;
         self.stats.rhs_evals += 1;
-        let d2 = ((0..n)
-            .map(|i| ((f1[i] - f0[i]) / sc[i]).powi(2))
-            .sum::<f64>()
-            / n as f64)
-            .sqrt()
-            / h0;
+        let d2 = ((0..n).map(|i| ((f1[i] - f0[i]) / sc[i]).powi(2)).sum::<f64>() / n as f64).sqrt() / h0;
         let h1 = if d1.max(d2) <= 1e-15 {
             (h0 * 1e-3).max(1e-6)
         } else {
@@ -275,10 +249,7 @@ impl<S: OdeSystem> Dopri5<S> {
                 self.k.swap(0, 6);
                 self.stats.steps += 1;
                 if let Some(i) = self.y.iter().position(|v| !v.is_finite()) {
-                    return Err(ExplicitError::NonFinite {
-                        t: self.t,
-                        index: i,
-                    });
+                    return Err(ExplicitError::NonFinite { t: self.t, index: i });
                 }
                 let hn = h / fac;
                 self.h = if hn.abs() > self.opts.h_max {

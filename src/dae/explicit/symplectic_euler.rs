@@ -34,14 +34,7 @@ pub struct SymplecticEuler<S: SecondOrderSystem> {
 
 impl<S: SecondOrderSystem> SymplecticEuler<S> {
     /// Creates the integrator with the fixed step `h` (> 0).
-    pub fn new(
-        sys: S,
-        t0: f64,
-        q0: &[f64],
-        v0: &[f64],
-        p: &[f64],
-        h: f64,
-    ) -> Result<Self, ExplicitError> {
+    pub fn new(sys: S, t0: f64, q0: &[f64], v0: &[f64], p: &[f64], h: f64) -> Result<Self, ExplicitError> {
         let n = sys.npos();
         if q0.len() != n || v0.len() != n {
             return Err(ExplicitError::InvalidInput(format!(

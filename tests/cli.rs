@@ -1,0 +1,61 @@
+//! The command-line tool as a user runs it.
+
+use std::process::Command;
+
+fn lash(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_lash"))
+        .args(args)
+        .output()
+        .expect("lash runs")
+}
+
+#[test]
+fn validate_passes_and_prints_one_row_per_problem() {
+    let out = lash(&["validate"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(text.lines().filter(|l| l.contains("PASS")).count(), 7, "{text}");
+}
+
+#[test]
+fn validate_json_parses_with_stable_keys() {
+    let out = lash(&["validate", "--json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("valid JSON");
+    let rows = v.as_array().expect("an array of rows");
+    assert_eq!(rows.len(), 7);
+    for r in rows {
+        assert_eq!(r["pass"], serde_json::Value::Bool(true), "{r}");
+        assert!(r["steps"].as_u64().unwrap() > 0);
+    }
+}
+
+#[test]
+fn bench_dae_json_reports_ratios() {
+    let out = lash(&["bench", "dae", "--json", "--repeats", "1"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("valid JSON");
+    let rows = v.as_array().unwrap();
+    let spring: Vec<_> = rows
+        .iter()
+        .filter(|r| r["problem"] == "turning stiff spring")
+        .collect();
+    assert!(spring.len() >= 3);
+    assert_eq!(spring[0]["solver"], "lash BDF");
+    assert_eq!(spring[0]["steps_ratio"].as_f64(), Some(1.0));
+    // Every peer row carries a ratio to lash.
+    for r in &spring[1..] {
+        assert!(r["steps_ratio"].as_f64().unwrap() > 1.0, "{r}");
+    }
+}
+
+#[test]
+fn unknown_subcommand_is_a_clear_error() {
+    let out = lash(&["frobnicate"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("frobnicate"));
+}

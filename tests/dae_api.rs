@@ -1,0 +1,456 @@
+//! The public DAE API: results, events, restarts, dense output, initial conditions, and
+//! clear errors (never panics) on bad input or solver failure.
+
+use lash::dae::{
+    AbsTol, BdfOptions, BdfSolver, DaeError, DaeSystem, EvalError, JacobianSource, Outcome, VarKind,
+};
+use lash::sparse::CscPattern;
+
+/// y' = -k·y (one component), analytic or finite-difference Jacobian.
+#[derive(Clone)]
+struct Decay {
+    k: f64,
+    analytic: bool,
+}
+
+impl DaeSystem for Decay {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn residual(
+        &mut self,
+        _t: f64,
+        y: &[f64],
+        yp: &[f64],
+        _p: &[f64],
+        r: &mut [f64],
+    ) -> Result<(), EvalError> {
+        r[0] = yp[0] + self.k * y[0];
+        Ok(())
+    }
+    fn jacobian_pattern(&self) -> CscPattern {
+        CscPattern::dense(1, 1)
+    }
+    fn jacobian_source(&self) -> JacobianSource {
+        if self.analytic {
+            JacobianSource::Analytic
+        } else {
+            JacobianSource::FiniteDifference
+        }
+    }
+    fn jacobian(
+        &mut self,
+        _t: f64,
+        _y: &[f64],
+        _yp: &[f64],
+        _p: &[f64],
+        alpha: f64,
+        v: &mut [f64],
+    ) -> Result<(), EvalError> {
+        v[0] = self.k + alpha;
+        Ok(())
+    }
+}
+
+/// Harmonic oscillator with parameters p = (ω²), plus an event when x crosses zero.
+struct Oscillator;
+
+impl DaeSystem for Oscillator {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(
+        &mut self,
+        _t: f64,
+        y: &[f64],
+        yp: &[f64],
+        p: &[f64],
+        r: &mut [f64],
+    ) -> Result<(), EvalError> {
+        r[0] = yp[0] - y[1];
+        r[1] = yp[1] + p[0] * y[0];
+        Ok(())
+    }
+    fn jacobian_pattern(&self) -> CscPattern {
+        CscPattern::dense(2, 2)
+    }
+    fn num_events(&self) -> usize {
+        1
+    }
+    fn events(&mut self, _t: f64, y: &[f64], _yp: &[f64], _p: &[f64], g: &mut [f64]) {
+        g[0] = y[0];
+    }
+}
+
+fn tight() -> BdfOptions {
+    BdfOptions::with_tolerances(1e-9, 1e-11)
+}
+
+#[test]
+fn exponential_decay_analytic_and_fd_agree_with_exact() {
+    for analytic in [true, false] {
+        let mut s = BdfSolver::new(Decay { k: 2.0, analytic }, 0.0, &[1.0], &[-2.0], &[], tight()).unwrap();
+        assert_eq!(s.solve_to(3.0).unwrap(), Outcome::Reached);
+        let exact = (-6.0f64).exp();
+        assert!(
+            (s.y()[0] - exact).abs() < 1e-8,
+            "analytic={analytic}: {} vs {exact}",
+            s.y()[0]
+        );
+        assert_eq!(s.t(), 3.0);
+        let st = s.stats();
+        assert!(st.steps > 10 && st.lu_factorisations >= 1 && st.newton_iters >= st.steps);
+        assert!(st.residual_evals > st.steps);
+    }
+}
+
+#[test]
+fn output_at_requested_times_uses_dense_output_and_is_accurate() {
+    let mut s = BdfSolver::new(Oscillator, 0.0, &[1.0, 0.0], &[0.0, -1.0], &[1.0], tight()).unwrap();
+    for k in 1..=50 {
+        let t = k as f64 * 0.1;
+        // Events interrupt; keep calling until the output time is reached.
+        while s.solve_to(t).unwrap() != Outcome::Reached {}
+        assert!((s.t() - t).abs() < 1e-14);
+        assert!((s.y()[0] - t.cos()).abs() < 1e-6, "t = {t}");
+        assert!((s.yp()[0] + t.sin()).abs() < 1e-5, "t = {t}");
+    }
+    // The integrator steps past output times and interpolates back.
+    assert!(s.t_internal() >= 5.0);
+    let (y, _) = s.dense_output(s.t_internal()).unwrap();
+    assert!((y[0] - s.t_internal().cos()).abs() < 1e-6);
+    assert!(matches!(s.dense_output(-1.0), Err(DaeError::OutOfRange { .. })));
+}
+
+#[test]
+fn events_are_located_by_root_finding() {
+    let mut s = BdfSolver::new(Oscillator, 0.0, &[1.0, 0.0], &[0.0, -1.0], &[1.0], tight()).unwrap();
+    let mut roots = vec![];
+    loop {
+        match s.solve_to(10.0).unwrap() {
+            Outcome::Event { indices } => {
+                assert_eq!(indices, vec![0]);
+                roots.push(s.t());
+            }
+            Outcome::Reached => break,
+            Outcome::StopTime => unreachable!(),
+        }
+    }
+    // cos t = 0 at π/2 + kπ: 3 roots in [0, 10].
+    assert_eq!(roots.len(), 3, "{roots:?}");
+    for (k, r) in roots.iter().enumerate() {
+        let exact = std::f64::consts::FRAC_PI_2 + k as f64 * std::f64::consts::PI;
+        assert!((r - exact).abs() < 1e-6, "root {k}: {r} vs {exact}");
+    }
+}
+
+#[test]
+fn stop_time_is_never_passed_and_restart_continues_at_order_one() {
+    let mut opts = tight();
+    opts.stop_time = Some(1.0);
+    let mut s = BdfSolver::new(
+        Decay {
+            k: 1.0,
+            analytic: true,
+        },
+        0.0,
+        &[1.0],
+        &[-1.0],
+        &[],
+        opts,
+    )
+    .unwrap();
+    assert_eq!(s.solve_to(2.0).unwrap(), Outcome::StopTime);
+    assert_eq!(s.t(), 1.0);
+    assert_eq!(s.t_internal(), 1.0);
+    // A discontinuity at t = 1: the rate changes; restart from the current state.
+    s.set_stop_time(None);
+    s.system_mut().k = 3.0;
+    let y1 = s.y()[0];
+    assert!(s.stats().last_order > 1, "order had risen before the restart");
+    s.restart_from(1.0, &[y1], &[-3.0 * y1]).unwrap();
+    s.step(2.0).unwrap();
+    assert_eq!(
+        s.stats().last_order,
+        1,
+        "the first step after a restart is order 1"
+    );
+    assert_eq!(s.solve_to(2.0).unwrap(), Outcome::Reached);
+    let exact = (-1.0f64).exp() * (-3.0f64).exp();
+    assert!((s.y()[0] - exact).abs() < 1e-8, "{} vs {exact}", s.y()[0]);
+}
+
+/// Index-1: y1' = -y1 + y2, 0 = y2 - sin(t) (algebraic y2).
+struct SemiExplicit;
+
+impl DaeSystem for SemiExplicit {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        yp: &[f64],
+        _p: &[f64],
+        r: &mut [f64],
+    ) -> Result<(), EvalError> {
+        r[0] = yp[0] + y[0] - y[1];
+        r[1] = y[1] - t.sin();
+        Ok(())
+    }
+    fn jacobian_pattern(&self) -> CscPattern {
+        CscPattern::from_entries(2, 2, [(0, 0), (0, 1), (1, 1)]).unwrap()
+    }
+    fn var_kinds(&self) -> Vec<VarKind> {
+        vec![VarKind::Differential, VarKind::Algebraic]
+    }
+}
+
+#[test]
+fn calc_ic_makes_index1_initial_values_consistent() {
+    // Wrong algebraic value and derivative at t0 = 1.
+    let mut s = BdfSolver::new(SemiExplicit, 1.0, &[2.0, 0.0], &[0.0, 0.0], &[], tight()).unwrap();
+    let iters = s.calc_ic(1e-3).unwrap();
+    assert!(iters >= 1);
+    assert!((s.y()[1] - 1f64.sin()).abs() < 1e-10);
+    assert!((s.yp()[0] - (-2.0 + 1f64.sin())).abs() < 1e-8);
+    s.solve_to(2.0).unwrap();
+    // Exact: y1 = C e^{-t} + (sin t − cos t)/2.
+    let c = (2.0 - (1f64.sin() - 1f64.cos()) / 2.0) * 1f64.exp();
+    let exact = c * (-2f64).exp() + (2f64.sin() - 2f64.cos()) / 2.0;
+    assert!((s.y()[0] - exact).abs() < 1e-7);
+}
+
+#[test]
+fn inconsistent_initial_values_are_reported_not_integrated() {
+    let mut s = BdfSolver::new(SemiExplicit, 1.0, &[2.0, 0.0], &[0.0, 0.0], &[], tight()).unwrap();
+    let e = s.solve_to(2.0).unwrap_err();
+    match &e {
+        DaeError::InconsistentInitialValues { culprits, .. } => assert_eq!(culprits[0].index, 1),
+        other => panic!("unexpected {other:?}"),
+    }
+    assert!(e.to_string().contains("inconsistent"));
+}
+
+#[test]
+fn bad_tolerances_and_dimensions_are_errors() {
+    let sys = || Decay {
+        k: 1.0,
+        analytic: true,
+    };
+    for (rtol, atol) in [
+        (0.0, 1e-6),
+        (-1e-6, 1e-6),
+        (1e-6, 0.0),
+        (f64::NAN, 1e-6),
+        (1e-6, -1.0),
+    ] {
+        let r = BdfSolver::new(
+            sys(),
+            0.0,
+            &[1.0],
+            &[-1.0],
+            &[],
+            BdfOptions::with_tolerances(rtol, atol),
+        );
+        assert!(
+            matches!(r, Err(DaeError::InvalidInput(_))),
+            "rtol {rtol} atol {atol}"
+        );
+    }
+    let mut o = tight();
+    o.atol = AbsTol::Vector(vec![1e-6, 1e-6]);
+    assert!(matches!(
+        BdfSolver::new(sys(), 0.0, &[1.0], &[-1.0], &[], o),
+        Err(DaeError::InvalidInput(_))
+    ));
+    assert!(matches!(
+        BdfSolver::new(sys(), 0.0, &[1.0, 2.0], &[-1.0], &[], tight()),
+        Err(DaeError::InvalidInput(_))
+    ));
+    assert!(matches!(
+        BdfSolver::new(sys(), 0.0, &[f64::NAN], &[-1.0], &[], tight()),
+        Err(DaeError::InvalidInput(_))
+    ));
+    let mut o = tight();
+    o.max_order = 7;
+    assert!(matches!(
+        BdfSolver::new(sys(), 0.0, &[1.0], &[-1.0], &[], o),
+        Err(DaeError::InvalidInput(_))
+    ));
+    let mut s = BdfSolver::new(sys(), 0.0, &[1.0], &[-1.0], &[], tight()).unwrap();
+    assert!(matches!(
+        s.solve_to(f64::INFINITY),
+        Err(DaeError::InvalidInput(_))
+    ));
+    assert!(matches!(s.solve_to(0.0), Err(DaeError::InvalidInput(_))));
+}
+
+/// A residual whose iteration matrix is singular: the second unknown appears nowhere.
+struct Singular;
+
+impl DaeSystem for Singular {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(
+        &mut self,
+        _t: f64,
+        y: &[f64],
+        yp: &[f64],
+        _p: &[f64],
+        r: &mut [f64],
+    ) -> Result<(), EvalError> {
+        r[0] = yp[0] + y[0];
+        r[1] = y[0] - 1.0;
+        Ok(())
+    }
+    fn jacobian_pattern(&self) -> CscPattern {
+        CscPattern::dense(2, 2)
+    }
+    fn component_name(&self, i: usize) -> String {
+        ["x", "ghost"][i].to_string()
+    }
+}
+
+#[test]
+fn singular_iteration_matrix_is_an_error_naming_the_unknown() {
+    let mut s = BdfSolver::new(Singular, 0.0, &[1.0, 0.0], &[-1.0, 0.0], &[], tight()).unwrap();
+    let e = s.solve_to(1.0).unwrap_err();
+    match &e {
+        DaeError::LinearSolve { culprits, .. } => {
+            assert!(culprits.iter().any(|c| c.name.contains("ghost")), "{e}");
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+}
+
+/// A residual that turns NaN after t = 0.5.
+struct GoesNan;
+
+impl DaeSystem for GoesNan {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn residual(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        yp: &[f64],
+        _p: &[f64],
+        r: &mut [f64],
+    ) -> Result<(), EvalError> {
+        r[0] = yp[0] + y[0] + if t > 0.5 { f64::NAN } else { 0.0 };
+        Ok(())
+    }
+    fn jacobian_pattern(&self) -> CscPattern {
+        CscPattern::dense(1, 1)
+    }
+}
+
+#[test]
+fn nan_residual_is_an_error_with_time_not_a_panic() {
+    let mut s = BdfSolver::new(GoesNan, 0.0, &[1.0], &[-1.0], &[], tight()).unwrap();
+    let e = s.solve_to(1.0).unwrap_err();
+    match e {
+        DaeError::NonFiniteResidual { t, ref culprits } => {
+            assert!((0.4..=0.5).contains(&t), "{t}");
+            assert_eq!(culprits[0].index, 0);
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+}
+
+/// A callback failing fatally.
+struct Fails;
+
+impl DaeSystem for Fails {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn residual(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        yp: &[f64],
+        _p: &[f64],
+        r: &mut [f64],
+    ) -> Result<(), EvalError> {
+        if t > 0.2 {
+            return Err(EvalError::Fatal("sensor model undefined past 0.2 s".into()));
+        }
+        r[0] = yp[0] + y[0];
+        Ok(())
+    }
+    fn jacobian_pattern(&self) -> CscPattern {
+        CscPattern::dense(1, 1)
+    }
+}
+
+#[test]
+fn fatal_callback_error_stops_with_its_message() {
+    let mut s = BdfSolver::new(Fails, 0.0, &[1.0], &[-1.0], &[], tight()).unwrap();
+    let e = s.solve_to(1.0).unwrap_err();
+    assert!(matches!(e, DaeError::Evaluation { .. }));
+    assert!(e.to_string().contains("sensor model undefined"));
+}
+
+#[test]
+fn step_limit_ends_the_run_with_an_error_not_a_hang() {
+    let mut o = tight();
+    o.max_steps = 5;
+    let mut s = BdfSolver::new(
+        Decay {
+            k: 1.0,
+            analytic: true,
+        },
+        0.0,
+        &[1.0],
+        &[-1.0],
+        &[],
+        o,
+    )
+    .unwrap();
+    assert!(matches!(
+        s.solve_to(100.0),
+        Err(DaeError::TooManySteps { max_steps: 5, .. })
+    ));
+}
+
+#[test]
+fn stiff_problem_takes_few_steps() {
+    // y' = -1e6 (y - cos t): stiff, smooth solution; BDF needs O(100) steps, not O(1e6).
+    struct Stiff;
+    impl DaeSystem for Stiff {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn residual(
+            &mut self,
+            t: f64,
+            y: &[f64],
+            yp: &[f64],
+            _p: &[f64],
+            r: &mut [f64],
+        ) -> Result<(), EvalError> {
+            r[0] = yp[0] + 1e6 * (y[0] - t.cos());
+            Ok(())
+        }
+        fn jacobian_pattern(&self) -> CscPattern {
+            CscPattern::dense(1, 1)
+        }
+    }
+    let mut s = BdfSolver::new(
+        Stiff,
+        0.0,
+        &[1.0],
+        &[0.0],
+        &[],
+        BdfOptions::with_tolerances(1e-6, 1e-8),
+    )
+    .unwrap();
+    s.solve_to(10.0).unwrap();
+    assert!(s.stats().steps < 1000, "{}", s.stats().steps);
+    assert!((s.y()[0] - 10f64.cos()).abs() < 1e-5);
+}
