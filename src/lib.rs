@@ -23,6 +23,8 @@
 
 pub mod bench;
 pub mod dae;
+pub mod mechanisms;
+pub mod multibody;
 pub mod peers;
 pub mod sparse;
 

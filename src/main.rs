@@ -24,6 +24,21 @@ enum Command {
         #[command(subcommand)]
         what: BenchWhat,
     },
+    /// The WUT MR2120 parallel mechanism of the reference paper.
+    Mr2120 {
+        #[command(subcommand)]
+        what: Mr2120What,
+    },
+}
+
+#[derive(Subcommand)]
+enum Mr2120What {
+    /// Table 2: drive angles at M1, M2, M3 beside the paper's, with singularity measures.
+    Kinematics {
+        /// Print the rows as JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 #[derive(Subcommand)]
@@ -37,6 +52,68 @@ enum BenchWhat {
         #[arg(long, default_value_t = 3)]
         repeats: usize,
     },
+}
+
+fn mr2120_kinematics(json: bool) -> ExitCode {
+    let g = lash::mechanisms::mr2120::Geometry::default();
+    let rows = match lash::mechanisms::mr2120::table2(&g) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if json {
+        println!("{}", serde_json::to_string_pretty(&rows).expect("rows serialise"));
+        return ExitCode::SUCCESS;
+    }
+    println!("MR2120 kinematics at the points of the paper's Table 2 (geometry: shared/reference/mr2120-geometry.md)");
+    println!(
+        "{:<5} {:>8} {:>26} {:>26} {:>9}  {:>10} {:>10} {:>10}  class",
+        "point",
+        "z_M [m]",
+        "q1 q2 q3 lash [deg]",
+        "q1 q2 q3 paper [deg]",
+        "max diff",
+        "det Jx[m3]",
+        "direct",
+        "inverse"
+    );
+    for r in &rows {
+        println!(
+            "{:<5} {:>8.4} {:>8.3} {:>8.3} {:>8.3} {:>8.2} {:>8.2} {:>8.2} {:>8.4}°  {:>10.3e} {:>10.3e} {:>10.3e}  {:?}",
+            r.point,
+            r.m[2],
+            r.q_deg[0],
+            r.q_deg[1],
+            r.q_deg[2],
+            r.q_paper_deg[0],
+            r.q_paper_deg[1],
+            r.q_paper_deg[2],
+            r.max_diff_deg,
+            r.singularity.det_jx,
+            r.singularity.direct_measure,
+            r.singularity.inverse_measure,
+            r.singularity.class
+        );
+    }
+    println!();
+    for r in &rows {
+        if let (Some((lo, hi)), Some(d)) = (r.z_range, r.below_boundary) {
+            println!(
+                "{}: reachable z on this vertical [{lo:.4}, {hi:.4}] m; {:.2} mm below the upper work-zone boundary",
+                r.point,
+                d * 1e3
+            );
+        }
+    }
+    println!("direct = |det Jx|/L2^3 (0: platform free with drives locked); inverse = min|Jq_ii|/(L1 L2) (0: branch stretched/folded, work-zone boundary)");
+    println!(
+        "classes: near below {:.0e}, singular below {:.0e}",
+        lash::mechanisms::mr2120::kinematics::NEAR,
+        lash::mechanisms::mr2120::kinematics::SINGULAR
+    );
+    ExitCode::SUCCESS
 }
 
 fn main() -> ExitCode {
@@ -88,6 +165,9 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         }
+        Command::Mr2120 {
+            what: Mr2120What::Kinematics { json },
+        } => mr2120_kinematics(json),
         Command::Bench {
             what: BenchWhat::Dae { json, repeats },
         } => {

@@ -59,3 +59,22 @@ fn unknown_subcommand_is_a_clear_error() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("frobnicate"));
 }
+
+#[test]
+fn mr2120_kinematics_reproduces_table2_within_002_degrees() {
+    let out = lash(&["mr2120", "kinematics", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("valid JSON");
+    let rows = v.as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    let classes: Vec<&str> = rows
+        .iter()
+        .map(|r| r["singularity"]["class"].as_str().unwrap())
+        .collect();
+    assert_eq!(classes, ["regular", "near_inverse", "direct"]);
+    for r in rows {
+        assert!(r["max_diff_deg"].as_f64().unwrap() < 0.02, "{r}");
+    }
+    let human = lash(&["mr2120", "kinematics"]);
+    assert!(String::from_utf8_lossy(&human.stdout).contains("1.18 mm below"));
+}

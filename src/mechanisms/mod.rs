@@ -1,0 +1,7 @@
+//! Concrete mechanisms built on lash's layers.
+//!
+//! * [`mr2120`] — the WUT MR2120 3-RUU translational parallel mechanism of Bałchanowski's
+//!   paper: geometry, closed-form inverse and numerical forward kinematics, Jacobians,
+//!   singularity measures, and the paper's published values.
+
+pub mod mr2120;

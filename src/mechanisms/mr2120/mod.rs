@@ -1,0 +1,60 @@
+//! The WUT MR2120: a 3-RUU translational parallel mechanism (three arms on revolute drives A,
+//! B, C; forearms with universal joints D, E, F at the elbows and P, Q, R at the platform).
+//!
+//! * [`paper`] — every value the reference paper publishes (Tables 1–3, dimensions, E).
+//! * [`geometry`] — the reconstructed layout (`../shared/reference/mr2120-geometry.md`).
+//! * [`kinematics`] — inverse/forward kinematics, Jacobians, singularity measures.
+
+pub mod geometry;
+pub mod kinematics;
+pub mod paper;
+
+pub use geometry::Geometry;
+
+use nalgebra::Vector3;
+use serde::Serialize;
+
+/// One row of the Table 2 comparison (`lash mr2120 kinematics`).
+#[derive(Debug, Clone, Serialize)]
+pub struct Table2Row {
+    /// Point name (M1, M2, M3).
+    pub point: String,
+    /// Platform centre (x_M, y_M, z_M), m.
+    pub m: [f64; 3],
+    /// Drive angles from lash's inverse kinematics, degrees.
+    pub q_deg: [f64; 3],
+    /// Drive angles published in Table 2, degrees.
+    pub q_paper_deg: [f64; 3],
+    /// Largest |q − q_paper|, degrees.
+    pub max_diff_deg: f64,
+    /// Singularity measures and class.
+    pub singularity: kinematics::SingularityReport,
+    /// Reachable z interval on the vertical through the point, m.
+    pub z_range: Option<(f64, f64)>,
+    /// Distance below the upper work-zone boundary on that vertical, m.
+    pub below_boundary: Option<f64>,
+}
+
+/// lash's kinematics at the three points of Table 2, beside the paper's values.
+pub fn table2(g: &Geometry) -> Result<Vec<Table2Row>, kinematics::KinematicsError> {
+    paper::TABLE2
+        .iter()
+        .map(|p| {
+            let m = Vector3::from(p.m);
+            let q = kinematics::inverse(g, m)?;
+            let q_deg = q.map(f64::to_degrees);
+            let max_diff_deg = (0..3).map(|i| (q_deg[i] - p.q_deg[i]).abs()).fold(0.0, f64::max);
+            let z_range = kinematics::reachable_z_range(g, p.m[0], p.m[1]);
+            Ok(Table2Row {
+                point: p.name.into(),
+                m: p.m,
+                q_deg,
+                q_paper_deg: p.q_deg,
+                max_diff_deg,
+                singularity: kinematics::singularity(g, q, m),
+                z_range,
+                below_boundary: z_range.map(|(_, hi)| hi - p.m[2]),
+            })
+        })
+        .collect()
+}
