@@ -5,10 +5,30 @@
 //! | `rotation.rs` | Euler parameters, rotation matrices and their derivatives |
 //! | `body.rs` | rigid bodies, the body set and handles |
 //! | `error.rs` | model errors naming bodies and joints |
+//! | `constraints.rs` | constraint primitives (point, dot-1, dot-2, angle) with derivatives |
+//! | `joints/` | one joint kind per file, built from primitives |
+//! | `drivers.rs` | motion laws for driven joint coordinates |
+//! | `forces.rs` | gravity, point forces, torques, spring-dampers, the force-element trait |
+//! | `model.rs` | the mechanism (model) and its builder |
+//! | `formulation.rs` | GGL index-2 equations of motion as a `dae::DaeSystem` |
+//! | `analysis.rs` | assembly, velocity/acceleration analysis, reactions, singularity measure |
 
+pub mod analysis;
 pub mod body;
+pub(crate) mod constraints;
+pub mod drivers;
 pub mod error;
+pub mod forces;
+pub mod formulation;
+pub mod joints;
+pub mod model;
 pub mod rotation;
 
+pub use analysis::{Analysis, Reaction, Snapshot};
 pub use body::{Attach, BodyHandle, BodySet, RigidBody};
+pub use drivers::{MotionLaw, Profile};
 pub use error::ModelError;
+pub use forces::{BodyLoad, BodyState, ForceElement, PointForce, SpringDamper, Torque};
+pub use formulation::{Layout, MultibodyDae};
+pub use joints::{Joint, JointFrame, JointHandle, JointKind};
+pub use model::{Driver, DriverHandle, Mechanism, STANDARD_GRAVITY};

@@ -1,0 +1,194 @@
+//! Applied forces: gravity (a model setting), point forces and torques, spring-dampers, and
+//! the [`ForceElement`] interface that contact and clearance models implement.
+
+use super::body::{Attach, BodyHandle};
+use nalgebra::{Matrix3, Vector3, Vector4};
+use std::fmt::Debug;
+use std::sync::Arc;
+
+/// Kinematic state of one body as force elements see it.
+#[derive(Debug, Clone, Copy)]
+pub struct BodyState {
+    /// Centre-of-mass position, m.
+    pub r: Vector3<f64>,
+    /// Euler parameters.
+    pub p: Vector4<f64>,
+    /// Rotation matrix (body → base).
+    pub a: Matrix3<f64>,
+    /// Centre-of-mass velocity, m/s.
+    pub v: Vector3<f64>,
+    /// Angular velocity in the body frame, rad/s.
+    pub omega: Vector3<f64>,
+}
+
+impl BodyState {
+    /// The ground: at rest at the origin.
+    pub fn ground() -> Self {
+        Self {
+            r: Vector3::zeros(),
+            p: Vector4::new(1.0, 0.0, 0.0, 0.0),
+            a: Matrix3::identity(),
+            v: Vector3::zeros(),
+            omega: Vector3::zeros(),
+        }
+    }
+    /// Position of a body-fixed point s' (m, body frame) in the base frame.
+    pub fn point(&self, s: &Vector3<f64>) -> Vector3<f64> {
+        self.r + self.a * s
+    }
+    /// Velocity of a body-fixed point s' in the base frame, m/s.
+    pub fn point_velocity(&self, s: &Vector3<f64>) -> Vector3<f64> {
+        self.v + self.a * self.omega.cross(s)
+    }
+}
+
+/// Generalised load on one body: a force through the centre of mass (base frame, N) and a
+/// torque (body frame, N·m).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct BodyLoad {
+    /// Force, N (base frame).
+    pub force: Vector3<f64>,
+    /// Torque, N·m (body frame).
+    pub torque: Vector3<f64>,
+}
+
+impl BodyLoad {
+    /// Adds a force `f` (base frame) applied at body point s' (body frame).
+    pub fn add_force_at(&mut self, state: &BodyState, s: &Vector3<f64>, f: &Vector3<f64>) {
+        self.force += f;
+        self.torque += s.cross(&(state.a.transpose() * f));
+    }
+}
+
+/// A force element: computes loads on the bodies it acts on from their states.
+///
+/// `bodies` lists every body whose state the element reads or loads: it declares the
+/// coupling for the sparse Jacobian pattern.
+pub trait ForceElement: Debug + Send + Sync {
+    /// Name, used in reports.
+    fn name(&self) -> &str;
+    /// Bodies read or loaded.
+    fn bodies(&self) -> Vec<BodyHandle>;
+    /// Adds this element's loads at time `t` (s). `states[b]` and `loads[b]` are indexed by
+    /// body index.
+    fn apply(&self, t: f64, states: &[BodyState], loads: &mut [BodyLoad]);
+}
+
+fn state_of(states: &[BodyState], a: Attach) -> BodyState {
+    match a {
+        Attach::Ground => BodyState::ground(),
+        Attach::Body(h) => states[h.0],
+    }
+}
+
+/// A force f(t) (base frame, N) applied at a body point s' (body frame, m).
+#[derive(Clone)]
+pub struct PointForce {
+    /// Name.
+    pub name: String,
+    /// Body.
+    pub body: BodyHandle,
+    /// Application point, body frame, m.
+    pub point: Vector3<f64>,
+    /// Force as a function of time, N (base frame).
+    pub force: Arc<dyn Fn(f64) -> Vector3<f64> + Send + Sync>,
+}
+
+impl Debug for PointForce {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "PointForce({} on body {})", self.name, self.body.0)
+    }
+}
+
+impl ForceElement for PointForce {
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn bodies(&self) -> Vec<BodyHandle> {
+        vec![self.body]
+    }
+    fn apply(&self, t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
+        let f = (self.force)(t);
+        loads[self.body.0].add_force_at(&states[self.body.0], &self.point, &f);
+    }
+}
+
+/// A torque τ(t) (base frame, N·m) on a body.
+#[derive(Clone)]
+pub struct Torque {
+    /// Name.
+    pub name: String,
+    /// Body.
+    pub body: BodyHandle,
+    /// Torque as a function of time, N·m (base frame).
+    pub torque: Arc<dyn Fn(f64) -> Vector3<f64> + Send + Sync>,
+}
+
+impl Debug for Torque {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Torque({} on body {})", self.name, self.body.0)
+    }
+}
+
+impl ForceElement for Torque {
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn bodies(&self) -> Vec<BodyHandle> {
+        vec![self.body]
+    }
+    fn apply(&self, t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
+        let s = &states[self.body.0];
+        loads[self.body.0].torque += s.a.transpose() * (self.torque)(t);
+    }
+}
+
+/// A linear spring-damper between two points: tension k·(l − l0) + c·l̇ along the line.
+#[derive(Debug, Clone)]
+pub struct SpringDamper {
+    /// Name.
+    pub name: String,
+    /// Side i and its point (body frame, m).
+    pub i: (Attach, Vector3<f64>),
+    /// Side j and its point (body frame, m).
+    pub j: (Attach, Vector3<f64>),
+    /// Stiffness, N/m.
+    pub stiffness: f64,
+    /// Damping, N·s/m.
+    pub damping: f64,
+    /// Free length, m.
+    pub free_length: f64,
+}
+
+impl ForceElement for SpringDamper {
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn bodies(&self) -> Vec<BodyHandle> {
+        [self.i.0, self.j.0]
+            .into_iter()
+            .filter_map(|a| match a {
+                Attach::Body(h) => Some(h),
+                Attach::Ground => None,
+            })
+            .collect()
+    }
+    fn apply(&self, _t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
+        let (si, sj) = (state_of(states, self.i.0), state_of(states, self.j.0));
+        let d = sj.point(&self.j.1) - si.point(&self.i.1);
+        let l = d.norm();
+        if l < 1e-15 {
+            return;
+        }
+        let n = d / l;
+        let ld = n.dot(&(sj.point_velocity(&self.j.1) - si.point_velocity(&self.i.1)));
+        let tension = self.stiffness * (l - self.free_length) + self.damping * ld;
+        let f = tension * n; // pulls i towards j
+        if let Attach::Body(h) = self.i.0 {
+            loads[h.0].add_force_at(&si, &self.i.1, &f);
+        }
+        if let Attach::Body(h) = self.j.0 {
+            loads[h.0].add_force_at(&sj, &self.j.1, &(-f));
+        }
+    }
+}

@@ -1,0 +1,364 @@
+//! The equations of motion in GGL-stabilised index-2 form (Gear, Gupta & Leimkuhler 1985)
+//! on the `dae` residual form.
+//!
+//! Unknowns: per body q = (r, p) (7) and w = (v, ω') (6); per constraint the multipliers λ
+//! (forces) and μ (position stabilisation); per body ν (Euler-parameter normalisation).
+//!
+//! ```text
+//! r' − v + Φ_rᵀμ                      = 0      (3 per body)
+//! p' − ½L(p)ᵀω' + Φ_pᵀμ + 2pν         = 0      (4 per body)
+//! m·v' − f − m·g + Φ_rᵀλ              = 0      (3 per body)
+//! J'ω̇' + ω'×J'ω' − n' + Φ_π'ᵀλ        = 0      (3 per body)
+//! Φ(q, t)                             = 0      (m)
+//! Φ_r·v + Φ_π'·ω' + Φ_t               = 0      (m)
+//! pᵀp − 1                             = 0      (1 per body)
+//! ```
+//! with Φ_π' = ½·Φ_p·L(p)ᵀ. Both constraint levels hold at every step, so drift stays at the
+//! Newton tolerance; μ and ν vanish on the exact solution. λ, μ, ν are algebraic and left out
+//! of the error test. The sparse pattern follows the topology: a body's rows couple only to
+//! bodies sharing a joint or force element with it.
+
+use super::body::Attach;
+use super::constraints::{Pose, Row};
+use super::forces::{BodyLoad, BodyState};
+use super::model::{ConstraintBlock, Mechanism};
+use super::rotation::l_matrix;
+use crate::dae::{DaeSystem, EvalError, JacobianSource, VarKind};
+use crate::sparse::CscPattern;
+use nalgebra::{Vector3, Vector4};
+use std::sync::Arc;
+
+/// Index layout of the DAE unknowns.
+#[derive(Debug, Clone, Copy)]
+pub struct Layout {
+    /// Bodies.
+    pub nb: usize,
+    /// Constraint equations (joints and drivers).
+    pub m: usize,
+}
+
+impl Layout {
+    /// Offset of body b's position coordinates (r, p).
+    pub fn q(&self, b: usize) -> usize {
+        7 * b
+    }
+    /// Offset of body b's velocities (v, ω').
+    pub fn w(&self, b: usize) -> usize {
+        7 * self.nb + 6 * b
+    }
+    /// Offset of the constraint forces λ.
+    pub fn lambda(&self) -> usize {
+        13 * self.nb
+    }
+    /// Offset of the stabilisation multipliers μ.
+    pub fn mu(&self) -> usize {
+        13 * self.nb + self.m
+    }
+    /// Offset of the normalisation multipliers ν.
+    pub fn nu(&self) -> usize {
+        13 * self.nb + 2 * self.m
+    }
+    /// Total number of unknowns.
+    pub fn dim(&self) -> usize {
+        14 * self.nb + 2 * self.m
+    }
+}
+
+/// Evaluates kinematics, constraints and loads of a mechanism at one state: shared by the
+/// DAE residual and the kinematic analyses.
+#[derive(Debug)]
+pub(crate) struct Evaluator {
+    pub model: Arc<Mechanism>,
+    pub blocks: Vec<ConstraintBlock>,
+    pub layout: Layout,
+    pub rows: Vec<Row>,
+    pub poses: Vec<Pose>,
+    pub states: Vec<BodyState>,
+    pub loads: Vec<BodyLoad>,
+}
+
+impl Evaluator {
+    pub(crate) fn new(model: Arc<Mechanism>) -> Self {
+        let blocks = model.constraint_blocks();
+        let m = blocks.iter().map(|b| b.prim.len()).sum();
+        let nb = model.bodies.len();
+        Self {
+            layout: Layout { nb, m },
+            rows: vec![Row::default(); m],
+            poses: vec![Pose::ground(); nb],
+            states: vec![BodyState::ground(); nb],
+            loads: vec![BodyLoad::default(); nb],
+            blocks,
+            model,
+        }
+    }
+
+    pub(crate) fn side(a: Attach) -> Option<usize> {
+        match a {
+            Attach::Ground => None,
+            Attach::Body(h) => Some(h.0),
+        }
+    }
+
+    /// Sets poses and velocities from q = (r, p) per body and w = (v, ω') per body.
+    pub(crate) fn set_state(&mut self, q: &[f64], w: &[f64]) {
+        for b in 0..self.layout.nb {
+            let r = Vector3::new(q[7 * b], q[7 * b + 1], q[7 * b + 2]);
+            let p = Vector4::new(q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]);
+            self.poses[b] = Pose::new(r, p);
+            let v = Vector3::new(w[6 * b], w[6 * b + 1], w[6 * b + 2]);
+            let om = Vector3::new(w[6 * b + 3], w[6 * b + 4], w[6 * b + 5]);
+            self.states[b] = BodyState {
+                r,
+                p,
+                a: self.poses[b].a,
+                v,
+                omega: om,
+            };
+        }
+    }
+
+    /// Evaluates all constraint rows at time t.
+    pub(crate) fn eval_constraints(&mut self, t: f64) {
+        let ground = Pose::ground();
+        let mut k = 0;
+        for blk in &self.blocks {
+            let pi = Self::side(blk.i).map(|b| self.poses[b]).unwrap_or(ground);
+            let pj = Self::side(blk.j).map(|b| self.poses[b]).unwrap_or(ground);
+            let n = blk.prim.len();
+            blk.prim.eval(&pi, &pj, t, &mut self.rows[k..k + n]);
+            k += n;
+        }
+    }
+
+    /// The sides (body indices) of each scalar constraint.
+    pub(crate) fn row_sides(&self) -> Vec<(Option<usize>, Option<usize>)> {
+        let mut out = vec![];
+        for blk in &self.blocks {
+            for _ in 0..blk.prim.len() {
+                out.push((Self::side(blk.i), Self::side(blk.j)));
+            }
+        }
+        out
+    }
+
+    /// Applied loads (gravity and force elements) at time t.
+    pub(crate) fn eval_loads(&mut self, t: f64) {
+        let g = self.model.gravity;
+        for (b, body) in self.model.bodies.bodies.iter().enumerate() {
+            self.loads[b] = BodyLoad {
+                force: body.mass * g,
+                torque: Vector3::zeros(),
+            };
+        }
+        for f in &self.model.forces {
+            f.apply(t, &self.states, &mut self.loads);
+        }
+    }
+
+    /// Velocity-Jacobian row k restricted to body b: (translational, rotational) parts.
+    pub(crate) fn b_row(&self, k: usize, side_i: bool, b: usize) -> (Vector3<f64>, Vector3<f64>) {
+        let row = &self.rows[k];
+        let l = l_matrix(&self.poses[b].p);
+        if side_i {
+            (row.d_ri, 0.5 * l * row.d_pi)
+        } else {
+            (row.d_rj, 0.5 * l * row.d_pj)
+        }
+    }
+}
+
+/// A mechanism's equations of motion as a [`DaeSystem`].
+#[derive(Debug)]
+pub struct MultibodyDae {
+    pub(crate) ev: Evaluator,
+    sides: Vec<(Option<usize>, Option<usize>)>,
+    names: Vec<String>,
+}
+
+impl MultibodyDae {
+    /// Builds the DAE of a validated model.
+    pub fn new(model: Arc<Mechanism>) -> Self {
+        let ev = Evaluator::new(model);
+        let sides = ev.row_sides();
+        let names = ev.blocks.iter().flat_map(|b| b.names.clone()).collect();
+        Self { ev, sides, names }
+    }
+
+    /// The index layout.
+    pub fn layout(&self) -> Layout {
+        self.ev.layout
+    }
+}
+
+impl DaeSystem for MultibodyDae {
+    fn dim(&self) -> usize {
+        self.ev.layout.dim()
+    }
+
+    fn residual(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        yp: &[f64],
+        _p: &[f64],
+        res: &mut [f64],
+    ) -> Result<(), EvalError> {
+        let lay = self.ev.layout;
+        let nb = lay.nb;
+        let (q, w) = (&y[..7 * nb], &y[7 * nb..13 * nb]);
+        self.ev.set_state(q, w);
+        self.ev.eval_constraints(t);
+        self.ev.eval_loads(t);
+        res.iter_mut().for_each(|v| *v = 0.0);
+        for b in 0..nb {
+            let (qo, wo) = (lay.q(b), lay.w(b));
+            let st = self.ev.states[b];
+            let pdot = 0.5 * l_matrix(&st.p).transpose() * st.omega;
+            let nu = y[lay.nu() + b];
+            for k in 0..3 {
+                res[qo + k] = yp[qo + k] - st.v[k];
+            }
+            for k in 0..4 {
+                res[qo + 3 + k] = yp[qo + 3 + k] - pdot[k] + 2.0 * st.p[k] * nu;
+            }
+            let body = &self.ev.model.bodies.bodies[b];
+            let jw = body.inertia * st.omega;
+            let wdot = Vector3::new(yp[wo + 3], yp[wo + 4], yp[wo + 5]);
+            let lin = body.mass * Vector3::new(yp[wo], yp[wo + 1], yp[wo + 2]) - self.ev.loads[b].force;
+            let rot = body.inertia * wdot + st.omega.cross(&jw) - self.ev.loads[b].torque;
+            for k in 0..3 {
+                res[wo + k] = lin[k];
+                res[wo + 3 + k] = rot[k];
+            }
+            res[lay.nu() + b] = 0.5 * (st.p.norm_squared() - 1.0);
+        }
+        for (k, &(si, sj)) in self.sides.iter().enumerate() {
+            let lam = y[lay.lambda() + k];
+            let mu = y[lay.mu() + k];
+            let row = self.ev.rows[k];
+            let mut vel = row.phi_t;
+            for (side_i, b) in [(true, si), (false, sj)] {
+                let Some(b) = b else { continue };
+                let (dr, dp) = if side_i {
+                    (row.d_ri, row.d_pi)
+                } else {
+                    (row.d_rj, row.d_pj)
+                };
+                let (bt, br) = self.ev.b_row(k, side_i, b);
+                let (qo, wo) = (lay.q(b), lay.w(b));
+                for c in 0..3 {
+                    res[qo + c] += dr[c] * mu;
+                    res[wo + c] += bt[c] * lam;
+                    res[wo + 3 + c] += br[c] * lam;
+                }
+                for c in 0..4 {
+                    res[qo + 3 + c] += dp[c] * mu;
+                }
+                let st = &self.ev.states[b];
+                vel += bt.dot(&st.v) + br.dot(&st.omega);
+            }
+            res[lay.lambda() + k] = row.phi;
+            res[lay.mu() + k] = vel;
+        }
+        Ok(())
+    }
+
+    fn jacobian_pattern(&self) -> CscPattern {
+        let lay = self.ev.layout;
+        let nb = lay.nb;
+        // Body coupling: through constraints and force elements.
+        let mut coupled: Vec<Vec<usize>> = (0..nb).map(|b| vec![b]).collect();
+        let mut link = |a: usize, b: usize| {
+            if !coupled[a].contains(&b) {
+                coupled[a].push(b);
+            }
+        };
+        for &(si, sj) in &self.sides {
+            if let (Some(a), Some(b)) = (si, sj) {
+                link(a, b);
+                link(b, a);
+            }
+        }
+        for f in &self.ev.model.forces {
+            let bs = f.bodies();
+            for a in &bs {
+                for b in &bs {
+                    link(a.0, b.0);
+                }
+            }
+        }
+        let mut e = Vec::new();
+        let body_cols = |b: usize| (lay.q(b)..lay.q(b) + 7).chain(lay.w(b)..lay.w(b) + 6);
+        for b in 0..nb {
+            for &c in &coupled[b] {
+                for col in body_cols(c) {
+                    for row in (lay.q(b)..lay.q(b) + 7).chain(lay.w(b)..lay.w(b) + 6) {
+                        e.push((row, col));
+                    }
+                }
+            }
+            for k in 0..4 {
+                e.push((lay.q(b) + 3 + k, lay.nu() + b));
+                e.push((lay.nu() + b, lay.q(b) + 3 + k));
+            }
+        }
+        for (k, &(si, sj)) in self.sides.iter().enumerate() {
+            for b in [si, sj].into_iter().flatten() {
+                for col in body_cols(b) {
+                    e.push((lay.lambda() + k, col));
+                    e.push((lay.mu() + k, col));
+                }
+                for row in lay.q(b)..lay.q(b) + 7 {
+                    e.push((row, lay.mu() + k));
+                }
+                for row in lay.w(b)..lay.w(b) + 6 {
+                    e.push((row, lay.lambda() + k));
+                }
+            }
+            // Keep the diagonal in the pattern (structurally zero for multipliers).
+            e.push((lay.lambda() + k, lay.lambda() + k));
+            e.push((lay.mu() + k, lay.mu() + k));
+        }
+        for b in 0..nb {
+            e.push((lay.nu() + b, lay.nu() + b));
+        }
+        CscPattern::from_entries(lay.dim(), lay.dim(), e).expect("pattern indices are in range")
+    }
+
+    fn jacobian_source(&self) -> JacobianSource {
+        JacobianSource::FiniteDifference
+    }
+
+    fn var_kinds(&self) -> Vec<VarKind> {
+        let lay = self.ev.layout;
+        (0..lay.dim())
+            .map(|i| {
+                if i < 13 * lay.nb {
+                    VarKind::Differential
+                } else {
+                    VarKind::Algebraic
+                }
+            })
+            .collect()
+    }
+
+    fn component_name(&self, i: usize) -> String {
+        let lay = self.ev.layout;
+        let body = |b: usize| self.ev.model.bodies.bodies[b].name.clone();
+        if i < 7 * lay.nb {
+            let c = ["x", "y", "z", "e0", "e1", "e2", "e3"][i % 7];
+            format!("body '{}' {c}", body(i / 7))
+        } else if i < 13 * lay.nb {
+            let j = i - 7 * lay.nb;
+            let c = ["vx", "vy", "vz", "wx'", "wy'", "wz'"][j % 6];
+            format!("body '{}' {c}", body(j / 6))
+        } else if i < lay.mu() {
+            format!("force of {}", self.names[i - lay.lambda()])
+        } else if i < lay.nu() {
+            format!("stabiliser of {}", self.names[i - lay.mu()])
+        } else {
+            format!("normalisation of body '{}'", body(i - lay.nu()))
+        }
+    }
+}

@@ -1,0 +1,389 @@
+//! The model: bodies, joints, drivers, force elements and gravity, assembled with a builder
+//! API in the style of rapier (sets with handles). The model holds no state; simulation
+//! state lives in the solver and in [`super::analysis::Snapshot`]s.
+
+use super::body::{Attach, BodyHandle, BodySet, RigidBody};
+use super::constraints::Primitive;
+use super::drivers::MotionLaw;
+use super::error::ModelError;
+use super::forces::ForceElement;
+use super::joints::{Joint, JointFrame, JointHandle, JointKind};
+use super::rotation::rotation;
+use nalgebra::{Matrix3, Vector3};
+
+/// Standard gravity, m/s² (along −z by default).
+pub const STANDARD_GRAVITY: f64 = 9.81;
+
+/// A driver: a joint coordinate prescribed as a function of time.
+#[derive(Debug, Clone)]
+pub struct Driver {
+    /// Name.
+    pub name: String,
+    /// The driven joint (revolute or cylindrical: rotation; prismatic: translation).
+    pub joint: JointHandle,
+    /// Prescribed coordinate, rad or m.
+    pub law: MotionLaw,
+    /// Value of the coordinate in the configuration the joint frames were built in.
+    pub reference: f64,
+}
+
+/// Handle of a driver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct DriverHandle(pub(crate) usize);
+
+impl DriverHandle {
+    /// Index of the driver (its constraint follows all joint constraints).
+    pub fn index(self) -> usize {
+        self.0
+    }
+}
+
+/// A mechanism: the model of a multibody system.
+#[derive(Debug, Default)]
+pub struct Mechanism {
+    /// Bodies.
+    pub bodies: BodySet,
+    /// Joints, in insertion order.
+    pub joints: Vec<Joint>,
+    /// Drivers.
+    pub drivers: Vec<Driver>,
+    /// Force elements.
+    pub forces: Vec<Box<dyn ForceElement>>,
+    /// Gravity, m/s² (base frame).
+    pub gravity: Vector3<f64>,
+}
+
+/// One scalar constraint of the assembled model: its sides, primitive and owner.
+#[derive(Debug, Clone)]
+pub(crate) struct ConstraintBlock {
+    pub i: Attach,
+    pub j: Attach,
+    pub prim: Primitive,
+    pub names: Vec<String>,
+}
+
+impl Mechanism {
+    /// An empty mechanism with standard gravity along −z.
+    pub fn new() -> Self {
+        Self {
+            gravity: Vector3::new(0.0, 0.0, -STANDARD_GRAVITY),
+            ..Default::default()
+        }
+    }
+
+    /// Adds a body.
+    pub fn add_body(&mut self, b: RigidBody) -> BodyHandle {
+        self.bodies.insert(b)
+    }
+
+    /// Adds a force element.
+    pub fn add_force(&mut self, f: Box<dyn ForceElement>) {
+        self.forces.push(f);
+    }
+
+    /// Adds a joint given by frames in each side's body frame.
+    pub fn add_joint(&mut self, joint: Joint) -> JointHandle {
+        self.joints.push(joint);
+        JointHandle(self.joints.len() - 1)
+    }
+
+    fn pose0(&self, a: Attach) -> (Vector3<f64>, Matrix3<f64>) {
+        match a {
+            Attach::Ground => (Vector3::zeros(), Matrix3::identity()),
+            Attach::Body(h) => {
+                let b = &self.bodies.bodies[h.0];
+                (b.position, rotation(&b.orientation.normalize()))
+            }
+        }
+    }
+
+    /// A joint frame on side `a` from a base-frame point and axes, using the side's initial
+    /// pose.
+    fn local_frame(&self, a: Attach, point: &Vector3<f64>, z: &Vector3<f64>, x: &Vector3<f64>) -> JointFrame {
+        let (r, rot) = self.pose0(a);
+        JointFrame::with_x(
+            rot.transpose() * (point - r),
+            rot.transpose() * z,
+            rot.transpose() * x,
+        )
+    }
+
+    fn joint_at(
+        &mut self,
+        name: &str,
+        kind: JointKind,
+        i: Attach,
+        j: Attach,
+        point: Vector3<f64>,
+        zi: Vector3<f64>,
+        zj: Vector3<f64>,
+    ) -> JointHandle {
+        let xi = JointFrame::new(point, zi).x();
+        let fi = self.local_frame(i, &point, &zi, &xi);
+        let xj = if kind == JointKind::Universal { zi } else { xi };
+        let fj = self.local_frame(j, &point, &zj, &xj);
+        self.add_joint(Joint {
+            name: name.into(),
+            kind,
+            body_i: i,
+            body_j: j,
+            frame_i: fi,
+            frame_j: fj,
+        })
+    }
+
+    /// Spherical joint at base-frame `point` (m), from the bodies' initial poses.
+    pub fn spherical_at(
+        &mut self,
+        name: &str,
+        i: impl Into<Attach>,
+        j: impl Into<Attach>,
+        point: Vector3<f64>,
+    ) -> JointHandle {
+        self.joint_at(
+            name,
+            JointKind::Spherical,
+            i.into(),
+            j.into(),
+            point,
+            Vector3::z(),
+            Vector3::z(),
+        )
+    }
+
+    /// Revolute joint at `point` (m) about the base-frame `axis`.
+    pub fn revolute_at(
+        &mut self,
+        name: &str,
+        i: impl Into<Attach>,
+        j: impl Into<Attach>,
+        point: Vector3<f64>,
+        axis: Vector3<f64>,
+    ) -> JointHandle {
+        self.joint_at(name, JointKind::Revolute, i.into(), j.into(), point, axis, axis)
+    }
+
+    /// Universal joint at `point`: `axis_i` is fixed to side i, `axis_j` to side j; they must
+    /// be perpendicular in the initial configuration.
+    pub fn universal_at(
+        &mut self,
+        name: &str,
+        i: impl Into<Attach>,
+        j: impl Into<Attach>,
+        point: Vector3<f64>,
+        axis_i: Vector3<f64>,
+        axis_j: Vector3<f64>,
+    ) -> JointHandle {
+        self.joint_at(
+            name,
+            JointKind::Universal,
+            i.into(),
+            j.into(),
+            point,
+            axis_i,
+            axis_j,
+        )
+    }
+
+    /// Prismatic joint through `point` along `axis`.
+    pub fn prismatic_along(
+        &mut self,
+        name: &str,
+        i: impl Into<Attach>,
+        j: impl Into<Attach>,
+        point: Vector3<f64>,
+        axis: Vector3<f64>,
+    ) -> JointHandle {
+        self.joint_at(name, JointKind::Prismatic, i.into(), j.into(), point, axis, axis)
+    }
+
+    /// Cylindrical joint through `point` along `axis`.
+    pub fn cylindrical_along(
+        &mut self,
+        name: &str,
+        i: impl Into<Attach>,
+        j: impl Into<Attach>,
+        point: Vector3<f64>,
+        axis: Vector3<f64>,
+    ) -> JointHandle {
+        self.joint_at(
+            name,
+            JointKind::Cylindrical,
+            i.into(),
+            j.into(),
+            point,
+            axis,
+            axis,
+        )
+    }
+
+    /// Fixed joint at `point`.
+    pub fn fixed_at(
+        &mut self,
+        name: &str,
+        i: impl Into<Attach>,
+        j: impl Into<Attach>,
+        point: Vector3<f64>,
+    ) -> JointHandle {
+        self.joint_at(
+            name,
+            JointKind::Fixed,
+            i.into(),
+            j.into(),
+            point,
+            Vector3::z(),
+            Vector3::z(),
+        )
+    }
+
+    /// Drives a joint coordinate: the rotation of a revolute or cylindrical joint (rad), or
+    /// the translation of a prismatic joint (m). `reference` is the coordinate's value in the
+    /// configuration the joint was built in.
+    pub fn drive(
+        &mut self,
+        name: &str,
+        joint: JointHandle,
+        law: MotionLaw,
+        reference: f64,
+    ) -> Result<DriverHandle, ModelError> {
+        let j = self.joints.get(joint.0).ok_or_else(|| ModelError::BadElement {
+            kind: "driver",
+            name: name.into(),
+            reason: format!("joint handle {} does not exist", joint.0),
+        })?;
+        if matches!(
+            j.kind,
+            JointKind::Spherical | JointKind::Universal | JointKind::Fixed
+        ) {
+            return Err(ModelError::BadElement {
+                kind: "driver",
+                name: name.into(),
+                reason: format!(
+                    "joint '{}' is {:?}; only revolute, cylindrical and prismatic joints can be driven",
+                    j.name, j.kind
+                ),
+            });
+        }
+        self.drivers.push(Driver {
+            name: name.into(),
+            joint,
+            law,
+            reference,
+        });
+        Ok(DriverHandle(self.drivers.len() - 1))
+    }
+
+    /// Number of scalar constraint equations (joints and drivers; not the Euler-parameter
+    /// normalisations).
+    pub fn constraint_count(&self) -> usize {
+        self.constraint_blocks().iter().map(|c| c.prim.len()).sum()
+    }
+
+    /// Degrees of freedom: 6 per body minus the joint constraints (drivers not counted),
+    /// assuming independent constraints.
+    pub fn degrees_of_freedom(&self) -> isize {
+        let joint_eqs: usize = self
+            .joints
+            .iter()
+            .map(|j| j.primitives().iter().map(|p| p.len()).sum::<usize>())
+            .sum();
+        6 * self.bodies.len() as isize - joint_eqs as isize
+    }
+
+    /// Checks bodies and references, naming what is wrong.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        if self.bodies.is_empty() {
+            return Err(ModelError::BadElement {
+                kind: "joint",
+                name: "-".into(),
+                reason: "the mechanism has no bodies".into(),
+            });
+        }
+        for (_, b) in self.bodies.iter() {
+            b.validate()?;
+        }
+        let nb = self.bodies.len();
+        for j in &self.joints {
+            for a in [j.body_i, j.body_j] {
+                if let Attach::Body(h) = a {
+                    if h.0 >= nb {
+                        return Err(ModelError::BadElement {
+                            kind: "joint",
+                            name: j.name.clone(),
+                            reason: format!("body handle {} does not exist", h.0),
+                        });
+                    }
+                }
+            }
+            if j.body_i == j.body_j {
+                return Err(ModelError::BadElement {
+                    kind: "joint",
+                    name: j.name.clone(),
+                    reason: "connects a body to itself".into(),
+                });
+            }
+        }
+        for f in &self.forces {
+            if let Some(h) = f.bodies().iter().find(|h| h.0 >= nb) {
+                return Err(ModelError::BadElement {
+                    kind: "force",
+                    name: f.name().into(),
+                    reason: format!("body handle {} does not exist", h.0),
+                });
+            }
+        }
+        if !self.gravity.iter().all(|g| g.is_finite()) {
+            return Err(ModelError::BadElement {
+                kind: "force",
+                name: "gravity".into(),
+                reason: "gravity must be finite".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// All constraint blocks: joint primitives, then one per driver.
+    pub(crate) fn constraint_blocks(&self) -> Vec<ConstraintBlock> {
+        let mut out = vec![];
+        for j in &self.joints {
+            let names = j.constraint_names();
+            let mut k = 0;
+            for prim in j.primitives() {
+                let n = prim.len();
+                out.push(ConstraintBlock {
+                    i: j.body_i,
+                    j: j.body_j,
+                    names: names[k..k + n].to_vec(),
+                    prim,
+                });
+                k += n;
+            }
+        }
+        for d in &self.drivers {
+            let j = &self.joints[d.joint.0];
+            let law = MotionLaw::Sum(vec![d.law.clone(), MotionLaw::Constant(-d.reference)]);
+            let (fi, fj) = (&j.frame_i, &j.frame_j);
+            let prim = match j.kind {
+                JointKind::Prismatic => Primitive::Dot2 {
+                    ai: fi.z(),
+                    si: fi.origin,
+                    sj: fj.origin,
+                    law: Some(law),
+                },
+                _ => Primitive::Angle {
+                    xi: fi.x(),
+                    yi: fi.y(),
+                    xj: fj.x(),
+                    law,
+                },
+            };
+            out.push(ConstraintBlock {
+                i: j.body_i,
+                j: j.body_j,
+                prim,
+                names: vec![format!("driver '{}'", d.name)],
+            });
+        }
+        out
+    }
+}
