@@ -46,16 +46,31 @@ pub struct Analysis {
     pub max_iterations: usize,
     /// Constraint residual accepted by assembly (m, or dimensionless for orientations).
     pub tolerance: f64,
+    /// Length scale of the model (mean distance of joint origins from body centres of mass),
+    /// m: converts angular to linear velocities in the singularity measure.
+    pub length_scale: f64,
 }
 
 impl Analysis {
     /// Checks the model and prepares the analyses.
     pub fn new(model: Arc<Mechanism>) -> Result<Self, ModelError> {
         model.validate()?;
+        let mut sum = 0.0;
+        let mut n = 0usize;
+        for j in &model.joints {
+            for (side, f) in [(j.body_i, &j.frame_i), (j.body_j, &j.frame_j)] {
+                if let Attach::Body(_) = side {
+                    sum += f.origin.norm();
+                    n += 1;
+                }
+            }
+        }
+        let length_scale = if n > 0 && sum > 0.0 { sum / n as f64 } else { 1.0 };
         Ok(Self {
             ev: Evaluator::new(model),
             max_iterations: 50,
             tolerance: 1e-12,
+            length_scale,
         })
     }
 
@@ -159,6 +174,11 @@ impl Analysis {
         )
     }
 
+    /// Largest |Φ_k(q, t)| over the constraints and Euler-parameter normalisations (drift).
+    pub fn constraint_residual(&mut self, t: f64, q: &[f64]) -> f64 {
+        self.position_system(t, q).0.amax()
+    }
+
     /// Position assembly: Gauss–Newton with minimum-norm steps on Φ(q, t) = 0 and the
     /// normalisations, from `guess`. On failure the error names the unsatisfied constraints.
     pub fn assemble(&mut self, t: f64, guess: &[f64]) -> Result<Vec<f64>, ModelError> {
@@ -212,6 +232,9 @@ impl Analysis {
     /// Velocity analysis: the velocities closest to `guess` (minimum change) that satisfy
     /// B·w + Φ_t = 0 at (q, t).
     pub fn velocities(&mut self, t: f64, q: &[f64], guess: &[f64]) -> Result<Vec<f64>, ModelError> {
+        if self.ev.layout.m == 0 {
+            return Ok(guess.to_vec());
+        }
         self.ev.set_state(q, guess);
         self.ev.eval_constraints(t);
         let (bm, phit) = self.velocity_system();
@@ -348,10 +371,20 @@ impl Analysis {
     /// Smallest singular value of the row-normalised velocity Jacobian B at (q, t), divided by
     /// the largest: 1 for a well-conditioned constraint set, 0 at a singular configuration.
     pub fn singularity_measure(&mut self, t: f64, q: &[f64]) -> f64 {
+        if self.ev.layout.m == 0 {
+            return 1.0;
+        }
         let zeros = vec![0.0; 6 * self.ev.layout.nb];
         self.ev.set_state(q, &zeros);
         self.ev.eval_constraints(t);
         let (mut bm, _) = self.velocity_system();
+        // Angular-velocity columns in units of a velocity at the model's length scale.
+        for b in 0..self.ev.layout.nb {
+            for c in 3..6 {
+                let mut col = bm.column_mut(6 * b + c);
+                col /= self.length_scale;
+            }
+        }
         for mut r in bm.row_iter_mut() {
             let n = r.norm();
             if n > 0.0 {
@@ -377,8 +410,6 @@ impl Analysis {
         let model = self.ev.model.clone();
         let mut out = Vec::with_capacity(model.joints.len());
         let mut k = 0;
-        let mut per_joint = vec![(Vector3::zeros(), Vector3::zeros()); model.joints.len()];
-        let mut ji = 0;
         for j in &model.joints {
             let n: usize = j.primitives().iter().map(|p| p.len()).sum();
             let (mut f, mut tq) = (Vector3::zeros(), Vector3::zeros());
@@ -393,15 +424,11 @@ impl Analysis {
                 let arm = a * j.frame_j.origin;
                 tq -= arm.cross(&f);
             }
-            per_joint[ji] = (f, tq);
-            ji += 1;
-            k += n;
-        }
-        for (f, tq) in per_joint {
             out.push(Reaction {
                 force: [f.x, f.y, f.z],
                 torque: [tq.x, tq.y, tq.z],
             });
+            k += n;
         }
         out
     }

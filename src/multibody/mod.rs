@@ -12,6 +12,8 @@
 //! | `model.rs` | the mechanism (model) and its builder |
 //! | `formulation.rs` | GGL index-2 equations of motion as a `dae::DaeSystem` |
 //! | `analysis.rs` | assembly, velocity/acceleration analysis, reactions, singularity measure |
+//! | `simulation.rs` | the pipeline: initial state → BDF → samples, singularity watch |
+//! | `output.rs` | CSV per body and per joint |
 
 pub mod analysis;
 pub mod body;
@@ -22,7 +24,9 @@ pub mod forces;
 pub mod formulation;
 pub mod joints;
 pub mod model;
+pub mod output;
 pub mod rotation;
+pub mod simulation;
 
 pub use analysis::{Analysis, Reaction, Snapshot};
 pub use body::{Attach, BodyHandle, BodySet, RigidBody};
@@ -32,3 +36,4 @@ pub use forces::{BodyLoad, BodyState, ForceElement, PointForce, SpringDamper, To
 pub use formulation::{Layout, MultibodyDae};
 pub use joints::{Joint, JointFrame, JointHandle, JointKind};
 pub use model::{Driver, DriverHandle, Mechanism, STANDARD_GRAVITY};
+pub use simulation::{RunEnd, Sample, Simulation, SimulationOptions, SingularityEvent, Trajectory};

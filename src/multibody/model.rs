@@ -108,6 +108,7 @@ impl Mechanism {
         )
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn joint_at(
         &mut self,
         name: &str,

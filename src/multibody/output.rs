@@ -1,0 +1,60 @@
+//! CSV output: per body (pose and velocity) and per joint (reaction force and torque).
+
+use super::analysis::Analysis;
+use super::error::ModelError;
+use super::simulation::Sample;
+use std::io::Write;
+
+fn io(e: std::io::Error) -> ModelError {
+    ModelError::Output(e.to_string())
+}
+
+/// Writes one row per sample and body: time, body, position (m), Euler parameters, velocity
+/// (m/s), body-frame angular velocity (rad/s).
+pub fn write_bodies_csv(
+    out: &mut impl Write,
+    analysis: &Analysis,
+    samples: &[Sample],
+) -> Result<(), ModelError> {
+    writeln!(
+        out,
+        "t_s,body,x_m,y_m,z_m,e0,e1,e2,e3,vx_m_s,vy_m_s,vz_m_s,wx_rad_s,wy_rad_s,wz_rad_s"
+    )
+    .map_err(io)?;
+    for s in samples {
+        for (h, b) in analysis.model().bodies.iter() {
+            let i = h.index();
+            let q = &s.q[7 * i..7 * i + 7];
+            let w = &s.w[6 * i..6 * i + 6];
+            write!(out, "{},{}", s.t, b.name).map_err(io)?;
+            for v in q.iter().chain(w) {
+                write!(out, ",{v}").map_err(io)?;
+            }
+            writeln!(out).map_err(io)?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes one row per sample and joint: time, joint, reaction force on the joint's second
+/// body (N) and torque about the joint origin (N·m), base frame.
+pub fn write_reactions_csv(
+    out: &mut impl Write,
+    analysis: &mut Analysis,
+    samples: &[Sample],
+) -> Result<(), ModelError> {
+    writeln!(out, "t_s,joint,fx_N,fy_N,fz_N,tx_Nm,ty_Nm,tz_Nm").map_err(io)?;
+    let names: Vec<String> = analysis.model().joints.iter().map(|j| j.name.clone()).collect();
+    for s in samples {
+        let r = analysis.reactions(s.t, &s.q, &s.lambda);
+        for (name, r) in names.iter().zip(r) {
+            writeln!(
+                out,
+                "{},{},{},{},{},{},{},{}",
+                s.t, name, r.force[0], r.force[1], r.force[2], r.torque[0], r.torque[1], r.torque[2]
+            )
+            .map_err(io)?;
+        }
+    }
+    Ok(())
+}
