@@ -26,6 +26,7 @@ pub mod dae;
 pub mod mechanisms;
 pub mod multibody;
 pub mod peers;
+pub mod plot;
 pub mod sparse;
 
 #[path = "../validation/mod.rs"]

@@ -116,3 +116,31 @@ mod tests {
         assert!(close(b[1].platform_joint, [-0.0433013, 0.075, -0.0667717]));
     }
 }
+
+/// Mass properties the paper does not give: documented defaults from
+/// `../shared/reference/mr2120-geometry.md` ("Assumptions the paper does not give").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MassProperties {
+    /// Arm AD (aluminium), kg; centre of mass at mid-length, slender-rod inertia.
+    pub arm: f64,
+    /// Forearm DP (aluminium tube), kg; centre of mass at mid-length, slender-rod inertia.
+    pub forearm: f64,
+    /// Platform, kg; centre of mass at M.
+    pub platform: f64,
+    /// Platform plate thickness, m (inertia of a 0.15 m triangle plate).
+    pub platform_thickness: f64,
+    /// Cross of each universal joint (steel), kg (used by the clearance model).
+    pub cross: f64,
+}
+
+impl Default for MassProperties {
+    fn default() -> Self {
+        Self {
+            arm: 1.0,
+            forearm: 0.8,
+            platform: 1.5,
+            platform_thickness: 0.010,
+            cross: 0.05,
+        }
+    }
+}

@@ -4,12 +4,15 @@
 //! * [`paper`] — every value the reference paper publishes (Tables 1–3, dimensions, E).
 //! * [`geometry`] — the reconstructed layout (`../shared/reference/mr2120-geometry.md`).
 //! * [`kinematics`] — inverse/forward kinematics, Jacobians, singularity measures.
+//! * [`ideal`] — the ideal 3-DOF multibody model.
 
 pub mod geometry;
+pub mod ideal;
 pub mod kinematics;
 pub mod paper;
 
-pub use geometry::Geometry;
+pub use geometry::{Geometry, MassProperties};
+pub use ideal::{ideal_model, IdealModel, Mr2120Error};
 
 use nalgebra::Vector3;
 use serde::Serialize;
