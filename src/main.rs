@@ -39,6 +39,21 @@ enum Mr2120What {
         #[arg(long)]
         json: bool,
     },
+    /// Trajectory M1 → M2 → M3 (paper §4.1): drive angles, platform path, drive torques.
+    Trajectory {
+        /// Clearance set: none (ideal model), L1, L2, L3 or all.
+        #[arg(long, default_value = "none")]
+        clearance: String,
+        /// Output folder for CSV and plots.
+        #[arg(long, default_value = "out/mr2120-trajectory")]
+        out: std::path::PathBuf,
+        /// Sampling interval of the outputs, s.
+        #[arg(long, default_value_t = 0.01)]
+        dt: f64,
+        /// Print a summary as JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 #[derive(Subcommand)]
@@ -116,6 +131,229 @@ fn mr2120_kinematics(json: bool) -> ExitCode {
     ExitCode::SUCCESS
 }
 
+/// Prints progress to stderr once a run has taken longer than a second.
+struct Progress {
+    start: std::time::Instant,
+    total: f64,
+    label: String,
+    shown: bool,
+}
+
+impl Progress {
+    fn new(label: &str, total: f64) -> Self {
+        Self {
+            start: std::time::Instant::now(),
+            total,
+            label: label.into(),
+            shown: false,
+        }
+    }
+    fn update(&mut self, done: f64) {
+        let el = self.start.elapsed().as_secs_f64();
+        if el < 1.0 {
+            return;
+        }
+        self.shown = true;
+        let frac = (done / self.total).clamp(0.0, 1.0);
+        let bar = (frac * 30.0) as usize;
+        eprint!(
+            "\r{} [{}{}] {:5.1}%  {:.1} s",
+            self.label,
+            "#".repeat(bar),
+            " ".repeat(30 - bar),
+            100.0 * frac,
+            el
+        );
+    }
+    fn finish(&self) {
+        if self.shown {
+            eprintln!();
+        }
+    }
+}
+
+fn mr2120_trajectory(clearance: &str, out: &std::path::Path, dt: f64, json: bool) -> ExitCode {
+    use lash::mechanisms::mr2120::{trajectory, Geometry, MassProperties};
+    use lash::plot::{LineChart, Series};
+    match clearance {
+        "none" => {}
+        "L1" | "L2" | "L3" | "all" => {
+            eprintln!("error: the clearance model (sets L1, L2, L3) is not available yet; it is the subject of the clearance issue. Use --clearance none for the ideal model.");
+            return ExitCode::FAILURE;
+        }
+        other => {
+            eprintln!("error: unknown clearance set '{other}'; expected none, L1, L2, L3 or all");
+            return ExitCode::FAILURE;
+        }
+    }
+    if !(dt > 0.0 && dt <= 0.5) {
+        eprintln!("error: --dt must be in (0, 0.5] s, got {dt}");
+        return ExitCode::FAILURE;
+    }
+    let mut progress = Progress::new("mr2120 ideal trajectory", 4.0);
+    let run = match trajectory::run_ideal(
+        &Geometry::default(),
+        &MassProperties::default(),
+        dt,
+        4.0,
+        Default::default(),
+        |t| progress.update(t),
+    ) {
+        Ok(r) => r,
+        Err(e) => {
+            progress.finish();
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    progress.finish();
+    if let Err(e) = std::fs::create_dir_all(out) {
+        eprintln!("error: cannot create {}: {e}", out.display());
+        return ExitCode::FAILURE;
+    }
+    let csv_path = out.join("trajectory_ideal.csv");
+    let mut csv = String::from("t_s,q1_deg,q2_deg,q3_deg,xM_m,yM_m,zM_m,zM_kinematic_m,deviation_m,rotation_rad,tau1_Nm,tau2_Nm,tau3_Nm,singularity\n");
+    for s in &run.samples {
+        csv.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            s.t,
+            s.q_deg[0],
+            s.q_deg[1],
+            s.q_deg[2],
+            s.m[0],
+            s.m[1],
+            s.m[2],
+            s.m_kinematic[2],
+            s.deviation,
+            s.rotation,
+            s.torque[0],
+            s.torque[1],
+            s.torque[2],
+            s.singularity
+        ));
+    }
+    if let Err(e) = std::fs::write(&csv_path, csv) {
+        eprintln!("error: cannot write {}: {e}", csv_path.display());
+        return ExitCode::FAILURE;
+    }
+    // Torques blow up at the singular end; scale the plot to 3x the range where regular.
+    let regular: Vec<f64> = run
+        .samples
+        .iter()
+        .filter(|s| s.singularity > 1e-2)
+        .flat_map(|s| s.torque)
+        .collect();
+    let (tlo, thi) = regular
+        .iter()
+        .fold((0.0f64, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
+    let torque_range = (
+        tlo - 2.0 * (thi - tlo).abs().max(1.0),
+        thi + 2.0 * (thi - tlo).abs().max(1.0),
+    );
+    let series3 = |f: &dyn Fn(&trajectory::IdealSample, usize) -> f64, names: [&str; 3]| -> Vec<Series> {
+        (0..3)
+            .map(|i| Series {
+                name: names[i].into(),
+                points: run.samples.iter().map(|s| (s.t, f(s, i))).collect(),
+            })
+            .collect()
+    };
+    let charts = [
+        (
+            "drive_angles",
+            LineChart {
+                title: "MR2120 drive angles along M1-M2-M3 (ideal model)".into(),
+                x_label: "t [s]".into(),
+                y_label: "q [deg]".into(),
+                series: series3(&|s, i| s.q_deg[i], ["q1", "q2", "q3"]),
+                y_range: None,
+            },
+        ),
+        (
+            "platform_position",
+            LineChart {
+                title: "Platform centre M (ideal model)".into(),
+                x_label: "t [s]".into(),
+                y_label: "coordinate [m]".into(),
+                series: series3(&|s, i| s.m[i], ["x_M", "y_M", "z_M"]),
+                y_range: None,
+            },
+        ),
+        (
+            "drive_torques",
+            LineChart {
+                title: "Drive torques (ideal model; clipped near M3, full values in the CSV)".into(),
+                x_label: "t [s]".into(),
+                y_label: "torque [N m]".into(),
+                series: series3(&|s, i| s.torque[i], ["tau1", "tau2", "tau3"]),
+                y_range: Some(torque_range),
+            },
+        ),
+        (
+            "singularity",
+            LineChart {
+                title: "Singularity measure of the constraint Jacobian".into(),
+                x_label: "t [s]".into(),
+                y_label: "sigma_min / sigma_max [-]".into(),
+                series: vec![Series {
+                    name: "measure".into(),
+                    points: run.samples.iter().map(|s| (s.t, s.singularity)).collect(),
+                }],
+                y_range: None,
+            },
+        ),
+    ];
+    for (stem, chart) in &charts {
+        if let Err(e) = chart.save(&out.join(stem)) {
+            eprintln!("error: plot {stem}: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
+    let end = match &run.end {
+        lash::multibody::RunEnd::Completed => "completed to t = 4 s".to_string(),
+        lash::multibody::RunEnd::StoppedAtSingularity { t, measure, error } => format!(
+            "stopped at the direct-kinematics singularity M3: last good sample t = {t:.3} s (measure {measure:.2e}); the integrator then failed: {error}"
+        ),
+    };
+    if json {
+        let summary = serde_json::json!({
+            "clearance": "none",
+            "samples": run.samples.len(),
+            "steps": run.steps,
+            "max_deviation_regular_m": run.max_deviation_regular,
+            "max_platform_rotation_rad": run.max_rotation,
+            "singularity_warnings": run.singularity_warnings,
+            "end": run.end,
+            "csv": csv_path,
+        });
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&summary).expect("summary serialises")
+        );
+    } else {
+        println!("MR2120 ideal model along M1 (t = 0) -> M2 (2 s) -> M3 (4 s), quintic rest-to-rest legs on the z axis");
+        println!("samples: {}  integrator steps: {}", run.samples.len(), run.steps);
+        println!(
+            "largest deviation from the kinematic path where regular: {:.2e} m",
+            run.max_deviation_regular
+        );
+        println!("largest platform rotation: {:.2e} rad", run.max_rotation);
+        for w in &run.singularity_warnings {
+            println!(
+                "singularity approached: t = {:.3} s, measure {:.3e}",
+                w.t, w.measure
+            );
+        }
+        println!("run: {end}");
+        println!(
+            "wrote {} and drive_angles, platform_position, drive_torques, singularity (.png, .svg) in {}",
+            csv_path.display(),
+            out.display()
+        );
+    }
+    ExitCode::SUCCESS
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
@@ -168,6 +406,15 @@ fn main() -> ExitCode {
         Command::Mr2120 {
             what: Mr2120What::Kinematics { json },
         } => mr2120_kinematics(json),
+        Command::Mr2120 {
+            what:
+                Mr2120What::Trajectory {
+                    clearance,
+                    out,
+                    dt,
+                    json,
+                },
+        } => mr2120_trajectory(&clearance, &out, dt, json),
         Command::Bench {
             what: BenchWhat::Dae { json, repeats },
         } => {

@@ -37,6 +37,8 @@ pub struct LineChart {
     pub y_label: String,
     /// Series.
     pub series: Vec<Series>,
+    /// Fixed y range (values outside are clipped by the frame); `None` fits the data.
+    pub y_range: Option<(f64, f64)>,
 }
 
 const COLOURS: [RGBColor; 6] = [
@@ -74,7 +76,11 @@ where
 {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let xs = range(c.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
-    let ys = range(c.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+    let ys = c
+        .y_range
+        .unwrap_or_else(|| range(c.series.iter().flat_map(|s| s.points.iter().map(|p| p.1))));
+    let span = (ys.1 - ys.0).abs().max(ys.0.abs()).max(ys.1.abs());
+    let plain = (1e-3..1e4).contains(&span);
     let mut chart = ChartBuilder::on(&root)
         .caption(&c.title, (FONT_NAME, 22))
         .margin(12)
@@ -88,13 +94,27 @@ where
         .y_desc(&c.y_label)
         .label_style((FONT_NAME, 14))
         .axis_desc_style((FONT_NAME, 16))
-        .y_label_formatter(&|v| format!("{v:.3e}"))
+        .y_label_formatter(&|v| {
+            if plain {
+                format!("{v:.4}")
+                    .trim_end_matches('0')
+                    .trim_end_matches('.')
+                    .to_string()
+            } else {
+                format!("{v:.2e}")
+            }
+        })
         .draw()
         .map_err(|e| e.to_string())?;
     for (k, s) in c.series.iter().enumerate() {
         let col = COLOURS[k % COLOURS.len()];
         chart
-            .draw_series(LineSeries::new(s.points.iter().copied(), col.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                s.points
+                    .iter()
+                    .map(|&(x, y)| (x, y.clamp(ys.0.min(ys.1), ys.0.max(ys.1)))),
+                col.stroke_width(2),
+            ))
             .map_err(|e| e.to_string())?
             .label(s.name.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));

@@ -90,6 +90,22 @@ pub fn inverse(g: &Geometry, m: Vector3<f64>) -> Result<[f64; 3], KinematicsErro
     Ok(q)
 }
 
+/// Drive angle of branch `i` at platform centre `m` with its first and second derivatives
+/// with respect to z_M (x_M, y_M fixed): implicit differentiation of the branch equation
+/// F(φ, z) = a·cos φ + b·sin φ − k = 0, with ∂a/∂z = 0, ∂b/∂z = 1, ∂k/∂z = b/L1.
+/// Returns (q [rad], dq/dz [rad/m], d²q/dz² [rad/m²]).
+pub fn inverse_z_derivatives(g: &Geometry, i: usize, m: Vector3<f64>) -> Result<[f64; 3], KinematicsError> {
+    let q = inverse(g, m)?[i];
+    let phi = q + g.q0;
+    let (a, b, k) = branch_equation(g, i, &m);
+    let (s, c) = phi.sin_cos();
+    let f_phi = -a * s + b * c;
+    let f_z = s - b / g.arm_length;
+    let d1 = -f_z / f_phi;
+    let d2 = -(-1.0 / g.arm_length + 2.0 * c * d1 - k * d1 * d1) / f_phi;
+    Ok([q, d1, d2])
+}
+
 /// Margin of branch `i` at `m`: √(a² + b²) − |k| (> 0 inside the work zone, 0 on its boundary).
 fn margin(g: &Geometry, m: &Vector3<f64>) -> f64 {
     (0..3)
@@ -320,6 +336,20 @@ mod tests {
             (hi - 0.797384).abs() < 1e-5 && (lo + 0.664).abs() < 1e-3,
             "{lo} {hi}"
         );
+    }
+
+    #[test]
+    fn z_derivatives_match_finite_differences() {
+        let g = Geometry::default();
+        let m = Vector3::new(0.03, -0.02, 0.6);
+        let h = 1e-5;
+        for i in 0..3 {
+            let [q, d1, d2] = inverse_z_derivatives(&g, i, m).unwrap();
+            let qp = inverse(&g, m + Vector3::new(0.0, 0.0, h)).unwrap()[i];
+            let qm = inverse(&g, m - Vector3::new(0.0, 0.0, h)).unwrap()[i];
+            assert!(((qp - qm) / (2.0 * h) - d1).abs() < 1e-8, "d1");
+            assert!(((qp - 2.0 * q + qm) / (h * h) - d2).abs() < 1e-4, "d2");
+        }
     }
 
     #[test]

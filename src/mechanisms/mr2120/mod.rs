@@ -10,6 +10,7 @@ pub mod geometry;
 pub mod ideal;
 pub mod kinematics;
 pub mod paper;
+pub mod trajectory;
 
 pub use geometry::{Geometry, MassProperties};
 pub use ideal::{ideal_model, IdealModel, Mr2120Error};

@@ -1,0 +1,94 @@
+//! The ideal MR2120 along the trajectory M1 → M2 → M3 (paper §4.1).
+
+use lash::mechanisms::mr2120::{trajectory, Geometry, MassProperties};
+use lash::multibody::{RunEnd, SimulationOptions};
+use std::process::Command;
+
+#[test]
+fn ideal_trajectory_follows_the_kinematic_path_and_reports_the_singular_end() {
+    let run = trajectory::run_ideal(
+        &Geometry::default(),
+        &MassProperties::default(),
+        0.02,
+        4.0,
+        SimulationOptions::default(),
+        |_| {},
+    )
+    .unwrap();
+    // Dynamic result on the kinematic path wherever the mechanism is regular.
+    assert!(
+        run.max_deviation_regular <= 1e-9,
+        "{:e} m",
+        run.max_deviation_regular
+    );
+    // Tsai's translational conditions: the platform keeps its orientation.
+    assert!(run.max_rotation <= 1e-9, "{:e} rad", run.max_rotation);
+    // The approach to M3 (a direct-kinematics singularity at t = 4 s) is reported with time
+    // and measure, not as an opaque failure.
+    let first = run.singularity_warnings.first().expect("a singularity warning");
+    assert!(first.t > 3.5 && first.t < 4.0, "{first:?}");
+    match &run.end {
+        RunEnd::StoppedAtSingularity { t, measure, .. } => assert!(*t > 3.8 && *measure < 1e-3),
+        RunEnd::Completed => assert!(run.singularity_warnings.iter().any(|w| w.measure < 1e-4)),
+    }
+    // At M2 (t = 2 s) the drive angles are those of Table 2.
+    let at2 = run.samples.iter().find(|s| (s.t - 2.0).abs() < 1e-9).unwrap();
+    assert!((at2.q_deg[0] - 112.37).abs() < 0.02);
+    // The drive torques grow without bound towards M3.
+    let last = run.samples.last().unwrap();
+    assert!(last.torque[0].abs() > 10.0 * run.samples[0].torque[0].abs());
+}
+
+fn lash(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_lash"))
+        .args(args)
+        .output()
+        .expect("lash runs")
+}
+
+#[test]
+fn trajectory_command_writes_csv_and_plots() {
+    let dir = std::env::temp_dir().join(format!("lash-traj-{}", std::process::id()));
+    let out = lash(&[
+        "mr2120",
+        "trajectory",
+        "--clearance",
+        "none",
+        "--dt",
+        "0.05",
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["max_deviation_regular_m"].as_f64().unwrap() <= 1e-9);
+    for f in [
+        "trajectory_ideal.csv",
+        "drive_angles.png",
+        "drive_angles.svg",
+        "platform_position.png",
+        "drive_torques.svg",
+        "singularity.png",
+    ] {
+        let p = dir.join(f);
+        assert!(
+            std::fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false),
+            "{} missing",
+            p.display()
+        );
+    }
+    let csv = std::fs::read_to_string(dir.join("trajectory_ideal.csv")).unwrap();
+    assert!(csv.starts_with("t_s,q1_deg,q2_deg,q3_deg,xM_m,yM_m,zM_m"));
+    assert!(csv.lines().count() > 70);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn trajectory_command_rejects_unknown_clearance_sets_clearly() {
+    let out = lash(&["mr2120", "trajectory", "--clearance", "L7"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown clearance set 'L7'"));
+    let out = lash(&["mr2120", "trajectory", "--dt", "-1"]);
+    assert!(!out.status.success());
+}
