@@ -13,8 +13,11 @@
 //! and its partial time derivative.
 
 use super::drivers::MotionLaw;
-use super::rotation::{d_rot, rotation};
-use nalgebra::{Matrix3, Vector3, Vector4};
+use super::rotation::{d2_rot, d_rot, rotation};
+use nalgebra::{Matrix3, Matrix4, SMatrix, Vector3, Vector4};
+
+/// Second derivatives of one scalar constraint with respect to (r_i, p_i, r_j, p_j).
+pub(crate) type Hess14 = SMatrix<f64, 14, 14>;
 
 /// Position, Euler parameters and rotation matrix of one side (the ground has r = 0,
 /// p = (1, 0, 0, 0), A = I).
@@ -156,6 +159,96 @@ impl Primitive {
     }
 }
 
+/// Offsets of the (r_i, p_i, r_j, p_j) blocks in a 14-vector.
+const RI: usize = 0;
+const PI: usize = 3;
+const RJ: usize = 7;
+const PJ: usize = 10;
+
+fn put4(h: &mut Hess14, r: usize, c: usize, m: &Matrix4<f64>) {
+    h.fixed_view_mut::<4, 4>(r, c).copy_from(m);
+}
+
+impl Primitive {
+    /// Hessians ∇²Φ_e (14 × 14 over (r_i, p_i, r_j, p_j)) of each equation, into `out`.
+    pub(crate) fn hessians(&self, pi: &Pose, pj: &Pose, t: f64, out: &mut [Hess14]) {
+        for h in out.iter_mut() {
+            h.fill(0.0);
+        }
+        match self {
+            Primitive::Point { si, sj } => {
+                for (k, h) in out.iter_mut().enumerate().take(3) {
+                    let mut e = Vector3::zeros();
+                    e[k] = 1.0;
+                    put4(h, PI, PI, &(-d2_rot(&e, si)));
+                    put4(h, PJ, PJ, &d2_rot(&e, sj));
+                }
+            }
+            Primitive::Dot1 { ai, aj, .. } => {
+                let h = &mut out[0];
+                put4(h, PI, PI, &d2_rot(&(pj.a * aj), ai));
+                put4(h, PJ, PJ, &d2_rot(&(pi.a * ai), aj));
+                let c = d_rot(&pi.p, ai).transpose() * d_rot(&pj.p, aj);
+                put4(h, PI, PJ, &c);
+                put4(h, PJ, PI, &c.transpose());
+            }
+            Primitive::Dot2 { ai, si, sj, .. } => {
+                let h = &mut out[0];
+                let g = pi.a * ai;
+                let d = pj.r + pj.a * sj - pi.r - pi.a * si;
+                let (ba, bs) = (d_rot(&pi.p, ai), d_rot(&pi.p, si));
+                let bsj = d_rot(&pj.p, sj);
+                // r_i–p_i and r_j–p_i.
+                h.fixed_view_mut::<3, 4>(RI, PI).copy_from(&(-ba));
+                h.fixed_view_mut::<4, 3>(PI, RI).copy_from(&(-ba.transpose()));
+                h.fixed_view_mut::<3, 4>(RJ, PI).copy_from(&ba);
+                h.fixed_view_mut::<4, 3>(PI, RJ).copy_from(&ba.transpose());
+                let cross = ba.transpose() * bs;
+                put4(
+                    h,
+                    PI,
+                    PI,
+                    &(d2_rot(&d, ai) - d2_rot(&g, si) - cross - cross.transpose()),
+                );
+                let c = ba.transpose() * bsj;
+                put4(h, PI, PJ, &c);
+                put4(h, PJ, PI, &c.transpose());
+                put4(h, PJ, PJ, &d2_rot(&g, sj));
+            }
+            Primitive::Angle { xi, yi, xj, law } => {
+                let h = &mut out[0];
+                let (s, c) = law.value(t).sin_cos();
+                let ai = yi * c - xi * s;
+                put4(h, PI, PI, &d2_rot(&(pj.a * xj), &ai));
+                put4(h, PJ, PJ, &d2_rot(&(pi.a * ai), xj));
+                let m = d_rot(&pi.p, &ai).transpose() * d_rot(&pj.p, xj);
+                put4(h, PI, PJ, &m);
+                put4(h, PJ, PI, &m.transpose());
+            }
+        }
+    }
+
+    /// Gradient of ∂Φ/∂t with respect to (r_i, p_i, r_j, p_j) (non-zero only for angle
+    /// drivers, whose Φ_t depends on the configuration).
+    pub(crate) fn phi_t_gradient(&self, pi: &Pose, pj: &Pose, t: f64) -> Option<SMatrix<f64, 14, 1>> {
+        match self {
+            Primitive::Angle { xi, yi, xj, law } => {
+                let (th, thd) = (law.value(t), law.rate(t));
+                let (s, c) = th.sin_cos();
+                // Φ_t = −θ̇·(A_i(s·y_i + c·x_i))·(A_j·x_j).
+                let ai = yi * s + xi * c;
+                let mut g = SMatrix::<f64, 14, 1>::zeros();
+                let dpi = d_rot(&pi.p, &ai).transpose() * (pj.a * xj) * (-thd);
+                let dpj = d_rot(&pj.p, xj).transpose() * (pi.a * ai) * (-thd);
+                g.fixed_view_mut::<4, 1>(PI, 0).copy_from(&dpi);
+                g.fixed_view_mut::<4, 1>(PJ, 0).copy_from(&dpj);
+                Some(g)
+            }
+            _ => None,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -243,6 +336,48 @@ mod tests {
                             (fd - an).abs() < 1e-8,
                             "{prim:?} eq {e} side {side} coord {k}: fd {fd} analytic {an}"
                         );
+                    }
+                }
+            }
+            // Hessians against differences of the analytic gradients.
+            let mut hs = vec![Hess14::zeros(); n];
+            prim.hessians(&pi, &pj, t, &mut hs);
+            let grad = |r: &Row| {
+                let mut g = [0.0; 14];
+                g[0..3].copy_from_slice(r.d_ri.as_slice());
+                g[3..7].copy_from_slice(r.d_pi.as_slice());
+                g[7..10].copy_from_slice(r.d_rj.as_slice());
+                g[10..14].copy_from_slice(r.d_pj.as_slice());
+                g
+            };
+            for col in 0..14 {
+                let bump = |h: f64| {
+                    let (mut a, mut b) = (pi, pj);
+                    match col {
+                        0..=2 => a.r[col] += h,
+                        3..=6 => a.p[col - 3] += h,
+                        7..=9 => b.r[col - 7] += h,
+                        _ => b.p[col - 10] += h,
+                    }
+                    (Pose::new(a.r, a.p), Pose::new(b.r, b.p))
+                };
+                let (ap, bp) = bump(eps);
+                let (am, bm) = bump(-eps);
+                prim.eval(&ap, &bp, t, &mut plus);
+                prim.eval(&am, &bm, t, &mut minus);
+                for e in 0..n {
+                    let (gp, gm) = (grad(&plus[e]), grad(&minus[e]));
+                    for row in 0..14 {
+                        let fd = (gp[row] - gm[row]) / (2.0 * eps);
+                        assert!(
+                            (fd - hs[e][(row, col)]).abs() < 1e-7,
+                            "{prim:?} eq {e} H({row},{col}): fd {fd} analytic {}",
+                            hs[e][(row, col)]
+                        );
+                    }
+                    if let Some(gt) = prim.phi_t_gradient(&pi, &pj, t) {
+                        let fd = (plus[e].phi_t - minus[e].phi_t) / (2.0 * eps);
+                        assert!((fd - gt[col]).abs() < 1e-7, "{prim:?} phi_t gradient {col}");
                     }
                 }
             }

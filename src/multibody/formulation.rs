@@ -19,13 +19,13 @@
 //! bodies sharing a joint or force element with it.
 
 use super::body::Attach;
-use super::constraints::{Pose, Row};
+use super::constraints::{Hess14, Pose, Row};
 use super::forces::{BodyLoad, BodyState};
 use super::model::{ConstraintBlock, Mechanism};
-use super::rotation::l_matrix;
+use super::rotation::{l_matrix, skew};
 use crate::dae::{DaeSystem, EvalError, JacobianSource, VarKind};
 use crate::sparse::CscPattern;
-use nalgebra::{Vector3, Vector4};
+use nalgebra::{Matrix3, Matrix3x4, Matrix4, Vector3, Vector4};
 use std::sync::Arc;
 
 /// Index layout of the DAE unknowns.
@@ -174,6 +174,30 @@ pub struct MultibodyDae {
     pub(crate) ev: Evaluator,
     sides: Vec<(Option<usize>, Option<usize>)>,
     names: Vec<String>,
+    pattern: Option<CscPattern>,
+    /// Use the analytic Jacobian (default) or lash's coloured finite differences.
+    pub analytic_jacobian: bool,
+}
+
+/// ∂(L(p)·d)/∂p for a fixed 4-vector d: [d_v | −d_0·I + d̃_v] (3 × 4).
+fn l_times_d_derivative(d: &Vector4<f64>) -> Matrix3x4<f64> {
+    let dv = Vector3::new(d[1], d[2], d[3]);
+    let mut m = Matrix3x4::zeros();
+    m.set_column(0, &dv);
+    m.fixed_view_mut::<3, 3>(0, 1)
+        .copy_from(&(-d[0] * Matrix3::identity() + skew(&dv)));
+    m
+}
+
+/// ∂(L(p)ᵀ·ω)/∂p = W(ω) = [[0, −ωᵀ], [ω, −ω̃]] (4 × 4).
+fn lt_omega_derivative(om: &Vector3<f64>) -> Matrix4<f64> {
+    let mut w = Matrix4::zeros();
+    for k in 0..3 {
+        w[(0, k + 1)] = -om[k];
+        w[(k + 1, 0)] = om[k];
+    }
+    w.fixed_view_mut::<3, 3>(1, 1).copy_from(&(-skew(om)));
+    w
 }
 
 impl MultibodyDae {
@@ -182,7 +206,15 @@ impl MultibodyDae {
         let ev = Evaluator::new(model);
         let sides = ev.row_sides();
         let names = ev.blocks.iter().flat_map(|b| b.names.clone()).collect();
-        Self { ev, sides, names }
+        let mut s = Self {
+            ev,
+            sides,
+            names,
+            pattern: None,
+            analytic_jacobian: true,
+        };
+        s.pattern = Some(s.build_pattern());
+        s
     }
 
     /// The index layout.
@@ -265,6 +297,50 @@ impl DaeSystem for MultibodyDae {
     }
 
     fn jacobian_pattern(&self) -> CscPattern {
+        self.pattern.clone().unwrap_or_else(|| self.build_pattern())
+    }
+
+    fn jacobian_source(&self) -> JacobianSource {
+        if self.analytic_jacobian {
+            JacobianSource::Analytic
+        } else {
+            JacobianSource::FiniteDifference
+        }
+    }
+
+    fn jacobian(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        _yp: &[f64],
+        _p: &[f64],
+        alpha: f64,
+        values: &mut [f64],
+    ) -> Result<(), EvalError> {
+        self.analytic_jacobian_values(t, y, alpha, values);
+        Ok(())
+    }
+
+    fn var_kinds(&self) -> Vec<VarKind> {
+        let lay = self.ev.layout;
+        (0..lay.dim())
+            .map(|i| {
+                if i < 13 * lay.nb {
+                    VarKind::Differential
+                } else {
+                    VarKind::Algebraic
+                }
+            })
+            .collect()
+    }
+
+    fn component_name(&self, i: usize) -> String {
+        self.name_of(i)
+    }
+}
+
+impl MultibodyDae {
+    fn build_pattern(&self) -> CscPattern {
         let lay = self.ev.layout;
         let nb = lay.nb;
         // Body coupling: through constraints and force elements.
@@ -326,24 +402,7 @@ impl DaeSystem for MultibodyDae {
         CscPattern::from_entries(lay.dim(), lay.dim(), e).expect("pattern indices are in range")
     }
 
-    fn jacobian_source(&self) -> JacobianSource {
-        JacobianSource::FiniteDifference
-    }
-
-    fn var_kinds(&self) -> Vec<VarKind> {
-        let lay = self.ev.layout;
-        (0..lay.dim())
-            .map(|i| {
-                if i < 13 * lay.nb {
-                    VarKind::Differential
-                } else {
-                    VarKind::Algebraic
-                }
-            })
-            .collect()
-    }
-
-    fn component_name(&self, i: usize) -> String {
+    fn name_of(&self, i: usize) -> String {
         let lay = self.ev.layout;
         let body = |b: usize| self.ev.model.bodies.bodies[b].name.clone();
         if i < 7 * lay.nb {
@@ -359,6 +418,216 @@ impl DaeSystem for MultibodyDae {
             format!("stabiliser of {}", self.names[i - lay.mu()])
         } else {
             format!("normalisation of body '{}'", body(i - lay.nu()))
+        }
+    }
+
+    /// Fills the analytic iteration matrix dF/dy + α·dF/dy' on the pattern.
+    fn analytic_jacobian_values(&mut self, t: f64, y: &[f64], alpha: f64, values: &mut [f64]) {
+        let lay = self.ev.layout;
+        let nb = lay.nb;
+        self.ev.set_state(&y[..7 * nb], &y[7 * nb..13 * nb]);
+        self.ev.eval_constraints(t);
+        values.iter_mut().for_each(|v| *v = 0.0);
+        let pat = self.pattern.as_ref().expect("pattern built at construction");
+        let mut add = |r: usize, c: usize, v: f64| {
+            if v != 0.0 {
+                let k = pat
+                    .find(r, c)
+                    .expect("Jacobian entry outside the declared pattern");
+                values[k] += v;
+            }
+        };
+        // Per body: kinematics, inertia, normalisation.
+        for b in 0..nb {
+            let (qo, wo) = (lay.q(b), lay.w(b));
+            let st = self.ev.states[b];
+            let body = &self.ev.model.bodies.bodies[b];
+            let nu = y[lay.nu() + b];
+            for k in 0..3 {
+                add(qo + k, qo + k, alpha);
+                add(qo + k, wo + k, -1.0);
+                add(wo + k, wo + k, alpha * body.mass);
+            }
+            let w = lt_omega_derivative(&st.omega);
+            let lt = l_matrix(&st.p).transpose();
+            for r in 0..4 {
+                for c in 0..4 {
+                    let diag = if r == c { alpha + 2.0 * nu } else { 0.0 };
+                    add(qo + 3 + r, qo + 3 + c, diag - 0.5 * w[(r, c)]);
+                }
+                for c in 0..3 {
+                    add(qo + 3 + r, wo + 3 + c, -0.5 * lt[(r, c)]);
+                }
+                add(qo + 3 + r, lay.nu() + b, 2.0 * st.p[r]);
+                add(lay.nu() + b, qo + 3 + r, st.p[r]);
+            }
+            let jw = body.inertia * st.omega;
+            let gyro = skew(&st.omega) * body.inertia - skew(&jw);
+            for r in 0..3 {
+                for c in 0..3 {
+                    add(
+                        wo + 3 + r,
+                        wo + 3 + c,
+                        alpha * body.inertia[(r, c)] + gyro[(r, c)],
+                    );
+                }
+            }
+        }
+        // Per constraint block: gradients, Hessians.
+        let ground = Pose::ground();
+        let mut k0 = 0;
+        let mut hs: Vec<Hess14> = Vec::new();
+        for blk in &self.ev.blocks {
+            let n = blk.prim.len();
+            let (si, sj) = (Evaluator::side(blk.i), Evaluator::side(blk.j));
+            let pi = si.map(|b| self.ev.poses[b]).unwrap_or(ground);
+            let pj = sj.map(|b| self.ev.poses[b]).unwrap_or(ground);
+            hs.resize(n, Hess14::zeros());
+            blk.prim.hessians(&pi, &pj, t, &mut hs);
+            let gt = blk.prim.phi_t_gradient(&pi, &pj, t);
+            // Global column of each of the 14 local coordinates (None for the ground).
+            let mut col = [None; 14];
+            let mut qdot = [0.0; 14];
+            for (side, off) in [(si, 0usize), (sj, 7usize)] {
+                if let Some(b) = side {
+                    let st = &self.ev.states[b];
+                    let pd = 0.5 * l_matrix(&st.p).transpose() * st.omega;
+                    for c in 0..7 {
+                        col[off + c] = Some(lay.q(b) + c);
+                    }
+                    qdot[off..off + 3].copy_from_slice(st.v.as_slice());
+                    qdot[off + 3..off + 7].copy_from_slice(pd.as_slice());
+                }
+            }
+            let mut h_mu = Hess14::zeros();
+            let mut h_lam = Hess14::zeros();
+            let mut dp_lam = [Vector4::zeros(); 2];
+            for e in 0..n {
+                let k = k0 + e;
+                let row = self.ev.rows[k];
+                let (lam, mu) = (y[lay.lambda() + k], y[lay.mu() + k]);
+                h_mu += hs[e] * mu;
+                h_lam += hs[e] * lam;
+                dp_lam[0] += row.d_pi * lam;
+                dp_lam[1] += row.d_pj * lam;
+                let mut g = [0.0; 14];
+                g[0..3].copy_from_slice(row.d_ri.as_slice());
+                g[3..7].copy_from_slice(row.d_pi.as_slice());
+                g[7..10].copy_from_slice(row.d_rj.as_slice());
+                g[10..14].copy_from_slice(row.d_pj.as_slice());
+                // Position constraint row and the μ, λ columns.
+                for c in 0..14 {
+                    if let Some(gc) = col[c] {
+                        add(lay.lambda() + k, gc, g[c]);
+                        add(gc, lay.mu() + k, g[c]);
+                    }
+                }
+                // Velocity constraint row: d/dw and d/dq.
+                let hq = hs[e] * nalgebra::SVector::<f64, 14>::from_row_slice(&qdot);
+                for (side, off, dp) in [(si, 0usize, row.d_pi), (sj, 7usize, row.d_pj)] {
+                    let Some(b) = side else { continue };
+                    let st = &self.ev.states[b];
+                    let l = l_matrix(&st.p);
+                    let br = 0.5 * l * dp;
+                    let dr = Vector3::new(g[off], g[off + 1], g[off + 2]);
+                    let mdp = 0.5 * l_times_d_derivative(&dp).transpose() * st.omega;
+                    for c in 0..3 {
+                        add(lay.mu() + k, lay.w(b) + c, dr[c]);
+                        add(lay.mu() + k, lay.w(b) + 3 + c, br[c]);
+                        add(lay.w(b) + c, lay.lambda() + k, dr[c]);
+                        add(lay.w(b) + 3 + c, lay.lambda() + k, br[c]);
+                    }
+                    for c in 0..4 {
+                        add(lay.mu() + k, lay.q(b) + 3 + c, mdp[c]);
+                    }
+                }
+                for c in 0..14 {
+                    if let Some(gc) = col[c] {
+                        let extra = gt.map(|v| v[c]).unwrap_or(0.0);
+                        add(lay.mu() + k, gc, hq[c] + extra);
+                    }
+                }
+            }
+            // Stabilisation rows: ∂(Φ_qᵀμ)/∂q = Σ μ_e ∇²Φ_e.
+            for r in 0..14 {
+                let Some(gr) = col[r] else { continue };
+                for c in 0..14 {
+                    if let Some(gc) = col[c] {
+                        add(gr, gc, h_mu[(r, c)]);
+                    }
+                }
+            }
+            // Force rows: ∂(Bᵀλ)/∂q.
+            for (side, off, si_idx) in [(si, 0usize, 0usize), (sj, 7usize, 1usize)] {
+                let Some(b) = side else { continue };
+                let l = l_matrix(&self.ev.states[b].p);
+                for c in 0..14 {
+                    let Some(gc) = col[c] else { continue };
+                    let hp = Vector4::new(
+                        h_lam[(off + 3, c)],
+                        h_lam[(off + 4, c)],
+                        h_lam[(off + 5, c)],
+                        h_lam[(off + 6, c)],
+                    );
+                    let rot = 0.5 * l * hp;
+                    for r in 0..3 {
+                        add(lay.w(b) + r, gc, h_lam[(off + r, c)]);
+                        add(lay.w(b) + 3 + r, gc, rot[r]);
+                    }
+                }
+                let m = 0.5 * l_times_d_derivative(&dp_lam[si_idx]);
+                for r in 0..3 {
+                    for c in 0..4 {
+                        add(lay.w(b) + 3 + r, lay.q(b) + 3 + c, m[(r, c)]);
+                    }
+                }
+            }
+            k0 += n;
+        }
+        // Force elements: central differences of each element's loads over its bodies' states.
+        let model = self.ev.model.clone();
+        for f in &model.forces {
+            let bodies = f.bodies();
+            for &bc in &bodies {
+                for c in 0..13 {
+                    let h = 1e-7
+                        * (1.0
+                            + if c < 7 {
+                                y[lay.q(bc.0) + c].abs()
+                            } else {
+                                y[lay.w(bc.0) + c - 7].abs()
+                            });
+                    let mut loads_p = vec![BodyLoad::default(); nb];
+                    let mut loads_m = vec![BodyLoad::default(); nb];
+                    for (sign, loads) in [(1.0, &mut loads_p), (-1.0, &mut loads_m)] {
+                        let mut states = self.ev.states.clone();
+                        let st = &mut states[bc.0];
+                        match c {
+                            0..=2 => st.r[c] += sign * h,
+                            3..=6 => {
+                                st.p[c - 3] += sign * h;
+                                st.a = super::rotation::rotation(&st.p);
+                            }
+                            7..=9 => st.v[c - 7] += sign * h,
+                            _ => st.omega[c - 10] += sign * h,
+                        }
+                        f.apply(t, &states, loads);
+                    }
+                    let gc = if c < 7 {
+                        lay.q(bc.0) + c
+                    } else {
+                        lay.w(bc.0) + c - 7
+                    };
+                    for &br in &bodies {
+                        let df = (loads_p[br.0].force - loads_m[br.0].force) / (2.0 * h);
+                        let dn = (loads_p[br.0].torque - loads_m[br.0].torque) / (2.0 * h);
+                        for r in 0..3 {
+                            add(lay.w(br.0) + r, gc, -df[r]);
+                            add(lay.w(br.0) + 3 + r, gc, -dn[r]);
+                        }
+                    }
+                }
+            }
         }
     }
 }
