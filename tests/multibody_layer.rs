@@ -216,3 +216,40 @@ fn bad_models_give_clear_errors() {
     let e = mech.drive("spin", s, MotionLaw::Constant(0.0), 0.0).unwrap_err();
     assert!(e.to_string().contains("ball"));
 }
+
+#[test]
+fn markers_and_csv_outputs() {
+    let (mech, _, _, _) = slider_crank();
+    let mut mech = mech;
+    let crank = mech
+        .bodies
+        .iter()
+        .find(|(_, b)| b.name == "crank")
+        .map(|(h, _)| h)
+        .unwrap();
+    let tip_marker = mech.add_marker("crank tip", crank, Vector3::new(0.1, 0.0, 0.0), Vector3::z());
+    mech.bodies.get_mut(crank).unwrap().angular_velocity = Vector3::new(0.0, 0.0, 5.0);
+    let mech = Arc::new(mech);
+    let mut sim = Simulation::new(mech, 0.0, SimulationOptions::default()).unwrap();
+    let traj = sim.run(&[0.05, 0.1], |_| {}).unwrap();
+    let mut radius = |k: usize| {
+        let s = &traj.samples[k];
+        let (p, _, v) = sim.analysis().marker_state(tip_marker, &s.q, &s.w);
+        // A crank-fixed point moves on a circle about the pivot axis, in a horizontal plane.
+        assert!(v.dot(&Vector3::new(p.x, p.y, 0.0)).abs() < 1e-9 && v.z.abs() < 1e-9);
+        ((p.x * p.x + p.y * p.y).sqrt(), p.z)
+    };
+    let (r0, z0) = radius(0);
+    let (r1, z1) = radius(1);
+    assert!((r0 - r1).abs() < 1e-10 && (z0 - z1).abs() < 1e-10 && (r0 - 0.1).abs() < 1e-3);
+    let mut bodies = Vec::new();
+    lash::multibody::output::write_bodies_csv(&mut bodies, sim.analysis(), &traj.samples).unwrap();
+    let text = String::from_utf8(bodies).unwrap();
+    assert!(text.starts_with("t_s,body,x_m"));
+    assert_eq!(text.lines().count(), 1 + 2 * 3);
+    let mut joints = Vec::new();
+    lash::multibody::output::write_reactions_csv(&mut joints, sim.analysis(), &traj.samples).unwrap();
+    let text = String::from_utf8(joints).unwrap();
+    assert_eq!(text.lines().count(), 1 + 2 * 4);
+    assert!(text.contains("crank pin"));
+}

@@ -401,6 +401,33 @@ impl Analysis {
         }
     }
 
+    /// Position (m), axes (columns, base frame) and velocity (m/s) of a marker for the state
+    /// (q, w).
+    pub fn marker_state(
+        &self,
+        m: super::model::MarkerHandle,
+        q: &[f64],
+        w: &[f64],
+    ) -> (Vector3<f64>, nalgebra::Matrix3<f64>, Vector3<f64>) {
+        let mk = &self.ev.model.markers[m.0];
+        match mk.attach {
+            Attach::Ground => (mk.frame.origin, mk.frame.axes, Vector3::zeros()),
+            Attach::Body(h) => {
+                let b = h.index();
+                let r = Vector3::new(q[7 * b], q[7 * b + 1], q[7 * b + 2]);
+                let p = nalgebra::Vector4::new(q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]);
+                let a = super::rotation::rotation(&p);
+                let v = Vector3::new(w[6 * b], w[6 * b + 1], w[6 * b + 2]);
+                let om = Vector3::new(w[6 * b + 3], w[6 * b + 4], w[6 * b + 5]);
+                (
+                    r + a * mk.frame.origin,
+                    a * mk.frame.axes,
+                    v + a * om.cross(&mk.frame.origin),
+                )
+            }
+        }
+    }
+
     /// Reaction of every joint on its side-j body (at the joint origin, base frame), from the
     /// multipliers `lambda` at (q, t).
     pub fn reactions(&mut self, t: f64, q: &[f64], lambda: &[f64]) -> Vec<Reaction> {

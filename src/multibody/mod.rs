@@ -35,5 +35,5 @@ pub use error::ModelError;
 pub use forces::{BodyLoad, BodyState, ForceElement, PointForce, SpringDamper, Torque};
 pub use formulation::{Layout, MultibodyDae};
 pub use joints::{Joint, JointFrame, JointHandle, JointKind};
-pub use model::{Driver, DriverHandle, Mechanism, STANDARD_GRAVITY};
+pub use model::{Driver, DriverHandle, Marker, MarkerHandle, Mechanism, STANDARD_GRAVITY};
 pub use simulation::{RunEnd, Sample, Simulation, SimulationOptions, SingularityEvent, Trajectory};

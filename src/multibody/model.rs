@@ -38,9 +38,26 @@ impl DriverHandle {
     }
 }
 
+/// A marker: a frame fixed on a body (or the ground), for outputs and force elements.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Marker {
+    /// Name.
+    pub name: String,
+    /// The body it is fixed to.
+    pub attach: Attach,
+    /// Origin and axes in the body frame.
+    pub frame: JointFrame,
+}
+
+/// Handle of a marker.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct MarkerHandle(pub(crate) usize);
+
 /// A mechanism: the model of a multibody system.
 #[derive(Debug, Default)]
 pub struct Mechanism {
+    /// Markers.
+    pub markers: Vec<Marker>,
     /// Bodies.
     pub bodies: BodySet,
     /// Joints, in insertion order.
@@ -74,6 +91,25 @@ impl Mechanism {
     /// Adds a body.
     pub fn add_body(&mut self, b: RigidBody) -> BodyHandle {
         self.bodies.insert(b)
+    }
+
+    /// Adds a marker at base-frame `point` with z axis `z` on side `a` (from its initial pose).
+    pub fn add_marker(
+        &mut self,
+        name: &str,
+        a: impl Into<Attach>,
+        point: Vector3<f64>,
+        z: Vector3<f64>,
+    ) -> MarkerHandle {
+        let a = a.into();
+        let x = JointFrame::new(point, z).x();
+        let frame = self.local_frame(a, &point, &z, &x);
+        self.markers.push(Marker {
+            name: name.into(),
+            attach: a,
+            frame,
+        });
+        MarkerHandle(self.markers.len() - 1)
     }
 
     /// Adds a force element.
