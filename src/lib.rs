@@ -22,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod bench;
+pub mod contact;
 pub mod dae;
 pub mod mechanisms;
 pub mod multibody;

@@ -40,6 +40,12 @@ pub enum Mr2120Error {
     /// The multibody model failed.
     #[error(transparent)]
     Model(#[from] ModelError),
+    /// Contact data are invalid.
+    #[error(transparent)]
+    Contact(#[from] crate::contact::ContactError),
+    /// An unknown clearance set name.
+    #[error("unknown clearance set '{0}'; expected none, L1, L2, L3 or all")]
+    UnknownClearanceSet(String),
 }
 
 /// Orthonormal frame with x along `x` and z along `z` (made perpendicular to x).
@@ -49,17 +55,31 @@ fn frame(x: Vector3<f64>, z: Vector3<f64>) -> Matrix3<f64> {
     Matrix3::from_columns(&[x, z.cross(&x), z])
 }
 
-/// Builds the ideal model in the configuration with platform centre `m_build` (m), with the
-/// drivers following `laws` (absolute drive angles q_i(t), rad), or undriven if `None`.
-pub fn ideal_model(
+/// The links of the MR2120 (arms, forearms, platform) and the driven revolute pairs, in the
+/// configuration with platform centre `m_build`; the elbow and platform joints are left to
+/// the caller. Returns, per branch, the elbow point D, the platform point P and the cross
+/// axis m = unit(n × (P − D)).
+pub(crate) struct Links {
+    pub arms: [BodyHandle; 3],
+    pub forearms: [BodyHandle; 3],
+    pub platform: BodyHandle,
+    pub drives: [JointHandle; 3],
+    pub q: [f64; 3],
+    pub elbows: [Vector3<f64>; 3],
+    pub platform_points: [Vector3<f64>; 3],
+    pub cross_axes: [Vector3<f64>; 3],
+    pub axes: [Vector3<f64>; 3],
+}
+
+pub(crate) fn add_links(
+    mech: &mut Mechanism,
     g: &Geometry,
     mp: &MassProperties,
     m_build: Vector3<f64>,
     laws: Option<[MotionLaw; 3]>,
-) -> Result<IdealModel, Mr2120Error> {
+) -> Result<Links, Mr2120Error> {
     let q = inverse(g, m_build)?;
     let br = g.branches();
-    let mut mech = Mechanism::new();
     let a = mp.platform_thickness;
     let side = 3f64.sqrt() * g.platform_radius;
     let ixx = mp.platform * (side * side / 24.0 + a * a / 12.0);
@@ -71,9 +91,17 @@ pub fn ideal_model(
         )
         .at(m_build),
     );
-    let mut arms = [platform; 3];
-    let mut forearms = [platform; 3];
-    let mut drives = [JointHandle(0); 3];
+    let mut links = Links {
+        arms: [platform; 3],
+        forearms: [platform; 3],
+        platform,
+        drives: [JointHandle(0); 3],
+        q,
+        elbows: [Vector3::zeros(); 3],
+        platform_points: [Vector3::zeros(); 3],
+        cross_axes: [Vector3::zeros(); 3],
+        axes: [Vector3::zeros(); 3],
+    };
     let mut laws = laws.map(|l| l.into_iter());
     for i in 0..3 {
         let b = &br[i];
@@ -97,23 +125,56 @@ pub fn ideal_model(
         );
         // Positive q raises the arm: a rotation about −n.
         let rev = mech.revolute_at(DRIVE_JOINTS[i], Attach::Ground, arm, b.arm_centre, -b.axis);
-        mech.universal_at(ELBOW_JOINTS[i], arm, forearm, d, b.axis, cross_axis);
-        mech.universal_at(PLATFORM_JOINTS[i], forearm, platform, p, cross_axis, b.axis);
         if let Some(it) = laws.as_mut() {
             let law = it.next().expect("three laws");
             mech.drive(&format!("q{}", i + 1), rev, law, q[i])?;
         }
-        arms[i] = arm;
-        forearms[i] = forearm;
-        drives[i] = rev;
+        links.arms[i] = arm;
+        links.forearms[i] = forearm;
+        links.drives[i] = rev;
+        links.elbows[i] = d;
+        links.platform_points[i] = p;
+        links.cross_axes[i] = cross_axis;
+        links.axes[i] = b.axis;
+    }
+    Ok(links)
+}
+
+/// Builds the ideal model in the configuration with platform centre `m_build` (m), with the
+/// drivers following `laws` (absolute drive angles q_i(t), rad), or undriven if `None`.
+pub fn ideal_model(
+    g: &Geometry,
+    mp: &MassProperties,
+    m_build: Vector3<f64>,
+    laws: Option<[MotionLaw; 3]>,
+) -> Result<IdealModel, Mr2120Error> {
+    let mut mech = Mechanism::new();
+    let l = add_links(&mut mech, g, mp, m_build, laws)?;
+    for i in 0..3 {
+        mech.universal_at(
+            ELBOW_JOINTS[i],
+            l.arms[i],
+            l.forearms[i],
+            l.elbows[i],
+            l.axes[i],
+            l.cross_axes[i],
+        );
+        mech.universal_at(
+            PLATFORM_JOINTS[i],
+            l.forearms[i],
+            l.platform,
+            l.platform_points[i],
+            l.cross_axes[i],
+            l.axes[i],
+        );
     }
     Ok(IdealModel {
         mechanism: mech,
-        arms,
-        forearms,
-        platform,
-        drives,
-        q_build: q,
+        arms: l.arms,
+        forearms: l.forearms,
+        platform: l.platform,
+        drives: l.drives,
+        q_build: l.q,
     })
 }
 
