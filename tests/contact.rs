@@ -1,0 +1,142 @@
+//! Joints with clearance: convergence to the ideal joint as the clearance vanishes, and clear
+//! errors on bad contact data.
+
+use lash::contact::{
+    revolute_with_clearance, spherical_with_clearance, universal_with_clearance, BearingDesign, ContactError,
+    Damping, Material,
+};
+use lash::mechanisms::mr2120::{clearance, Geometry, MassProperties, Mr2120Error};
+use lash::multibody::{Attach, Mechanism, RigidBody, Simulation, SimulationOptions};
+use nalgebra::Vector3;
+use std::sync::Arc;
+
+/// A 0.5 m rod pendulum released 30° from the vertical, swinging about the y axis.
+fn pendulum(joint: Option<(f64, &str)>) -> (Mechanism, lash::multibody::BodyHandle) {
+    let th = 30f64.to_radians();
+    let dir = Vector3::new(th.sin(), 0.0, -th.cos());
+    let mut mech = Mechanism::new();
+    let rot = lash::multibody::rotation::rotation(&lash::multibody::rotation::from_axis_angle(
+        &Vector3::y(),
+        -(std::f64::consts::FRAC_PI_2 - th),
+    ));
+    let rod = mech.add_body(RigidBody::rod("rod", 1.0, 0.5).at(dir * 0.25).oriented(&rot));
+    match joint {
+        None => {
+            mech.revolute_at("pivot", Attach::Ground, rod, Vector3::zeros(), Vector3::y());
+        }
+        Some((h, kind)) => {
+            let design = BearingDesign {
+                ball_spacing: 0.04,
+                ..BearingDesign::mr2120(h, h, Damping::HuntCrossley(1.0))
+            };
+            match kind {
+                "revolute" => revolute_with_clearance(
+                    &mut mech,
+                    "pivot",
+                    Attach::Ground,
+                    rod,
+                    Vector3::zeros(),
+                    Vector3::y(),
+                    &design,
+                )
+                .unwrap(),
+                _ => unreachable!(),
+            }
+        }
+    }
+    (mech, rod)
+}
+
+fn tip_after(mech: Mechanism, rod: lash::multibody::BodyHandle, t: f64) -> Vector3<f64> {
+    let opts = SimulationOptions {
+        rtol: 1e-6,
+        atol: 1e-8,
+        ..Default::default()
+    };
+    let mut sim = Simulation::new(Arc::new(mech), 0.0, opts).unwrap();
+    let traj = sim.run(&[t], |_| {}).unwrap();
+    let q = &traj.samples[0].q;
+    let i = rod.index();
+    let p = nalgebra::Vector4::new(q[7 * i + 3], q[7 * i + 4], q[7 * i + 5], q[7 * i + 6]);
+    let a = lash::multibody::rotation::rotation(&p);
+    Vector3::new(q[7 * i], q[7 * i + 1], q[7 * i + 2]) + a * Vector3::new(0.25, 0.0, 0.0)
+}
+
+#[test]
+fn revolute_with_clearance_converges_to_the_ideal_joint() {
+    let t = 0.15;
+    let (ideal, rod) = pendulum(None);
+    let reference = tip_after(ideal, rod, t);
+    let mut diffs = vec![];
+    for h in [1e-4, 1e-5, 1e-6] {
+        let (m, rod) = pendulum(Some((h, "revolute")));
+        diffs.push((tip_after(m, rod, t) - reference).norm());
+    }
+    assert!(diffs[0] > diffs[1] && diffs[1] > diffs[2], "{diffs:?}");
+    assert!(diffs[2] < 2e-5, "{diffs:?}");
+}
+
+#[test]
+fn bad_contact_data_are_clear_errors() {
+    let mut mech = Mechanism::new();
+    let a = mech.add_body(RigidBody::rod("a", 1.0, 0.3));
+    let b = mech.add_body(RigidBody::rod("b", 1.0, 0.3).at(Vector3::new(0.3, 0.0, 0.0)));
+    let base = BearingDesign::mr2120(2e-5, 2e-5, Damping::Elastic);
+    let negative = BearingDesign {
+        radial_clearance: -1e-6,
+        ..base
+    };
+    let e = universal_with_clearance(
+        &mut mech,
+        "U",
+        a,
+        b,
+        Vector3::zeros(),
+        Vector3::x(),
+        Vector3::y(),
+        &negative,
+        0.05,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(e, ContactError::NegativeClearance { .. }) && e.to_string().contains("radial clearance"),
+        "{e}"
+    );
+    let soft = BearingDesign {
+        material: Material { e: 0.0, nu: 0.3 },
+        ..base
+    };
+    let e = revolute_with_clearance(&mut mech, "R", a, b, Vector3::zeros(), Vector3::z(), &soft).unwrap_err();
+    assert!(e.to_string().contains("Young's modulus"), "{e}");
+    let no_ball = BearingDesign {
+        ball_radius: 0.0,
+        ..base
+    };
+    assert!(
+        spherical_with_clearance(&mut mech, "S", a, b, Vector3::zeros(), &no_ball)
+            .unwrap_err()
+            .to_string()
+            .contains("ball radius")
+    );
+    let e = lash::contact::stiffness::ball_in_bore(0.005, 0.004, &Material::steel(), &Material::steel())
+        .unwrap_err();
+    assert!(matches!(e, ContactError::BallLargerThanSocket { .. }), "{e}");
+    let e = clearance::clearance_set("L4").unwrap_err();
+    assert!(matches!(e, Mr2120Error::UnknownClearanceSet(_)) && e.to_string().contains("L4"));
+    // The MR2120 clearance model refuses the same bad data.
+    let bad = BearingDesign {
+        axial_clearance: f64::NAN,
+        ..base
+    };
+    let r = clearance::clearance_model(
+        &Geometry::default(),
+        &MassProperties::default(),
+        Vector3::new(0.0, 0.0, 0.5),
+        None,
+        &bad,
+    );
+    assert!(matches!(
+        r,
+        Err(Mr2120Error::Contact(ContactError::NegativeClearance { .. }))
+    ));
+}
