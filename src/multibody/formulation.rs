@@ -177,6 +177,8 @@ pub struct MultibodyDae {
     pattern: Option<CscPattern>,
     /// Use the analytic Jacobian (default) or lash's coloured finite differences.
     pub analytic_jacobian: bool,
+    /// Measure velocity errors as index-2 variables in the error test.
+    pub velocities_index2: bool,
 }
 
 /// ∂(L(p)·d)/∂p for a fixed 4-vector d: [d_v | −d_0·I + d̃_v] (3 × 4).
@@ -212,6 +214,7 @@ impl MultibodyDae {
             names,
             pattern: None,
             analytic_jacobian: true,
+            velocities_index2: false,
         };
         s.pattern = Some(s.build_pattern());
         s
@@ -336,6 +339,19 @@ impl DaeSystem for MultibodyDae {
 
     fn component_name(&self, i: usize) -> String {
         self.name_of(i)
+    }
+
+    fn error_index(&self) -> Vec<u8> {
+        let lay = self.ev.layout;
+        (0..lay.dim())
+            .map(|i| {
+                if self.velocities_index2 && (7 * lay.nb..13 * lay.nb).contains(&i) {
+                    2
+                } else {
+                    1
+                }
+            })
+            .collect()
     }
 }
 

@@ -22,6 +22,13 @@ pub struct SimulationOptions {
     pub singularity_warning: f64,
     /// Maximum integrator steps between two output samples.
     pub max_steps: usize,
+    /// Filter the BDF's local error estimates through the iteration matrix (see
+    /// `dae::bdf::estimate`): transients along stiff contact directions then no longer force
+    /// tiny steps.
+    pub filter_error_estimate: bool,
+    /// Measure velocity errors as index-2 variables (scaled by the step), as for very stiff
+    /// mechanical systems (see `DaeSystem::error_index`).
+    pub velocities_index2: bool,
 }
 
 impl Default for SimulationOptions {
@@ -31,6 +38,8 @@ impl Default for SimulationOptions {
             atol: 1e-9,
             singularity_warning: 1e-3,
             max_steps: 200_000,
+            filter_error_estimate: false,
+            velocities_index2: false,
         }
     }
 }
@@ -101,7 +110,8 @@ impl Simulation {
     pub fn new(model: Arc<Mechanism>, t0: f64, opts: SimulationOptions) -> Result<Self, ModelError> {
         let mut analysis = Analysis::new(model.clone())?;
         let s0 = analysis.initial_state(t0)?;
-        let dae = MultibodyDae::new(model);
+        let mut dae = MultibodyDae::new(model);
+        dae.velocities_index2 = opts.velocities_index2;
         let lay = dae.layout();
         let mut y0 = vec![0.0; lay.dim()];
         let mut yp0 = vec![0.0; lay.dim()];
@@ -121,6 +131,7 @@ impl Simulation {
         let bdf = BdfOptions {
             suppress_algebraic: true,
             max_steps: opts.max_steps,
+            filter_error_estimate: opts.filter_error_estimate,
             ..BdfOptions::with_tolerances(opts.rtol, opts.atol)
         };
         let solver = BdfSolver::new(dae, t0, &y0, &yp0, &[], bdf)?;
