@@ -134,6 +134,7 @@ fn mr2120_kinematics(json: bool) -> ExitCode {
 /// Prints progress to stderr once a run has taken longer than a second.
 struct Progress {
     start: std::time::Instant,
+    last: f64,
     total: f64,
     label: String,
     shown: bool,
@@ -143,6 +144,7 @@ impl Progress {
     fn new(label: &str, total: f64) -> Self {
         Self {
             start: std::time::Instant::now(),
+            last: 0.0,
             total,
             label: label.into(),
             shown: false,
@@ -150,9 +152,11 @@ impl Progress {
     }
     fn update(&mut self, done: f64) {
         let el = self.start.elapsed().as_secs_f64();
-        if el < 1.0 {
+        // Quiet for short runs; at most five updates a second afterwards.
+        if el < 1.0 || (el - self.last < 0.2 && done < self.total) {
             return;
         }
+        self.last = el;
         self.shown = true;
         let frac = (done / self.total).clamp(0.0, 1.0);
         let bar = (frac * 30.0) as usize;
@@ -175,20 +179,23 @@ impl Progress {
 fn mr2120_trajectory(clearance: &str, out: &std::path::Path, dt: f64, json: bool) -> ExitCode {
     use lash::mechanisms::mr2120::{trajectory, Geometry, MassProperties};
     use lash::plot::{LineChart, Series};
-    match clearance {
-        "none" => {}
-        "L1" | "L2" | "L3" | "all" => {
-            eprintln!("error: the clearance model (sets L1, L2, L3) is not available yet; it is the subject of the clearance issue. Use --clearance none for the ideal model.");
-            return ExitCode::FAILURE;
-        }
-        other => {
-            eprintln!("error: unknown clearance set '{other}'; expected none, L1, L2, L3 or all");
-            return ExitCode::FAILURE;
-        }
-    }
     if !(dt > 0.0 && dt <= 0.5) {
         eprintln!("error: --dt must be in (0, 0.5] s, got {dt}");
         return ExitCode::FAILURE;
+    }
+    let sets: Vec<lash::mechanisms::mr2120::paper::ClearanceSet> = match clearance {
+        "none" => vec![],
+        "all" | "ALL" => lash::mechanisms::mr2120::paper::TABLE1.to_vec(),
+        name => match lash::mechanisms::mr2120::clearance::clearance_set(name) {
+            Ok(s) => vec![s],
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
+            }
+        },
+    };
+    if !sets.is_empty() {
+        return mr2120_clearance_trajectory(&sets, out, dt, json);
     }
     let mut progress = Progress::new("mr2120 ideal trajectory", 4.0);
     let run = match trajectory::run_ideal(
@@ -348,6 +355,150 @@ fn mr2120_trajectory(clearance: &str, out: &std::path::Path, dt: f64, json: bool
         println!(
             "wrote {} and drive_angles, platform_position, drive_torques, singularity (.png, .svg) in {}",
             csv_path.display(),
+            out.display()
+        );
+    }
+    ExitCode::SUCCESS
+}
+
+fn mr2120_clearance_trajectory(
+    sets: &[lash::mechanisms::mr2120::paper::ClearanceSet],
+    out: &std::path::Path,
+    dt: f64,
+    json: bool,
+) -> ExitCode {
+    use lash::mechanisms::mr2120::{clearance::DEFAULT_DAMPING, trajectory, Geometry, MassProperties};
+    use lash::plot::{LineChart, Series};
+    if let Err(e) = std::fs::create_dir_all(out) {
+        eprintln!("error: cannot create {}: {e}", out.display());
+        return ExitCode::FAILURE;
+    }
+    let mut runs = vec![];
+    for set in sets {
+        let mut progress = Progress::new(&format!("mr2120 trajectory {}", set.name), 4.0);
+        let r = trajectory::run_clearance(
+            &Geometry::default(),
+            &MassProperties::default(),
+            set,
+            DEFAULT_DAMPING,
+            dt,
+            4.0,
+            trajectory::clearance_options(),
+            |t| progress.update(t),
+        );
+        progress.finish();
+        match r {
+            Ok(run) => runs.push(run),
+            Err(e) => {
+                eprintln!("error: clearance set {}: {e}", set.name);
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    for run in &runs {
+        let mut csv = String::from("t_s,dxM_mm,dyM_mm,dzM_mm,dx_deg,dy_deg,dz_deg\n");
+        for s in &run.samples {
+            csv.push_str(&format!(
+                "{},{},{},{},{},{},{}\n",
+                s.t,
+                s.d[0] * 1e3,
+                s.d[1] * 1e3,
+                s.d[2] * 1e3,
+                s.delta[0].to_degrees(),
+                s.delta[1].to_degrees(),
+                s.delta[2].to_degrees()
+            ));
+        }
+        let path = out.join(format!("trajectory_{}.csv", run.set));
+        if let Err(e) = std::fs::write(&path, csv) {
+            eprintln!("error: cannot write {}: {e}", path.display());
+            return ExitCode::FAILURE;
+        }
+    }
+    let names = ["d_xM", "d_yM", "d_zM", "delta_x", "delta_y", "delta_z"];
+    for (k, name) in names.iter().enumerate() {
+        let unit = if k < 3 { "mm" } else { "deg" };
+        let series = runs
+            .iter()
+            .map(|r| Series {
+                name: r.set.clone(),
+                points: r
+                    .samples
+                    .iter()
+                    .map(|s| {
+                        (
+                            s.t,
+                            if k < 3 {
+                                s.d[k] * 1e3
+                            } else {
+                                s.delta[k - 3].to_degrees()
+                            },
+                        )
+                    })
+                    .collect(),
+            })
+            .collect();
+        let chart = LineChart {
+            title: format!("MR2120 positioning error {name} along M1-M2-M3 (eq. 4.1)"),
+            x_label: "t [s]".into(),
+            y_label: format!("{name} [{unit}]"),
+            series,
+            y_range: None,
+        };
+        if let Err(e) = chart.save(&out.join(format!("error_{name}"))) {
+            eprintln!("error: plot {name}: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
+    let windows = [
+        ("t < 1.5 s", 0.0, 1.5),
+        ("near M2, 1.5-2.5 s", 1.5, 2.5),
+        ("2.5-3.4 s", 2.5, 3.4),
+        ("near M3, > 3.4 s", 3.4, 4.0),
+    ];
+    if json {
+        let rows: Vec<_> = runs
+            .iter()
+            .map(|r| {
+                let w: Vec<_> = windows
+                    .iter()
+                    .map(|(label, a, b)| {
+                        let m = trajectory::max_errors(&r.samples, *a, *b);
+                        serde_json::json!({"window": label, "max_abs_d_m": [m[0], m[1], m[2]], "max_abs_delta_rad": [m[3], m[4], m[5]]})
+                    })
+                    .collect();
+                serde_json::json!({"set": r.set, "steps": r.steps, "wall_s": r.wall_s, "end": r.end, "windows": w})
+            })
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&rows).expect("serialises"));
+    } else {
+        println!("MR2120 clearance model along M1 -> M2 -> M3; errors of eq. (4.1) against the ideal path");
+        println!(
+            "{:<4} {:<20} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9}",
+            "set", "window", "|dxM| mm", "|dyM| mm", "|dzM| mm", "|dx| deg", "|dy| deg", "|dz| deg"
+        );
+        for r in &runs {
+            for (label, a, b) in windows {
+                let m = trajectory::max_errors(&r.samples, a, b);
+                println!(
+                    "{:<4} {:<20} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>9.4}",
+                    r.set,
+                    label,
+                    m[0] * 1e3,
+                    m[1] * 1e3,
+                    m[2] * 1e3,
+                    m[3].to_degrees(),
+                    m[4].to_degrees(),
+                    m[5].to_degrees()
+                );
+            }
+            println!(
+                "{:<4} cost: {} steps, {} error-test failures, {} Newton iterations, {:.1} s wall",
+                r.set, r.steps, r.error_test_failures, r.newton_iters, r.wall_s
+            );
+        }
+        println!(
+            "wrote trajectory_<set>.csv and error_<name>.png/.svg in {}",
             out.display()
         );
     }

@@ -17,9 +17,11 @@ use crate::contact::{universal_with_clearance, BearingDesign, Damping, Material}
 use crate::multibody::{BodyHandle, JointHandle, Mechanism, MotionLaw};
 use nalgebra::Vector3;
 
-/// Default contact damping of the clearance model: Hunt–Crossley α = 0.1 s/m (a coefficient
-/// of restitution of about 0.9 at 0.5 m/s; Hunt & Crossley 1975, e ≈ 1 − (2/3)·α·v).
-pub const DEFAULT_DAMPING: Damping = Damping::HuntCrossley(0.1);
+/// Default contact damping of the clearance model: Hunt–Crossley α = 1 s/m (a coefficient of
+/// restitution e ≈ 1 − (2/3)·α·v ≈ 0.93 for a 0.1 m/s impact; Hunt & Crossley 1975). With it
+/// and index-2 velocity errors the settling rattle at M1 takes 1 500 steps instead of 26 000
+/// (elastic contact, index-1 velocities) while the static sag differs by a few per cent.
+pub const DEFAULT_DAMPING: Damping = Damping::HuntCrossley(1.0);
 
 /// The clearance model and the handles of its parts.
 #[derive(Debug)]

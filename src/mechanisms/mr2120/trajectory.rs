@@ -142,3 +142,107 @@ pub fn run_ideal(
         max_rotation: max_rot,
     })
 }
+
+/// Positioning errors of eq. (4.1) at one time: the clearance model against the ideal path.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct ErrorSample {
+    /// Time, s.
+    pub t: f64,
+    /// d_xM, d_yM, d_zM: platform-centre displacement from the ideal path, m.
+    pub d: [f64; 3],
+    /// δx, δy, δz: platform orientation change from the ideal (constant) orientation, rad
+    /// (components of the rotation vector; equal to the angle differences for small angles).
+    pub delta: [f64; 3],
+}
+
+/// The trajectory of the clearance model for one clearance set.
+#[derive(Debug, Clone, Serialize)]
+pub struct ClearanceRun {
+    /// Clearance set name.
+    pub set: String,
+    /// Error samples.
+    pub samples: Vec<ErrorSample>,
+    /// Integrator steps.
+    pub steps: usize,
+    /// Error-test failures.
+    pub error_test_failures: usize,
+    /// Newton iterations.
+    pub newton_iters: usize,
+    /// Wall time, s.
+    pub wall_s: f64,
+    /// How the run ended.
+    pub end: RunEnd,
+}
+
+/// Integrator settings of the clearance runs: index-2 velocity errors, so the contact rattle
+/// along stiff directions is damped by the BDF instead of resolved.
+pub fn clearance_options() -> SimulationOptions {
+    SimulationOptions {
+        rtol: 1e-4,
+        atol: 1e-6,
+        velocities_index2: true,
+        max_steps: 1_000_000,
+        ..Default::default()
+    }
+}
+
+/// Simulates the clearance model of `set` along the trajectory, sampling every `dt` seconds
+/// up to `t_end`, and returns the errors of eq. (4.1) against the ideal path.
+pub fn run_clearance(
+    g: &Geometry,
+    mp: &MassProperties,
+    set: &super::paper::ClearanceSet,
+    damping: crate::contact::Damping,
+    dt: f64,
+    t_end: f64,
+    opts: SimulationOptions,
+    progress: impl FnMut(f64),
+) -> Result<ClearanceRun, Mr2120Error> {
+    use super::clearance::{bearing_design, clearance_model};
+    let start = std::time::Instant::now();
+    let m1 = Vector3::from(TABLE2[0].m);
+    let model = clearance_model(g, mp, m1, Some(drive_laws(g)), &bearing_design(set, damping))?;
+    let platform = model.platform.index();
+    let mut sim = Simulation::new(Arc::new(model.mechanism), 0.0, opts)?;
+    let n = (t_end / dt).round() as usize;
+    let times: Vec<f64> = (1..=n).map(|k| k as f64 * dt).collect();
+    let traj = sim.run(&times, progress)?;
+    let zl = platform_law();
+    let samples = traj
+        .samples
+        .iter()
+        .map(|s| {
+            let q = &s.q[7 * platform..7 * platform + 7];
+            let a = crate::multibody::rotation::rotation(&Vector4::new(q[3], q[4], q[5], q[6]));
+            let rv = rotation_vector(&a, &Matrix3::identity());
+            ErrorSample {
+                t: s.t,
+                d: [q[0], q[1], q[2] - zl.value(s.t)],
+                delta: [rv.x, rv.y, rv.z],
+            }
+        })
+        .collect();
+    let st = *sim.stats();
+    Ok(ClearanceRun {
+        set: set.name.into(),
+        samples,
+        steps: st.steps,
+        error_test_failures: st.error_test_failures,
+        newton_iters: st.newton_iters,
+        wall_s: start.elapsed().as_secs_f64(),
+        end: traj.end,
+    })
+}
+
+/// Largest |error| of each of the six errors (m, m, m, rad, rad, rad) over samples with
+/// t in [t0, t1].
+pub fn max_errors(samples: &[ErrorSample], t0: f64, t1: f64) -> [f64; 6] {
+    let mut m = [0.0f64; 6];
+    for s in samples.iter().filter(|s| s.t >= t0 && s.t <= t1) {
+        for k in 0..3 {
+            m[k] = m[k].max(s.d[k].abs());
+            m[3 + k] = m[3 + k].max(s.delta[k].abs());
+        }
+    }
+    m
+}
