@@ -188,6 +188,7 @@ pub fn clearance_options() -> SimulationOptions {
 
 /// Simulates the clearance model of `set` along the trajectory, sampling every `dt` seconds
 /// up to `t_end`, and returns the errors of eq. (4.1) against the ideal path.
+#[allow(clippy::too_many_arguments)]
 pub fn run_clearance(
     g: &Geometry,
     mp: &MassProperties,
