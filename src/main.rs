@@ -39,6 +39,18 @@ enum Mr2120What {
         #[arg(long)]
         json: bool,
     },
+    /// Table 3: positioning-error ranges at M1, M2, M3 for L1, L2, L3 beside the paper's.
+    Accuracy {
+        /// Points, comma-separated (M1, M2, M3).
+        #[arg(long, default_value = "M1,M2,M3")]
+        points: String,
+        /// Clearance sets, comma-separated (L1, L2, L3).
+        #[arg(long, default_value = "L1,L2,L3")]
+        sets: String,
+        /// Print the rows as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Trajectory M1 → M2 → M3 (paper §4.1): drive angles, platform path, drive torques.
     Trajectory {
         /// Clearance set: none (ideal model), L1, L2, L3 or all.
@@ -361,6 +373,72 @@ fn mr2120_trajectory(clearance: &str, out: &std::path::Path, dt: f64, json: bool
     ExitCode::SUCCESS
 }
 
+fn mr2120_accuracy(points: &str, sets: &str, json: bool) -> ExitCode {
+    use lash::mechanisms::mr2120::{accuracy, clearance, paper, Geometry, MassProperties};
+    let mut pts = vec![];
+    for name in points.split(',').map(str::trim) {
+        match paper::TABLE2.iter().find(|p| p.name.eq_ignore_ascii_case(name)) {
+            Some(p) => pts.push(*p),
+            None => {
+                eprintln!("error: unknown point '{name}'; expected M1, M2 or M3");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let mut ss = vec![];
+    for name in sets.split(',').map(str::trim) {
+        match clearance::clearance_set(name) {
+            Ok(s) => ss.push(s),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let ex = accuracy::Excitation::default();
+    let mut progress = Progress::new("mr2120 accuracy", (pts.len() * ss.len()) as f64);
+    let rows = match accuracy::table3(
+        &Geometry::default(),
+        &MassProperties::default(),
+        &pts,
+        &ss,
+        &ex,
+        |i, _| progress.update(i as f64),
+    ) {
+        Ok(r) => r,
+        Err(e) => {
+            progress.finish();
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    progress.finish();
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({"excitation": ex, "rows": rows}))
+                .expect("serialises")
+        );
+        return ExitCode::SUCCESS;
+    }
+    println!("MR2120 positioning accuracy (paper Table 3): ranges min..max; d in mm, delta in deg");
+    println!("method (a): drives locked at q(M), settle {} s, then half-sine pulses of {} N along +-x, +-y, +-z and {} N m about +-x, +-y, +-z, {} s each", ex.settle, ex.force, ex.torque, ex.pulse);
+    let names = ["d_xM", "d_yM", "d_zM", "dx", "dy", "dz"];
+    for r in &rows {
+        println!("{} {} ({} steps)", r.point, r.set, r.steps);
+        for k in 0..6 {
+            let (lo, hi) = r.ranges[k];
+            let (plo, phi) = r.paper[k];
+            let ratio = (hi - lo) / (phi - plo);
+            println!(
+                "   {:<5} lash {:>8.3} .. {:>8.3}   paper {:>7.2} .. {:>7.2}   range ratio {:>5.2}",
+                names[k], lo, hi, plo, phi, ratio
+            );
+        }
+    }
+    ExitCode::SUCCESS
+}
+
 fn mr2120_clearance_trajectory(
     sets: &[lash::mechanisms::mr2120::paper::ClearanceSet],
     out: &std::path::Path,
@@ -557,6 +635,9 @@ fn main() -> ExitCode {
         Command::Mr2120 {
             what: Mr2120What::Kinematics { json },
         } => mr2120_kinematics(json),
+        Command::Mr2120 {
+            what: Mr2120What::Accuracy { points, sets, json },
+        } => mr2120_accuracy(&points, &sets, json),
         Command::Mr2120 {
             what:
                 Mr2120What::Trajectory {

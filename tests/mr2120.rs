@@ -135,3 +135,28 @@ fn clearance_model_l1_errors_explode_towards_the_direct_singularity() {
     // On the symmetric axis path the lateral errors stay far below the vertical one until M3.
     assert!(early[0] < 0.1 * early[2] && early[1] < 0.1 * early[2]);
 }
+
+#[test]
+fn positioning_accuracy_at_m3_is_far_worse_along_z_than_at_m1() {
+    use lash::mechanisms::mr2120::{accuracy, clearance, paper};
+    let g = Geometry::default();
+    let mp = MassProperties::default();
+    let l1 = clearance::clearance_set("L1").unwrap();
+    let ex = accuracy::Excitation::default();
+    let (m1, _) = accuracy::dynamic_envelope(&g, &mp, &paper::TABLE2[0], &l1, &ex).unwrap();
+    let (m3, _) = accuracy::dynamic_envelope(&g, &mp, &paper::TABLE2[2], &l1, &ex).unwrap();
+    let span = |r: (f64, f64)| r.1 - r.0;
+    // Near the direct-kinematics singularity the z error explodes (paper: ±16.5 mm at M3).
+    assert!(
+        span(m3[2]) >= 10.0 * span(m1[2]),
+        "M3 {:?} vs M1 {:?}",
+        m3[2],
+        m1[2]
+    );
+    let paper_m3 = 16.5e-3 + 16.4e-3;
+    assert!(
+        span(m3[2]) > paper_m3 / 3.0 && span(m3[2]) < 3.0 * paper_m3,
+        "M3 d_zM range {:?} m",
+        m3[2]
+    );
+}

@@ -6,6 +6,7 @@
 //! * [`kinematics`] — inverse/forward kinematics, Jacobians, singularity measures.
 //! * [`ideal`] — the ideal 3-DOF multibody model.
 
+pub mod accuracy;
 pub mod clearance;
 pub mod geometry;
 pub mod ideal;
