@@ -179,6 +179,8 @@ pub struct MultibodyDae {
     pub analytic_jacobian: bool,
     /// Measure velocity errors as index-2 variables in the error test.
     pub velocities_index2: bool,
+    /// Relative central-difference increment for force-element Jacobians.
+    pub force_fd_step: f64,
 }
 
 /// ∂(L(p)·d)/∂p for a fixed 4-vector d: [d_v | −d_0·I + d̃_v] (3 × 4).
@@ -215,6 +217,7 @@ impl MultibodyDae {
             pattern: None,
             analytic_jacobian: true,
             velocities_index2: false,
+            force_fd_step: 1e-9,
         };
         s.pattern = Some(s.build_pattern());
         s
@@ -606,7 +609,9 @@ impl MultibodyDae {
             let bodies = f.bodies();
             for &bc in &bodies {
                 for c in 0..13 {
-                    let h = 1e-7
+                    // Increments far below contact penetrations (~1e-8..1e-6 m): a larger one
+                    // would straddle contact onset and corrupt the derivative.
+                    let h = self.force_fd_step
                         * (1.0
                             + if c < 7 {
                                 y[lay.q(bc.0) + c].abs()
