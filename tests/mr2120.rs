@@ -160,3 +160,39 @@ fn positioning_accuracy_at_m3_is_far_worse_along_z_than_at_m1() {
         m3[2]
     );
 }
+
+#[test]
+fn radial_clearance_dominates_l2_errors_exceed_l3_along_the_trajectory() {
+    use lash::mechanisms::mr2120::{clearance, trajectory::max_errors};
+    let run = |name: &str| {
+        let set = clearance::clearance_set(name).unwrap();
+        trajectory::run_clearance(
+            &Geometry::default(),
+            &MassProperties::default(),
+            &set,
+            clearance::DEFAULT_DAMPING,
+            0.02,
+            4.0,
+            trajectory::clearance_options(),
+            |_| {},
+        )
+        .unwrap()
+    };
+    let (l2, l3) = (run("L2"), run("L3"));
+    for (a, b) in [(0.2, 1.5), (1.5, 2.5), (2.5, 3.4), (3.4, 4.0)] {
+        let (e2, e3) = (max_errors(&l2.samples, a, b), max_errors(&l3.samples, a, b));
+        // The vertical error and the rotation about z, the dominant ones on this path.
+        assert!(
+            e2[2] > e3[2],
+            "window {a}-{b}: |d_zM| L2 {:e} vs L3 {:e}",
+            e2[2],
+            e3[2]
+        );
+        assert!(
+            e2[5] > e3[5],
+            "window {a}-{b}: |dz| L2 {:e} vs L3 {:e}",
+            e2[5],
+            e3[5]
+        );
+    }
+}
