@@ -40,7 +40,43 @@ fn pendulum(joint: Option<(f64, &str)>) -> (Mechanism, lash::multibody::BodyHand
                     &design,
                 )
                 .unwrap(),
-                _ => unreachable!(),
+                "ideal spherical" => {
+                    mech.spherical_at("pivot", Attach::Ground, rod, Vector3::zeros());
+                }
+                "spherical" => spherical_with_clearance(
+                    &mut mech,
+                    "pivot",
+                    Attach::Ground,
+                    rod,
+                    Vector3::zeros(),
+                    &design,
+                )
+                .unwrap(),
+                "ideal universal" => {
+                    mech.universal_at(
+                        "pivot",
+                        Attach::Ground,
+                        rod,
+                        Vector3::zeros(),
+                        Vector3::y(),
+                        Vector3::x(),
+                    );
+                }
+                "universal" => {
+                    universal_with_clearance(
+                        &mut mech,
+                        "pivot",
+                        Attach::Ground,
+                        rod,
+                        Vector3::zeros(),
+                        Vector3::y(),
+                        Vector3::x(),
+                        &design,
+                        0.05,
+                    )
+                    .unwrap();
+                }
+                other => panic!("unknown joint kind {other}"),
             }
         }
     }
@@ -74,6 +110,25 @@ fn revolute_with_clearance_converges_to_the_ideal_joint() {
     }
     assert!(diffs[0] > diffs[1] && diffs[1] > diffs[2], "{diffs:?}");
     assert!(diffs[2] < 2e-5, "{diffs:?}");
+}
+
+#[test]
+fn spherical_and_universal_with_clearance_converge_to_their_ideal_joints() {
+    let t = 0.1;
+    for (ideal, with_play) in [("ideal spherical", "spherical"), ("ideal universal", "universal")] {
+        let (m, rod) = pendulum(Some((0.0, ideal)));
+        let reference = tip_after(m, rod, t);
+        let mut diffs = vec![];
+        for h in [1e-4, 1e-5, 1e-6] {
+            let (m, rod) = pendulum(Some((h, with_play)));
+            diffs.push((tip_after(m, rod, t) - reference).norm());
+        }
+        assert!(
+            diffs[0] > diffs[1] && diffs[1] > diffs[2],
+            "{with_play}: {diffs:?}"
+        );
+        assert!(diffs[2] < 5e-5, "{with_play}: {diffs:?}");
+    }
 }
 
 #[test]
