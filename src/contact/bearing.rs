@@ -6,12 +6,7 @@ use crate::multibody::forces::{BodyLoad, BodyState, ForceElement};
 use crate::multibody::{Attach, BodyHandle};
 use nalgebra::Vector3;
 
-fn state(states: &[BodyState], a: Attach) -> BodyState {
-    match a {
-        Attach::Ground => BodyState::ground(),
-        Attach::Body(h) => states[h.index()],
-    }
-}
+use crate::multibody::forces::state_of as state;
 
 /// Applies the contact force `f` (base frame) at base-frame point `x`: +f on the ball side,
 /// −f on the socket side.
@@ -113,10 +108,7 @@ impl ForceElement for ClearanceBearing {
     fn bodies(&self) -> Vec<BodyHandle> {
         [self.ball_body, self.socket_body]
             .into_iter()
-            .filter_map(|a| match a {
-                Attach::Body(h) => Some(h),
-                Attach::Ground => None,
-            })
+            .filter_map(Attach::body)
             .collect()
     }
 
@@ -176,10 +168,7 @@ impl ForceElement for BallInSocket {
     fn bodies(&self) -> Vec<BodyHandle> {
         [self.ball_body, self.socket_body]
             .into_iter()
-            .filter_map(|a| match a {
-                Attach::Body(h) => Some(h),
-                Attach::Ground => None,
-            })
+            .filter_map(Attach::body)
             .collect()
     }
     fn apply(&self, _t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {

@@ -25,6 +25,16 @@ pub enum Attach {
     Body(BodyHandle),
 }
 
+impl Attach {
+    /// The body, if this is not the ground.
+    pub fn body(self) -> Option<BodyHandle> {
+        match self {
+            Attach::Ground => None,
+            Attach::Body(h) => Some(h),
+        }
+    }
+}
+
 impl From<BodyHandle> for Attach {
     fn from(h: BodyHandle) -> Self {
         Attach::Body(h)

@@ -74,7 +74,8 @@ pub trait ForceElement: Debug + Send + Sync {
     fn apply(&self, t: f64, states: &[BodyState], loads: &mut [BodyLoad]);
 }
 
-fn state_of(states: &[BodyState], a: Attach) -> BodyState {
+/// The state of a side (the ground is at rest at the origin).
+pub(crate) fn state_of(states: &[BodyState], a: Attach) -> BodyState {
     match a {
         Attach::Ground => BodyState::ground(),
         Attach::Body(h) => states[h.0],
@@ -167,10 +168,7 @@ impl ForceElement for SpringDamper {
     fn bodies(&self) -> Vec<BodyHandle> {
         [self.i.0, self.j.0]
             .into_iter()
-            .filter_map(|a| match a {
-                Attach::Body(h) => Some(h),
-                Attach::Ground => None,
-            })
+            .filter_map(Attach::body)
             .collect()
     }
     fn apply(&self, _t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
