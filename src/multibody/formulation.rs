@@ -603,11 +603,16 @@ impl MultibodyDae {
             }
             k0 += n;
         }
-        // Force elements: central differences of each element's loads over its bodies' states.
+        // Force elements: central differences of each element's loads over its bodies' states
+        // (one scratch copy of the states and two load buffers, reused throughout).
         let model = self.ev.model.clone();
+        let mut states = self.ev.states.clone();
+        let mut loads_p = vec![BodyLoad::default(); nb];
+        let mut loads_m = vec![BodyLoad::default(); nb];
         for f in &model.forces {
             let bodies = f.bodies();
             for &bc in &bodies {
+                let saved = states[bc.0];
                 for c in 0..13 {
                     // Increments far below contact penetrations (~1e-8..1e-6 m): a larger one
                     // would straddle contact onset and corrupt the derivative.
@@ -618,11 +623,12 @@ impl MultibodyDae {
                             } else {
                                 y[lay.w(bc.0) + c - 7].abs()
                             });
-                    let mut loads_p = vec![BodyLoad::default(); nb];
-                    let mut loads_m = vec![BodyLoad::default(); nb];
                     for (sign, loads) in [(1.0, &mut loads_p), (-1.0, &mut loads_m)] {
-                        let mut states = self.ev.states.clone();
+                        for &b in &bodies {
+                            loads[b.0] = BodyLoad::default();
+                        }
                         let st = &mut states[bc.0];
+                        *st = saved;
                         match c {
                             0..=2 => st.r[c] += sign * h,
                             3..=6 => {
@@ -634,6 +640,7 @@ impl MultibodyDae {
                         }
                         f.apply(t, &states, loads);
                     }
+                    states[bc.0] = saved;
                     let gc = if c < 7 {
                         lay.q(bc.0) + c
                     } else {
