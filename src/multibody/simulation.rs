@@ -29,6 +29,8 @@ pub struct SimulationOptions {
     /// Measure velocity errors as index-2 variables (scaled by the step), as for very stiff
     /// mechanical systems (see `DaeSystem::error_index`).
     pub velocities_index2: bool,
+    /// Newton iterations allowed per step before the step is retried smaller.
+    pub max_newton_iters: usize,
 }
 
 impl Default for SimulationOptions {
@@ -40,6 +42,7 @@ impl Default for SimulationOptions {
             max_steps: 200_000,
             filter_error_estimate: false,
             velocities_index2: false,
+            max_newton_iters: 4,
         }
     }
 }
@@ -132,6 +135,7 @@ impl Simulation {
             suppress_algebraic: true,
             max_steps: opts.max_steps,
             filter_error_estimate: opts.filter_error_estimate,
+            max_newton_iters: opts.max_newton_iters,
             ..BdfOptions::with_tolerances(opts.rtol, opts.atol)
         };
         let solver = BdfSolver::new(dae, t0, &y0, &yp0, &[], bdf)?;
