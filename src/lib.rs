@@ -11,9 +11,15 @@
 //! 2. [`dae`] — a generic residual-form DAE integrator F(t, y, y', p) = 0: variable-order,
 //!    variable-step BDF in the style of SUNDIALS IDA, consistent initial values, dense output,
 //!    events; plus explicit baselines (Dormand–Prince 5(4), symplectic Euler). No mechanics.
-//! 3. [`validation`] — published reference problems (Andrews' squeezer, the turning stiff
-//!    spring, Robertson, a GGL pendulum) with their reference values, run by `lash validate`
-//!    and by the test suite. Its sources live in the top-level `validation/` folder.
+//! 3. [`multibody`] — rigid bodies, joints, drivers, forces, the GGL equations of motion with
+//!    an analytic sparse Jacobian, analyses and the simulation pipeline.
+//! 4. [`contact`] — contact laws, Hertz stiffness, clearance bearings, joints with clearance.
+//! 5. [`mechanisms`] — the WUT MR2120 (ideal and clearance models, the paper's studies).
+//!
+//! [`validation`] holds published reference problems (Andrews' squeezer, the turning stiff
+//! spring, Robertson, a GGL pendulum) with their reference values, run by `lash validate`
+//! and by the test suite; its sources live in the top-level `validation/` folder.
+//! [`plot`] draws PNG/SVG charts with a bundled font.
 //!
 //! Beside them: [`peers`] (diffsol's BDF as an independent cross-check) and [`bench`]
 //! (side-by-side benchmarks behind `lash bench`), which use the layers above.
