@@ -21,7 +21,7 @@
 //! and by the test suite; its sources live in the top-level `validation/` folder.
 //! [`plot`] draws PNG/SVG charts with a bundled font.
 //!
-//! Beside them: [`peers`] (diffsol's BDF as an independent cross-check) and [`bench`]
+//! Beside them: [`peers`] (diffsol's BDF as an independent cross-check) and [`mod@bench`]
 //! (side-by-side benchmarks behind `lash bench`), which use the layers above.
 //!
 //! All quantities are SI unless a doc comment says otherwise.

@@ -8,7 +8,7 @@
 //! | Robertson | index-1 DAE to t = 1e11 | Bari test set | max relative error ≤ 1e-4 |
 //! | GGL pendulum | index 2 (stabilised), 100 s | constraint g(q) = 0 | max drift ≤ 1e-8 |
 //!
-//! Every reference value is in [`reference`] with its source.
+//! Every reference value is in [`mod@reference`] with its source.
 
 pub mod andrews;
 pub mod pendulum;

@@ -93,7 +93,7 @@ pub fn inverse(g: &Geometry, m: Vector3<f64>) -> Result<[f64; 3], KinematicsErro
 /// Drive angle of branch `i` at platform centre `m` with its first and second derivatives
 /// with respect to z_M (x_M, y_M fixed): implicit differentiation of the branch equation
 /// F(φ, z) = a·cos φ + b·sin φ − k = 0, with ∂a/∂z = 0, ∂b/∂z = 1, ∂k/∂z = b/L1.
-/// Returns (q [rad], dq/dz [rad/m], d²q/dz² [rad/m²]).
+/// Returns (q in rad, dq/dz in rad/m, d²q/dz² in rad/m²).
 pub fn inverse_z_derivatives(g: &Geometry, i: usize, m: Vector3<f64>) -> Result<[f64; 3], KinematicsError> {
     let q = inverse(g, m)?[i];
     let phi = q + g.q0;
