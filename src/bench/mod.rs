@@ -52,6 +52,17 @@ struct Run {
     rhs: usize,
 }
 
+#[cfg(feature = "peers")]
+impl From<crate::peers::PeerRun> for Run {
+    fn from(r: crate::peers::PeerRun) -> Self {
+        Run {
+            y: r.y_end,
+            steps: r.steps,
+            rhs: r.rhs_evals,
+        }
+    }
+}
+
 fn row(
     problem: &str,
     solver: &str,
@@ -149,16 +160,7 @@ pub fn stiff_spring_rows(repeats: usize) -> Vec<BenchRow> {
             "diffsol BDF 0.18",
             format!("rtol=atol={tol:e}"),
             measure,
-            res.map(|r| {
-                (
-                    Run {
-                        y: r.y_end,
-                        steps: r.steps,
-                        rhs: r.rhs_evals,
-                    },
-                    wall,
-                )
-            }),
+            res.map(|r| (Run::from(r), wall)),
             err,
         ));
     }
@@ -292,16 +294,7 @@ pub fn andrews_rows(repeats: usize) -> Vec<BenchRow> {
             "diffsol BDF idx1",
             format!("rtol=atol={tol:e}"),
             measure,
-            res.map(|r| {
-                (
-                    Run {
-                        y: r.y_end,
-                        steps: r.steps,
-                        rhs: r.rhs_evals,
-                    },
-                    wall,
-                )
-            }),
+            res.map(|r| (Run::from(r), wall)),
             err,
         ));
     }
@@ -355,16 +348,7 @@ pub fn robertson_rows(repeats: usize) -> Vec<BenchRow> {
             "diffsol BDF 0.18",
             setting,
             measure,
-            res.map(|r| {
-                (
-                    Run {
-                        y: r.y_end,
-                        steps: r.steps,
-                        rhs: r.rhs_evals,
-                    },
-                    wall,
-                )
-            }),
+            res.map(|r| (Run::from(r), wall)),
             err,
         ));
     }
