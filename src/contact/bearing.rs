@@ -84,19 +84,41 @@ pub struct ClearanceBearing {
     pub friction: Option<Friction>,
 }
 
-/// Penetrations of a bearing at given body states: (radial δ, radial unit normal, axial δ,
-/// axial normal, ball centre in the base frame).
+/// Contact geometry of a bearing at given body states.
+struct BearingGeometry {
+    ball: BodyState,
+    socket: BodyState,
+    /// Ball centre, base frame.
+    centre: Vector3<f64>,
+    /// Outward socket axis, base frame.
+    axis: Vector3<f64>,
+    /// Travel of the ball centre along the axis from the socket centre, m.
+    axial: f64,
+    /// Offset of the ball centre from the socket axis, base frame.
+    radial: Vector3<f64>,
+}
+
 impl ClearanceBearing {
+    fn geometry(&self, states: &[BodyState]) -> BearingGeometry {
+        let (ball, socket) = (state(states, self.ball_body), state(states, self.socket_body));
+        let centre = ball.point(&self.ball_centre);
+        let axis = socket.a * self.socket_axis;
+        let d = centre - socket.point(&self.socket_centre);
+        let axial = d.dot(&axis);
+        BearingGeometry {
+            ball,
+            socket,
+            centre,
+            axis,
+            axial,
+            radial: d - axis * axial,
+        }
+    }
+
     /// Radial and axial penetrations (m; negative: gap) at the given states.
     pub fn penetrations(&self, states: &[BodyState]) -> (f64, f64) {
-        let (b, s) = (state(states, self.ball_body), state(states, self.socket_body));
-        let c = b.point(&self.ball_centre);
-        let o = s.point(&self.socket_centre);
-        let a = s.a * self.socket_axis;
-        let d = c - o;
-        let axial = d.dot(&a);
-        let radial = (d - a * axial).norm();
-        (radial - self.radial_clearance, axial - self.axial_stop)
+        let g = self.geometry(states);
+        (g.radial.norm() - self.radial_clearance, g.axial - self.axial_stop)
     }
 }
 
@@ -113,13 +135,14 @@ impl ForceElement for ClearanceBearing {
     }
 
     fn apply(&self, _t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
-        let (b, s) = (state(states, self.ball_body), state(states, self.socket_body));
-        let c = b.point(&self.ball_centre);
-        let o = s.point(&self.socket_centre);
-        let a = s.a * self.socket_axis;
-        let d = c - o;
-        let axial = d.dot(&a);
-        let radial_vec = d - a * axial;
+        let BearingGeometry {
+            ball: b,
+            socket: s,
+            centre: c,
+            axis: a,
+            axial,
+            radial: radial_vec,
+        } = self.geometry(states);
         let rho = radial_vec.norm();
         let v_rel = relative_velocity(&b, &s, &c);
         let mut f = Vector3::zeros();
