@@ -47,6 +47,9 @@ enum Mr2120What {
         /// Clearance sets, comma-separated (L1, L2, L3).
         #[arg(long, default_value = "L1,L2,L3")]
         sets: String,
+        /// Method: dynamic (the paper's excitation), static (envelope of equilibria) or both.
+        #[arg(long, default_value = "dynamic")]
+        method: String,
         /// Print the rows as JSON.
         #[arg(long)]
         json: bool,
@@ -373,7 +376,7 @@ fn mr2120_trajectory(clearance: &str, out: &std::path::Path, dt: f64, json: bool
     ExitCode::SUCCESS
 }
 
-fn mr2120_accuracy(points: &str, sets: &str, json: bool) -> ExitCode {
+fn mr2120_accuracy(points: &str, sets: &str, method: &str, json: bool) -> ExitCode {
     use lash::mechanisms::mr2120::{accuracy, clearance, paper, Geometry, MassProperties};
     let mut pts = vec![];
     for name in points.split(',').map(str::trim) {
@@ -395,13 +398,23 @@ fn mr2120_accuracy(points: &str, sets: &str, json: bool) -> ExitCode {
             }
         }
     }
+    let methods = match method {
+        "dynamic" => vec![accuracy::Method::Dynamic],
+        "static" => vec![accuracy::Method::Static],
+        "both" => vec![accuracy::Method::Dynamic, accuracy::Method::Static],
+        other => {
+            eprintln!("error: unknown method '{other}'; expected dynamic, static or both");
+            return ExitCode::FAILURE;
+        }
+    };
     let ex = accuracy::Excitation::default();
-    let mut progress = Progress::new("mr2120 accuracy", (pts.len() * ss.len()) as f64);
+    let mut progress = Progress::new("mr2120 accuracy", (pts.len() * ss.len() * methods.len()) as f64);
     let rows = match accuracy::table3(
         &Geometry::default(),
         &MassProperties::default(),
         &pts,
         &ss,
+        &methods,
         &ex,
         |i, _| progress.update(i as f64),
     ) {
@@ -423,9 +436,10 @@ fn mr2120_accuracy(points: &str, sets: &str, json: bool) -> ExitCode {
     }
     println!("MR2120 positioning accuracy (paper Table 3): ranges min..max; d in mm, delta in deg");
     println!("method (a): drives locked at q(M), settle {} s, then half-sine pulses of {} N along +-x, +-y, +-z and {} N m about +-x, +-y, +-z, {} s each", ex.settle, ex.force, ex.torque, ex.pulse);
+    println!("method (b): equilibria (dynamic relaxation) under no load and constant {} N / {} N m along/about +-x, +-y, +-z", ex.force, ex.torque);
     let names = ["d_xM", "d_yM", "d_zM", "dx", "dy", "dz"];
     for r in &rows {
-        println!("{} {} ({} steps)", r.point, r.set, r.steps);
+        println!("{} {} {} ({} steps)", r.point, r.set, r.method, r.steps);
         for k in 0..6 {
             let (lo, hi) = r.ranges[k];
             let (plo, phi) = r.paper[k];
@@ -636,8 +650,14 @@ fn main() -> ExitCode {
             what: Mr2120What::Kinematics { json },
         } => mr2120_kinematics(json),
         Command::Mr2120 {
-            what: Mr2120What::Accuracy { points, sets, json },
-        } => mr2120_accuracy(&points, &sets, json),
+            what:
+                Mr2120What::Accuracy {
+                    points,
+                    sets,
+                    method,
+                    json,
+                },
+        } => mr2120_accuracy(&points, &sets, &method, json),
         Command::Mr2120 {
             what:
                 Mr2120What::Trajectory {

@@ -196,3 +196,26 @@ fn radial_clearance_dominates_l2_errors_exceed_l3_along_the_trajectory() {
         );
     }
 }
+
+#[test]
+fn quasi_static_envelope_agrees_on_the_singular_z_sensitivity() {
+    use lash::mechanisms::mr2120::{accuracy, clearance, paper};
+    let g = Geometry::default();
+    let mp = MassProperties::default();
+    let l1 = clearance::clearance_set("L1").unwrap();
+    let ex = accuracy::Excitation::default();
+    let (m1, _) = accuracy::static_envelope(&g, &mp, &paper::TABLE2[0], &l1, &ex).unwrap();
+    let (m3, _) = accuracy::static_envelope(&g, &mp, &paper::TABLE2[2], &l1, &ex).unwrap();
+    let span = |r: (f64, f64)| r.1 - r.0;
+    assert!(
+        span(m3[2]) >= 10.0 * span(m1[2]),
+        "M3 {:?} vs M1 {:?}",
+        m3[2],
+        m1[2]
+    );
+    // Gravity alone sags the platform: every equilibrium at M1 lies below the ideal position.
+    assert!(m1[2].1 < 0.0);
+    let out = lash(&["mr2120", "accuracy", "--method", "sideways"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown method 'sideways'"));
+}

@@ -154,38 +154,183 @@ pub struct AccuracyRow {
     pub steps: usize,
 }
 
-/// Method (a) for the given points and sets, beside the paper's Table 3.
+/// Method of the accuracy study.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// (a) dynamic excitation, the paper's method.
+    Dynamic,
+    /// (b) envelope of quasi-static equilibria under a set of loads.
+    Static,
+}
+
+/// The given methods for the given points and sets, beside the paper's Table 3.
+#[allow(clippy::too_many_arguments)]
 pub fn table3(
     g: &Geometry,
     mp: &MassProperties,
     points: &[Table2Point],
     sets: &[ClearanceSet],
+    methods: &[Method],
     ex: &Excitation,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<Vec<AccuracyRow>, Mr2120Error> {
-    let total = points.len() * sets.len();
+    let total = points.len() * sets.len() * methods.len();
     let mut rows = vec![];
     for p in points {
         for s in sets {
-            progress(rows.len(), total);
-            let (r, steps) = dynamic_envelope(g, mp, p, s, ex)?;
-            let conv = |k: usize, v: f64| if k < 3 { v * 1e3 } else { v.to_degrees() };
-            let ranges = std::array::from_fn(|k| (conv(k, r[k].0), conv(k, r[k].1)));
-            let paper = TABLE3
-                .iter()
-                .find(|t| t.point == p.name && t.set == s.name)
-                .map(|t| t.ranges)
-                .unwrap_or([(f64::NAN, f64::NAN); 6]);
-            rows.push(AccuracyRow {
-                point: p.name.into(),
-                set: s.name.into(),
-                method: "dynamic excitation".into(),
-                ranges,
-                paper,
-                steps,
-            });
+            for &method in methods {
+                progress(rows.len(), total);
+                let (r, steps) = match method {
+                    Method::Dynamic => dynamic_envelope(g, mp, p, s, ex)?,
+                    Method::Static => static_envelope(g, mp, p, s, ex)?,
+                };
+                let conv = |k: usize, v: f64| if k < 3 { v * 1e3 } else { v.to_degrees() };
+                let ranges = std::array::from_fn(|k| (conv(k, r[k].0), conv(k, r[k].1)));
+                let paper = TABLE3
+                    .iter()
+                    .find(|t| t.point == p.name && t.set == s.name)
+                    .map(|t| t.ranges)
+                    .unwrap_or([(f64::NAN, f64::NAN); 6]);
+                let method = match method {
+                    Method::Dynamic => "dynamic excitation",
+                    Method::Static => "quasi-static envelope",
+                };
+                rows.push(AccuracyRow {
+                    point: p.name.into(),
+                    set: s.name.into(),
+                    method: method.into(),
+                    ranges,
+                    paper,
+                    steps,
+                });
+            }
         }
     }
     progress(total, total);
     Ok(rows)
+}
+
+/// Method (b): a deterministic envelope of quasi-static equilibria. With the drives locked at
+/// q(M), the platform carries in turn a constant force of [`Excitation::force`] along ±x, ±y,
+/// ±z and a constant torque of [`Excitation::torque`] about ±x, ±y, ±z (and no load); each
+/// equilibrium is found by dynamic relaxation — strong mass-proportional damping
+/// ([`RELAXATION_RATE`]) on every free body, integrated until the motion dies out — so it is
+/// an exact static equilibrium (damping does no work at rest). The ranges span the 13
+/// equilibria.
+pub fn static_envelope(
+    g: &Geometry,
+    mp: &MassProperties,
+    point: &Table2Point,
+    set: &ClearanceSet,
+    ex: &Excitation,
+) -> Result<(Ranges, usize), Mr2120Error> {
+    let m = Vector3::from(point.m);
+    let q = inverse(g, m)?;
+    let mut r = [(f64::INFINITY, f64::NEG_INFINITY); 6];
+    let mut steps = 0;
+    for case in 0..13 {
+        let mut model = clearance_model(
+            g,
+            mp,
+            m,
+            Some(q.map(MotionLaw::Constant)),
+            &bearing_design(set, DEFAULT_DAMPING),
+        )?;
+        let platform = model.platform;
+        let free: Vec<BodyHandle> = model
+            .forearms
+            .iter()
+            .chain(model.crosses.iter())
+            .copied()
+            .chain([platform])
+            .collect();
+        for &b in &free {
+            let body = model.mechanism.bodies.get(b).expect("handle of this model");
+            let (mass, inertia) = (body.mass, body.inertia);
+            model.mechanism.add_force(Box::new(Relaxation {
+                body: b,
+                mass,
+                inertia,
+            }));
+        }
+        if case < 12 {
+            let mut dir = Vector3::zeros();
+            dir[case % 6 / 2] = if case % 2 == 0 { 1.0 } else { -1.0 };
+            let (force, torque) = if case < 6 {
+                (dir * ex.force, Vector3::zeros())
+            } else {
+                (Vector3::zeros(), dir * ex.torque)
+            };
+            model.mechanism.add_force(Box::new(ConstantLoad {
+                body: platform,
+                force,
+                torque,
+            }));
+        }
+        let mut sim = Simulation::new(Arc::new(model.mechanism), 0.0, clearance_options())?;
+        let traj = sim.run(&[RELAXATION_TIME], |_| {})?;
+        steps += sim.stats().steps;
+        let s = traj.samples.last().expect("one sample");
+        let p = platform.index();
+        let qq = &s.q[7 * p..7 * p + 7];
+        let rv = rotation_vector(
+            &rotation(&Vector4::new(qq[3], qq[4], qq[5], qq[6])),
+            &Matrix3::identity(),
+        );
+        let e = [qq[0] - m.x, qq[1] - m.y, qq[2] - m.z, rv.x, rv.y, rv.z];
+        for k in 0..6 {
+            r[k].0 = r[k].0.min(e[k]);
+            r[k].1 = r[k].1.max(e[k]);
+        }
+    }
+    Ok((r, steps))
+}
+
+/// Rate of the relaxation damping of method (b), 1/s: each free body feels −ζ·m·v and
+/// −ζ·J·ω', so motion decays within a few multiples of 1/ζ = 5 ms.
+pub const RELAXATION_RATE: f64 = 200.0;
+/// Time integrated per equilibrium in method (b), s.
+pub const RELAXATION_TIME: f64 = 0.15;
+
+#[derive(Debug, Clone)]
+struct Relaxation {
+    body: BodyHandle,
+    mass: f64,
+    inertia: Matrix3<f64>,
+}
+
+impl ForceElement for Relaxation {
+    fn name(&self) -> &str {
+        "relaxation damping"
+    }
+    fn bodies(&self) -> Vec<BodyHandle> {
+        vec![self.body]
+    }
+    fn apply(&self, _t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
+        let b = self.body.index();
+        loads[b].force -= states[b].v * (RELAXATION_RATE * self.mass);
+        loads[b].torque -= self.inertia * states[b].omega * RELAXATION_RATE;
+    }
+}
+
+#[derive(Debug, Clone)]
+struct ConstantLoad {
+    body: BodyHandle,
+    force: Vector3<f64>,
+    torque: Vector3<f64>,
+}
+
+impl ForceElement for ConstantLoad {
+    fn name(&self) -> &str {
+        "static load"
+    }
+    fn bodies(&self) -> Vec<BodyHandle> {
+        vec![self.body]
+    }
+    fn apply(&self, _t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
+        let b = self.body.index();
+        loads[b].force += self.force;
+        loads[b].torque += states[b].a.transpose() * self.torque;
+    }
 }
