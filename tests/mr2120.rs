@@ -39,6 +39,23 @@ fn ideal_trajectory_follows_the_kinematic_path_and_reports_the_singular_end() {
     assert!(last.torque[0].abs() > 10.0 * run.samples[0].torque[0].abs());
 }
 
+/// The clearance model of `set` along the trajectory, sampled every 20 ms.
+fn clearance_run(set: &lash::mechanisms::mr2120::paper::ClearanceSet) -> trajectory::ClearanceRun {
+    use lash::mechanisms::mr2120::clearance::DEFAULT_DAMPING;
+    let opts = trajectory::clearance_options();
+    trajectory::run_clearance(
+        &Geometry::default(),
+        &MassProperties::default(),
+        set,
+        DEFAULT_DAMPING,
+        0.02,
+        4.0,
+        opts,
+        |_| {},
+    )
+    .unwrap()
+}
+
 fn lash(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_lash"))
         .args(args)
@@ -101,17 +118,7 @@ fn trajectory_command_rejects_unknown_clearance_sets_clearly() {
 fn clearance_model_l1_errors_explode_towards_the_direct_singularity() {
     use lash::mechanisms::mr2120::{clearance, trajectory::max_errors};
     let set = clearance::clearance_set("L1").unwrap();
-    let run = trajectory::run_clearance(
-        &Geometry::default(),
-        &MassProperties::default(),
-        &set,
-        clearance::DEFAULT_DAMPING,
-        0.02,
-        4.0,
-        trajectory::clearance_options(),
-        |_| {},
-    )
-    .unwrap();
+    let run = clearance_run(&set);
     assert_eq!(
         run.end,
         RunEnd::Completed,
@@ -166,17 +173,7 @@ fn radial_clearance_dominates_l2_errors_exceed_l3_along_the_trajectory() {
     use lash::mechanisms::mr2120::{clearance, trajectory::max_errors};
     let run = |name: &str| {
         let set = clearance::clearance_set(name).unwrap();
-        trajectory::run_clearance(
-            &Geometry::default(),
-            &MassProperties::default(),
-            &set,
-            clearance::DEFAULT_DAMPING,
-            0.02,
-            4.0,
-            trajectory::clearance_options(),
-            |_| {},
-        )
-        .unwrap()
+        clearance_run(&set)
     };
     let (l2, l3) = (run("L2"), run("L3"));
     for (a, b) in [(0.2, 1.5), (1.5, 2.5), (2.5, 3.4), (3.4, 4.0)] {

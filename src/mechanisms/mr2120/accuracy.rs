@@ -14,11 +14,10 @@ use super::geometry::{Geometry, MassProperties};
 use super::ideal::Mr2120Error;
 use super::kinematics::inverse;
 use super::paper::{ClearanceSet, Table2Point, TABLE3};
-use super::trajectory::clearance_options;
+use super::trajectory::{clearance_options, pose_errors};
 use crate::multibody::forces::{BodyLoad, BodyState, ForceElement};
-use crate::multibody::rotation::{rotation, rotation_vector};
 use crate::multibody::{BodyHandle, MotionLaw, Simulation};
-use nalgebra::{Matrix3, Vector3, Vector4};
+use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -89,6 +88,13 @@ impl ForceElement for PlatformPulses {
     }
 }
 
+fn widen(r: &mut Ranges, e: &[f64; 6]) {
+    for k in 0..6 {
+        r[k].0 = r[k].0.min(e[k]);
+        r[k].1 = r[k].1.max(e[k]);
+    }
+}
+
 /// Ranges (min, max) of d_xM, d_yM, d_zM (m) and δx, δy, δz (rad).
 pub type Ranges = [(f64, f64); 6];
 
@@ -124,15 +130,7 @@ pub fn dynamic_envelope(
     let mut r = [(f64::INFINITY, f64::NEG_INFINITY); 6];
     for s in &traj.samples {
         let qq = &s.q[7 * p..7 * p + 7];
-        let rv = rotation_vector(
-            &rotation(&Vector4::new(qq[3], qq[4], qq[5], qq[6])),
-            &Matrix3::identity(),
-        );
-        let e = [qq[0] - m.x, qq[1] - m.y, qq[2] - m.z, rv.x, rv.y, rv.z];
-        for k in 0..6 {
-            r[k].0 = r[k].0.min(e[k]);
-            r[k].1 = r[k].1.max(e[k]);
-        }
+        widen(&mut r, &pose_errors(qq, &m));
     }
     Ok((r, sim.stats().steps))
 }
@@ -274,15 +272,7 @@ pub fn static_envelope(
         let s = traj.samples.last().expect("one sample");
         let p = platform.index();
         let qq = &s.q[7 * p..7 * p + 7];
-        let rv = rotation_vector(
-            &rotation(&Vector4::new(qq[3], qq[4], qq[5], qq[6])),
-            &Matrix3::identity(),
-        );
-        let e = [qq[0] - m.x, qq[1] - m.y, qq[2] - m.z, rv.x, rv.y, rv.z];
-        for k in 0..6 {
-            r[k].0 = r[k].0.min(e[k]);
-            r[k].1 = r[k].1.max(e[k]);
-        }
+        widen(&mut r, &pose_errors(qq, &m));
     }
     Ok((r, steps))
 }

@@ -155,6 +155,21 @@ pub struct ErrorSample {
     pub delta: [f64; 3],
 }
 
+/// Errors of eq. (4.1) of a platform pose `q` = (r, p) against the ideal pose (centre
+/// `m_ideal`, base-frame orientation): (d_xM, d_yM, d_zM) in m, then (δx, δy, δz) in rad.
+pub fn pose_errors(q: &[f64], m_ideal: &Vector3<f64>) -> [f64; 6] {
+    let a = crate::multibody::rotation::rotation(&Vector4::new(q[3], q[4], q[5], q[6]));
+    let rv = rotation_vector(&a, &Matrix3::identity());
+    [
+        q[0] - m_ideal.x,
+        q[1] - m_ideal.y,
+        q[2] - m_ideal.z,
+        rv.x,
+        rv.y,
+        rv.z,
+    ]
+}
+
 /// The trajectory of the clearance model for one clearance set.
 #[derive(Debug, Clone, Serialize)]
 pub struct ClearanceRun {
@@ -213,13 +228,14 @@ pub fn run_clearance(
         .samples
         .iter()
         .map(|s| {
-            let q = &s.q[7 * platform..7 * platform + 7];
-            let a = crate::multibody::rotation::rotation(&Vector4::new(q[3], q[4], q[5], q[6]));
-            let rv = rotation_vector(&a, &Matrix3::identity());
+            let e = pose_errors(
+                &s.q[7 * platform..7 * platform + 7],
+                &Vector3::new(0.0, 0.0, zl.value(s.t)),
+            );
             ErrorSample {
                 t: s.t,
-                d: [q[0], q[1], q[2] - zl.value(s.t)],
-                delta: [rv.x, rv.y, rv.z],
+                d: [e[0], e[1], e[2]],
+                delta: [e[3], e[4], e[5]],
             }
         })
         .collect();
