@@ -82,6 +82,193 @@ enum BenchWhat {
         #[arg(long, default_value_t = 3)]
         repeats: usize,
     },
+    /// The 63-DOF MR2120 clearance model along the 4 s trajectory: lash's BDF against
+    /// Dormand–Prince at equal accuracy (platform centre within --target of a tight reference).
+    Mr2120 {
+        /// Clearance set (L1, L2, L3).
+        #[arg(long, default_value = "L1")]
+        set: String,
+        /// End of the trajectory, s.
+        #[arg(long, default_value_t = 4.0)]
+        t_end: f64,
+        /// Target accuracy of the platform centre, m.
+        #[arg(long, default_value_t = 1e-6)]
+        target: f64,
+        /// Relative tolerance of the reference run (lash BDF).
+        #[arg(long, default_value_t = 1e-7)]
+        reference_rtol: f64,
+        /// Relative tolerances swept for lash's BDF, comma-separated.
+        #[arg(long, default_value = "1e-3,1e-4,1e-5,1e-6")]
+        bdf_rtols: String,
+        /// Relative tolerances swept for Dormand–Prince, comma-separated (empty: none).
+        #[arg(long, default_value = "1e-5")]
+        dopri_rtols: String,
+        /// Hunt–Crossley contact damping α of the bearings, s/m (the studies use 1; see
+        /// lash::bench::mr2120::BENCH_DAMPING for why the benchmark uses 300).
+        #[arg(long, default_value_t = 300.0)]
+        alpha: f64,
+        /// Relative tolerance of an extra Dormand–Prince run that checks the reference (0: skip;
+        /// every Dormand–Prince run of the sweep is already an independent check).
+        #[arg(long, default_value_t = 0.0)]
+        check_rtol: f64,
+        /// Output folder for the work-precision diagram.
+        #[arg(long, default_value = "out/bench-mr2120")]
+        out: std::path::PathBuf,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn parse_list(s: &str, what: &str) -> Result<Vec<f64>, String> {
+    s.split(',')
+        .map(str::trim)
+        .filter(|x| !x.is_empty())
+        .map(|x| {
+            x.parse::<f64>()
+                .ok()
+                .filter(|v| *v > 0.0 && v.is_finite())
+                .ok_or_else(|| format!("{what}: '{x}' is not a positive number"))
+        })
+        .collect()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn bench_mr2120(
+    set: &str,
+    t_end: f64,
+    target: f64,
+    reference_rtol: f64,
+    bdf_rtols: &str,
+    dopri_rtols: &str,
+    alpha: f64,
+    check_rtol: f64,
+    out: &std::path::Path,
+    json: bool,
+) -> ExitCode {
+    use lash::bench::mr2120::{bench_mr2120, Mr2120BenchOptions};
+    let lists = parse_list(bdf_rtols, "--bdf-rtols").and_then(|b| Ok((b, parse_list(dopri_rtols, "--dopri-rtols")?)));
+    let (bdf_rtols, dopri_rtols) = match lists {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if !(t_end > 0.0 && t_end <= 4.0) || !(target > 0.0) || !(reference_rtol > 0.0) || !(alpha >= 0.0) {
+        eprintln!("error: need 0 < --t-end <= 4, --target > 0, --reference-rtol > 0 and --alpha >= 0");
+        return ExitCode::FAILURE;
+    }
+    let opts = Mr2120BenchOptions {
+        set: set.into(),
+        t_end,
+        target,
+        reference_rtol,
+        bdf_rtols,
+        dopri_rtols,
+        reference_check_rtol: (check_rtol > 0.0).then_some(check_rtol),
+        damping: lash::contact::Damping::HuntCrossley(alpha),
+        ..Default::default()
+    };
+    let mut current = String::new();
+    let mut progress = Progress::new("", 1.0);
+    let res = bench_mr2120(&opts, |label, frac| {
+        if label != current {
+            progress.finish();
+            current = label.to_string();
+            progress = Progress::new(&format!("bench mr2120: {label}"), 1.0);
+        }
+        progress.update(frac);
+    });
+    progress.finish();
+    let b = match res {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let plot_note = write_work_precision(&b, out);
+    if json {
+        println!("{}", serde_json::to_string_pretty(&b).expect("bench serialises"));
+        return ExitCode::SUCCESS;
+    }
+    println!(
+        "MR2120 clearance model ({}), trajectory 0..{} s; accuracy = largest platform-centre distance from the reference",
+        b.set, b.t_end
+    );
+    println!(
+        "reference: lash BDF rtol {:.0e}: {} steps, {:.1} s wall{}",
+        b.reference.rtol,
+        b.reference.steps,
+        b.reference.wall_s,
+        b.reference_check
+            .map(|d| format!("; Dormand-Prince check run differs by {d:.2e} m"))
+            .unwrap_or_default()
+    );
+    println!(
+        "\n{:<44} {:>7} {:>10} {:>8} {:>8} {:>9} {:>8} {:>7} {:>9}",
+        "solver", "rtol", "error [m]", "steps", "rejected", "rhs evals", "newton", "LU", "wall [s]"
+    );
+    for p in &b.points {
+        println!(
+            "{:<44} {:>7.0e} {:>10.2e} {:>8} {:>8} {:>9} {:>8} {:>7} {:>9.3}{}",
+            p.solver,
+            p.rtol,
+            p.error,
+            p.steps,
+            p.rejected,
+            p.rhs_evals,
+            p.newton_iters,
+            p.factorisations,
+            p.wall_s,
+            p.failure.as_ref().map(|f| format!("  FAILED: {f}")).unwrap_or_default()
+        );
+    }
+    println!("\nat equal accuracy (platform within {:.0e} m of the reference), cheapest setting per solver:", b.target);
+    for c in &b.comparison {
+        match &c.chosen {
+            Some(p) => println!(
+                "  {:<44} rtol {:.0e}: {:.3} s, {} steps; time {:.2}x, steps {:.2}x lash",
+                c.solver, p.rtol, p.wall_s, p.steps, c.time_ratio, c.steps_ratio
+            ),
+            None => println!("  {:<44} no setting in the sweep reached the target", c.solver),
+        }
+    }
+    println!("{plot_note}");
+    ExitCode::SUCCESS
+}
+
+fn write_work_precision(b: &lash::bench::mr2120::Mr2120Bench, out: &std::path::Path) -> String {
+    use lash::plot::{LineChart, Series};
+    if let Err(e) = std::fs::create_dir_all(out) {
+        return format!("could not create {}: {e}", out.display());
+    }
+    let series = b
+        .comparison
+        .iter()
+        .map(|c| Series {
+            name: c.solver.clone(),
+            points: b
+                .points
+                .iter()
+                .filter(|p| p.solver == c.solver && p.failure.is_none())
+                .map(|p| (p.wall_s, p.error.max(1e-12)))
+                .collect(),
+        })
+        .collect();
+    let chart = LineChart {
+        title: format!("MR2120 {} trajectory: work-precision", b.set),
+        x_label: "wall time [s]".into(),
+        y_label: "platform-centre error vs reference [m]".into(),
+        series,
+        y_range: None,
+    };
+    let stem = out.join("work-precision");
+    match chart.save_log_log(&stem) {
+        Ok(()) => format!("work-precision diagram: {}.png / .svg", stem.display()),
+        Err(e) => format!("could not write the diagram: {e}"),
+    }
 }
 
 fn mr2120_kinematics(json: bool) -> ExitCode {
@@ -667,6 +854,32 @@ fn main() -> ExitCode {
                     json,
                 },
         } => mr2120_trajectory(&clearance, &out, dt, json),
+        Command::Bench {
+            what:
+                BenchWhat::Mr2120 {
+                    set,
+                    t_end,
+                    target,
+                    reference_rtol,
+                    bdf_rtols,
+                    dopri_rtols,
+                    alpha,
+                    check_rtol,
+                    out,
+                    json,
+                },
+        } => bench_mr2120(
+            &set,
+            t_end,
+            target,
+            reference_rtol,
+            &bdf_rtols,
+            &dopri_rtols,
+            alpha,
+            check_rtol,
+            &out,
+            json,
+        ),
         Command::Bench {
             what: BenchWhat::Dae { json, repeats },
         } => {

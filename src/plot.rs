@@ -70,15 +70,25 @@ fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     c: &LineChart,
+    log: bool,
 ) -> Result<(), String>
 where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let xs = range(c.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    // Log-log charts plot log10 of positive data and label the axes with powers of ten.
+    let tf = |v: f64| if log { v.log10() } else { v };
+    let kept = |p: &&(f64, f64)| !log || (p.0 > 0.0 && p.1 > 0.0);
+    let series: Vec<Vec<(f64, f64)>> = c
+        .series
+        .iter()
+        .map(|s| s.points.iter().filter(kept).map(|&(x, y)| (tf(x), tf(y))).collect())
+        .collect();
+    let xs = range(series.iter().flat_map(|s| s.iter().map(|p| p.0)));
     let ys = c
         .y_range
-        .unwrap_or_else(|| range(c.series.iter().flat_map(|s| s.points.iter().map(|p| p.1))));
+        .map(|(a, b)| (tf(a), tf(b)))
+        .unwrap_or_else(|| range(series.iter().flat_map(|s| s.iter().map(|p| p.1))));
     let span = (ys.1 - ys.0).abs().max(ys.0.abs()).max(ys.1.abs());
     let plain = (1e-3..1e4).contains(&span);
     let mut chart = ChartBuilder::on(&root)
@@ -94,8 +104,11 @@ where
         .y_desc(&c.y_label)
         .label_style((FONT_NAME, 14))
         .axis_desc_style((FONT_NAME, 16))
+        .x_label_formatter(&|v| if log { format!("{:.1e}", 10f64.powf(*v)) } else { format!("{v}") })
         .y_label_formatter(&|v| {
-            if plain {
+            if log {
+                format!("{:.1e}", 10f64.powf(*v))
+            } else if plain {
                 format!("{v:.4}")
                     .trim_end_matches('0')
                     .trim_end_matches('.')
@@ -106,15 +119,16 @@ where
         })
         .draw()
         .map_err(|e| e.to_string())?;
-    for (k, s) in c.series.iter().enumerate() {
+    for (k, (s, pts)) in c.series.iter().zip(&series).enumerate() {
         let col = COLOURS[k % COLOURS.len()];
+        let clamp = |&(x, y): &(f64, f64)| (x, y.clamp(ys.0.min(ys.1), ys.0.max(ys.1)));
+        if log {
+            chart
+                .draw_series(pts.iter().map(|p| Circle::new(clamp(p), 4, col.filled())))
+                .map_err(|e| e.to_string())?;
+        }
         chart
-            .draw_series(LineSeries::new(
-                s.points
-                    .iter()
-                    .map(|&(x, y)| (x, y.clamp(ys.0.min(ys.1), ys.0.max(ys.1)))),
-                col.stroke_width(2),
-            ))
+            .draw_series(LineSeries::new(pts.iter().map(clamp), col.stroke_width(2)))
             .map_err(|e| e.to_string())?
             .label(s.name.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
@@ -135,12 +149,22 @@ where
 impl LineChart {
     /// Writes `<stem>.png` and `<stem>.svg` (stem without extension).
     pub fn save(&self, stem: &Path) -> Result<(), String> {
+        self.save_with(stem, false)
+    }
+
+    /// Writes `<stem>.png` and `<stem>.svg` with logarithmic x and y axes and a marker at
+    /// every point (work-precision diagrams, scaling plots); non-positive points are skipped.
+    pub fn save_log_log(&self, stem: &Path) -> Result<(), String> {
+        self.save_with(stem, true)
+    }
+
+    fn save_with(&self, stem: &Path, log: bool) -> Result<(), String> {
         ensure_font();
         let png = stem.with_extension("png");
         let svg = stem.with_extension("svg");
-        draw(BitMapBackend::new(&png, (1000, 600)).into_drawing_area(), self)
+        draw(BitMapBackend::new(&png, (1000, 600)).into_drawing_area(), self, log)
             .map_err(|e| format!("{}: {e}", png.display()))?;
-        draw(SVGBackend::new(&svg, (1000, 600)).into_drawing_area(), self)
+        draw(SVGBackend::new(&svg, (1000, 600)).into_drawing_area(), self, log)
             .map_err(|e| format!("{}: {e}", svg.display()))?;
         Ok(())
     }

@@ -1,6 +1,8 @@
 //! Side-by-side benchmarks: every number a performance claim quotes comes from here
 //! (`lash bench dae`), measured in one run with ratios to lash.
 
+pub mod mr2120;
+
 use crate::dae::explicit::{Dopri5, Dopri5Options, SymplecticEuler};
 use crate::dae::{BdfOptions, BdfSolver, DaeSystem};
 use crate::validation::{andrews, reference, robertson, stiff_spring};

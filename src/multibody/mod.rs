@@ -12,6 +12,7 @@
 //! | `model.rs` | the mechanism (model) and its builder |
 //! | `formulation.rs` | GGL index-2 equations of motion as a `dae::DaeSystem` |
 //! | `analysis.rs` | assembly, velocity/acceleration analysis, reactions, singularity measure |
+//! | `explicit.rs` | the same equations as an ODE (index-1, Baumgarte) for explicit integrators |
 //! | `simulation.rs` | the pipeline: initial state → BDF → samples, singularity watch |
 //! | `output.rs` | CSV per body and per joint |
 
@@ -20,6 +21,7 @@ pub mod body;
 pub(crate) mod constraints;
 pub mod drivers;
 pub mod error;
+pub mod explicit;
 pub mod forces;
 pub mod formulation;
 pub mod joints;
@@ -32,6 +34,7 @@ pub use analysis::{Analysis, Reaction, Snapshot};
 pub use body::{Attach, BodyHandle, BodySet, RigidBody};
 pub use drivers::{MotionLaw, Profile};
 pub use error::ModelError;
+pub use explicit::{BaumgarteGains, MultibodyOde};
 pub use forces::{BodyLoad, BodyState, ForceElement, PointForce, SpringDamper, Torque};
 pub use formulation::{Layout, MultibodyDae};
 pub use joints::{Joint, JointFrame, JointHandle, JointKind};

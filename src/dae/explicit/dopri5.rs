@@ -207,6 +207,7 @@ impl<S: OdeSystem> Dopri5<S> {
             if h.abs() < 16.0 * f64::EPSILON * self.t.abs().max(1e-300) {
                 return Err(ExplicitError::StepTooSmall { t: self.t, h });
             }
+            let mut recoverable = false;
             for s in 1..7 {
                 for i in 0..n {
                     let mut acc = self.y[i];
@@ -216,14 +217,27 @@ impl<S: OdeSystem> Dopri5<S> {
                     ytmp[i] = acc;
                 }
                 let mut ks = std::mem::take(&mut self.k[s]);
-                self.sys
-                    .rhs(self.t + C[s] * h, &ytmp, &self.p, &mut ks)
-                    .map_err(|e| eval_err(self.t, e))?;
+                let r = self.sys.rhs(self.t + C[s] * h, &ytmp, &self.p, &mut ks);
                 self.k[s] = ks;
                 self.stats.rhs_evals += 1;
+                match r {
+                    Ok(()) => {}
+                    // A stage outside the model's domain: reject the step and retry smaller.
+                    Err(EvalError::Recoverable(_)) => {
+                        recoverable = true;
+                        break;
+                    }
+                    Err(e) => return Err(eval_err(self.t + C[s] * h, e)),
+                }
                 if s == 6 {
                     ynew.copy_from_slice(&ytmp);
                 }
+            }
+            if recoverable {
+                self.stats.rejected += 1;
+                self.h = h * 0.25;
+                last = false;
+                continue;
             }
             let mut err = 0.0;
             for i in 0..n {
