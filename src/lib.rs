@@ -30,6 +30,7 @@
 pub mod bench;
 pub mod contact;
 pub mod dae;
+pub mod diagnose;
 pub mod mechanisms;
 pub mod multibody;
 pub mod peers;

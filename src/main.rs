@@ -24,6 +24,42 @@ enum Command {
         #[command(subcommand)]
         what: BenchWhat,
     },
+    /// Locate where a model and recordings disagree, name the missing physics, fit it, and
+    /// show the held-out improvement (equation error: measured motion -> inverse dynamics ->
+    /// measured torques). Defaults: the DFKI double pendulum, fit on runs 00-05, held out 12-13.
+    Diagnose {
+        /// Nominal model (double-pendulum: the DFKI pendulum's rigid model from --params).
+        #[arg(long, default_value = "double-pendulum")]
+        model: String,
+        /// README with the model's parameter table.
+        #[arg(long, default_value = lash::mechanisms::double_pendulum::DFKI_README)]
+        params: std::path::PathBuf,
+        /// Recordings to fit on, comma-separated CSV paths.
+        #[arg(long, default_value = DFKI_FIT)]
+        fit: String,
+        /// Recordings held out (never fitted), comma-separated CSV paths.
+        #[arg(long, default_value = DFKI_HOLDOUT)]
+        holdout: String,
+        /// Time column.
+        #[arg(long, default_value = "time")]
+        time_column: String,
+        /// Column mapping role=column for q1, q2, qd1, qd2, tau1, tau2.
+        #[arg(
+            long,
+            default_value = "q1=pos_filt1,q2=pos_filt2,qd1=vel_filt1,qd2=vel_filt2,tau1=tau_meas1,tau2=tau_meas2"
+        )]
+        map: String,
+        /// Half-width (samples) of the local line that differentiates rates into
+        /// accelerations, or "auto": chosen by cross-validation on the fit recordings.
+        #[arg(long, default_value = "auto")]
+        derivative_window: String,
+        /// Report folder (Markdown, JSON, PNG/SVG plots).
+        #[arg(long, default_value = "out/diagnose")]
+        report: std::path::PathBuf,
+        /// Print the diagnosis as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// The WUT MR2120 parallel mechanism of the reference paper.
     Mr2120 {
         #[command(subcommand)]
@@ -120,6 +156,117 @@ enum BenchWhat {
     },
 }
 
+const DFKI_FIT: &str = "../shared/data/dfki-double-pendulum/recordings/trajectory_00.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_01.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_02.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_03.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_04.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_05.csv";
+const DFKI_HOLDOUT: &str = "../shared/data/dfki-double-pendulum/recordings/trajectory_12.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_13.csv";
+
+#[allow(clippy::too_many_arguments)]
+fn diagnose_cmd(
+    model: &str,
+    params: &std::path::Path,
+    fit: &str,
+    holdout: &str,
+    time_column: &str,
+    map: &str,
+    half_window: &str,
+    report: &std::path::Path,
+    json: bool,
+) -> ExitCode {
+    use lash::diagnose::data::roles;
+    use lash::diagnose::equation_error::{diagnose_recordings, DiagnoseOptions};
+    use lash::diagnose::model::DoublePendulumModel;
+    use lash::diagnose::recording::{parse_mapping, read_csv};
+    let fail = |e: &dyn std::fmt::Display| {
+        eprintln!("error: {e}");
+        ExitCode::FAILURE
+    };
+    if model != "double-pendulum" {
+        return fail(&format!("unknown model '{model}' (available: double-pendulum)"));
+    }
+    let params = match lash::mechanisms::double_pendulum::DoublePendulumParams::from_readme(params) {
+        Ok(p) => p,
+        Err(e) => return fail(&e),
+    };
+    let m = DoublePendulumModel { params };
+    let mapping = match parse_mapping(map, &roles(2)) {
+        Ok(m) => m,
+        Err(e) => return fail(&e),
+    };
+    let windows: Vec<usize> = if half_window == "auto" {
+        vec![2, 3, 5, 8, 12, 16, 20, 25, 30, 40, 50]
+    } else {
+        match half_window.parse::<usize>() {
+            Ok(w) if w >= 1 => vec![w],
+            _ => {
+                return fail(&format!(
+                    "--derivative-window: '{half_window}' is neither 'auto' nor a positive integer"
+                ))
+            }
+        }
+    };
+    let load = |list: &str| -> Result<Vec<lash::diagnose::recording::Recording>, String> {
+        list.split(',')
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .map(|f| read_csv(std::path::Path::new(f), time_column, &mapping).map_err(|e| e.to_string()))
+            .collect()
+    };
+    let (fit, held) = match load(fit).and_then(|f| Ok((f, load(holdout)?))) {
+        Ok(x) => x,
+        Err(e) => return fail(&e),
+    };
+    if fit.is_empty() {
+        return fail(&"--fit names no recording");
+    }
+    let mut progress = Progress::new("diagnose", 1.0);
+    let d = match diagnose_recordings(&m, &fit, &held, &windows, &DiagnoseOptions::default(), |_, f| {
+        progress.update(f)
+    }) {
+        Ok(d) => d,
+        Err(e) => return fail(&e),
+    };
+    progress.finish();
+    let md = match lash::diagnose::report::write_report(&d, report) {
+        Ok(p) => p,
+        Err(e) => return fail(&e),
+    };
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&d).expect("diagnosis serialises")
+        );
+        return ExitCode::SUCCESS;
+    }
+    println!("{}\n", d.verdict);
+    println!(
+        "{:<22} {:>10} {:>12} {:>12} {:>14} {:>14} {:>10}",
+        "channel", "noise", "fit before", "fit after", "held-out bef.", "held-out aft.", "reduction"
+    );
+    for c in &d.channels {
+        println!(
+            "{:<22} {:>10.4} {:>12.4} {:>12.4} {:>14.4} {:>14.4} {:>9.1}%",
+            c.channel,
+            c.noise_floor,
+            c.fit_before,
+            c.fit_after,
+            c.holdout_before,
+            c.holdout_after,
+            100.0 * c.holdout_reduction
+        );
+    }
+    println!("\nselected (in order):");
+    for s in &d.steps {
+        println!(
+            "  {:<60} statistic {:>10.1}  p {:.1e}  CV RMS {:.3}",
+            s.added, s.statistic, s.p_value, s.cv_rms
+        );
+    }
+    if d.steps.is_empty() {
+        println!("  none: no significant mismatch");
+    }
+    println!("\nreport: {}", md.display());
+    ExitCode::SUCCESS
+}
+
 fn parse_list(s: &str, what: &str) -> Result<Vec<f64>, String> {
     s.split(',')
         .map(str::trim)
@@ -147,7 +294,8 @@ fn bench_mr2120(
     json: bool,
 ) -> ExitCode {
     use lash::bench::mr2120::{bench_mr2120, Mr2120BenchOptions};
-    let lists = parse_list(bdf_rtols, "--bdf-rtols").and_then(|b| Ok((b, parse_list(dopri_rtols, "--dopri-rtols")?)));
+    let lists =
+        parse_list(bdf_rtols, "--bdf-rtols").and_then(|b| Ok((b, parse_list(dopri_rtols, "--dopri-rtols")?)));
     let (bdf_rtols, dopri_rtols) = match lists {
         Ok(l) => l,
         Err(e) => {
@@ -155,7 +303,8 @@ fn bench_mr2120(
             return ExitCode::FAILURE;
         }
     };
-    if !(t_end > 0.0 && t_end <= 4.0) || !(target > 0.0) || !(reference_rtol > 0.0) || !(alpha >= 0.0) {
+    let valid = t_end > 0.0 && t_end <= 4.0 && target > 0.0 && reference_rtol > 0.0 && alpha >= 0.0;
+    if !valid {
         eprintln!("error: need 0 < --t-end <= 4, --target > 0, --reference-rtol > 0 and --alpha >= 0");
         return ExitCode::FAILURE;
     }
@@ -222,10 +371,16 @@ fn bench_mr2120(
             p.newton_iters,
             p.factorisations,
             p.wall_s,
-            p.failure.as_ref().map(|f| format!("  FAILED: {f}")).unwrap_or_default()
+            p.failure
+                .as_ref()
+                .map(|f| format!("  FAILED: {f}"))
+                .unwrap_or_default()
         );
     }
-    println!("\nat equal accuracy (platform within {:.0e} m of the reference), cheapest setting per solver:", b.target);
+    println!(
+        "\nat equal accuracy (platform within {:.0e} m of the reference), cheapest setting per solver:",
+        b.target
+    );
     for c in &b.comparison {
         match &c.chosen {
             Some(p) => println!(
@@ -833,6 +988,27 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         }
+        Command::Diagnose {
+            model,
+            params,
+            fit,
+            holdout,
+            time_column,
+            map,
+            derivative_window,
+            report,
+            json,
+        } => diagnose_cmd(
+            &model,
+            &params,
+            &fit,
+            &holdout,
+            &time_column,
+            &map,
+            &derivative_window,
+            &report,
+            json,
+        ),
         Command::Mr2120 {
             what: Mr2120What::Kinematics { json },
         } => mr2120_kinematics(json),

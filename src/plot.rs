@@ -82,7 +82,13 @@ where
     let series: Vec<Vec<(f64, f64)>> = c
         .series
         .iter()
-        .map(|s| s.points.iter().filter(kept).map(|&(x, y)| (tf(x), tf(y))).collect())
+        .map(|s| {
+            s.points
+                .iter()
+                .filter(kept)
+                .map(|&(x, y)| (tf(x), tf(y)))
+                .collect()
+        })
         .collect();
     let xs = range(series.iter().flat_map(|s| s.iter().map(|p| p.0)));
     let ys = c
@@ -104,7 +110,13 @@ where
         .y_desc(&c.y_label)
         .label_style((FONT_NAME, 14))
         .axis_desc_style((FONT_NAME, 16))
-        .x_label_formatter(&|v| if log { format!("{:.1e}", 10f64.powf(*v)) } else { format!("{v}") })
+        .x_label_formatter(&|v| {
+            if log {
+                format!("{:.1e}", 10f64.powf(*v))
+            } else {
+                format!("{v}")
+            }
+        })
         .y_label_formatter(&|v| {
             if log {
                 format!("{:.1e}", 10f64.powf(*v))
@@ -162,8 +174,12 @@ impl LineChart {
         ensure_font();
         let png = stem.with_extension("png");
         let svg = stem.with_extension("svg");
-        draw(BitMapBackend::new(&png, (1000, 600)).into_drawing_area(), self, log)
-            .map_err(|e| format!("{}: {e}", png.display()))?;
+        draw(
+            BitMapBackend::new(&png, (1000, 600)).into_drawing_area(),
+            self,
+            log,
+        )
+        .map_err(|e| format!("{}: {e}", png.display()))?;
         draw(SVGBackend::new(&svg, (1000, 600)).into_drawing_area(), self, log)
             .map_err(|e| format!("{}: {e}", svg.display()))?;
         Ok(())

@@ -9,12 +9,12 @@
 //! ([`MultibodyOde`]), the formulation explicit multibody codes step. Both start from the
 //! same consistent initial state.
 
+use crate::contact::Damping;
 use crate::dae::explicit::{Dopri5, Dopri5Options};
 use crate::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clearance_set};
 use crate::mechanisms::mr2120::paper::TABLE2;
 use crate::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
 use crate::mechanisms::mr2120::{Geometry, MassProperties, Mr2120Error};
-use crate::contact::Damping;
 use crate::multibody::{Analysis, Mechanism, MultibodyOde, Simulation, SimulationOptions};
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -148,7 +148,13 @@ fn build(opts: &Mr2120BenchOptions) -> Result<Model, Mr2120Error> {
     let mp = MassProperties::default();
     let set = clearance_set(&opts.set)?;
     let m1 = Vector3::from(TABLE2[0].m);
-    let model = clearance_model(&g, &mp, m1, Some(drive_laws(&g)), &bearing_design(&set, opts.damping))?;
+    let model = clearance_model(
+        &g,
+        &mp,
+        m1,
+        Some(drive_laws(&g)),
+        &bearing_design(&set, opts.damping),
+    )?;
     let n = (opts.t_end / opts.dt).round() as usize;
     Ok(Model {
         platform: model.platform.index(),
@@ -197,11 +203,19 @@ fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, O
             wp.newton_iters = st.newton_iters;
             wp.factorisations = st.lu_factorisations;
             let p = m.platform;
-            let path = tr.samples.iter().map(|s| [s.q[7 * p], s.q[7 * p + 1], s.q[7 * p + 2]]).collect();
+            let path = tr
+                .samples
+                .iter()
+                .map(|s| [s.q[7 * p], s.q[7 * p + 1], s.q[7 * p + 2]])
+                .collect();
             (wp, Some(path))
         }
         Ok((tr, _)) => {
-            wp.failure = Some(format!("stopped at t = {:.3} s: {:?}", tr.samples.last().map_or(0.0, |s| s.t), tr.end));
+            wp.failure = Some(format!(
+                "stopped at t = {:.3} s: {:?}",
+                tr.samples.last().map_or(0.0, |s| s.t),
+                tr.end
+            ));
             (wp, None)
         }
         Err(e) => {

@@ -1,7 +1,10 @@
 //! Concrete mechanisms built on lash's layers.
 //!
+//! * [`double_pendulum`] — the DFKI two-link pendulum's nominal rigid model (real recordings
+//!   for the diagnosis).
 //! * [`mr2120`] — the WUT MR2120 3-RUU translational parallel mechanism of Bałchanowski's
 //!   paper: geometry, closed-form inverse and numerical forward kinematics, Jacobians,
 //!   singularity measures, and the paper's published values.
 
+pub mod double_pendulum;
 pub mod mr2120;

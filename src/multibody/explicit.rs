@@ -126,7 +126,10 @@ impl MultibodyOde {
                 s.ev.eval_constraints(t + sign * eps);
                 s.velocity_constraints(out);
             }
-            cp.iter().zip(&cm).map(|(a, b)| (a - b) / (2.0 * eps)).collect::<Vec<_>>()
+            cp.iter()
+                .zip(&cm)
+                .map(|(a, b)| (a - b) / (2.0 * eps))
+                .collect::<Vec<_>>()
         };
         let h = 1e-3 / scale;
         let d1 = central(self, h);
@@ -164,7 +167,7 @@ impl OdeSystem for MultibodyOde {
         }
         // Constraint rows restricted to their bodies: (body, translational, rotational).
         let m = lay.m;
-        let mut brows: Vec<[Option<(usize, Vector3<f64>, Vector3<f64>)>; 2]> = Vec::with_capacity(m);
+        let mut brows: Vec<[Option<BodyRow>; 2]> = Vec::with_capacity(m);
         for (k, &(si, sj)) in self.sides.iter().enumerate() {
             let mut r = [None, None];
             for (slot, (side_i, b)) in [(true, si), (false, sj)].into_iter().enumerate() {
@@ -182,7 +185,8 @@ impl OdeSystem for MultibodyOde {
         let mut s = DMatrix::zeros(m, m);
         let mass: Vec<f64> = self.ev.model.bodies.bodies.iter().map(|b| b.mass).collect();
         // M⁻¹Bᵀ column k, per body touched.
-        let minv_bt = |b: usize, bt: &Vector3<f64>, br: &Vector3<f64>| (bt / mass[b], self.inv_inertia[b] * br);
+        let minv_bt =
+            |b: usize, bt: &Vector3<f64>, br: &Vector3<f64>| (bt / mass[b], self.inv_inertia[b] * br);
         for k in 0..m {
             let mut bw0 = 0.0;
             for (b, bt, br) in brows[k].iter().flatten() {
@@ -225,6 +229,9 @@ impl OdeSystem for MultibodyOde {
         check_finite(t, dy)
     }
 }
+
+/// A constraint row restricted to one body: (body, translational part, rotational part).
+type BodyRow = (usize, Vector3<f64>, Vector3<f64>);
 
 fn check_finite(t: f64, dy: &[f64]) -> Result<(), EvalError> {
     match dy.iter().position(|v| !v.is_finite()) {

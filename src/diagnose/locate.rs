@@ -1,0 +1,289 @@
+//! Locate: where the nominal residual rises above the noise floor, and which state of the
+//! mechanism those places share (velocity reversals, load reversals, acceleration peaks,
+//! high speed).
+
+use super::data::MotionData;
+use super::model::InverseDynamicsModel;
+use super::signal::rms;
+use serde::Serialize;
+
+/// Every tunable of the localisation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocateOptions {
+    /// Window length, s.
+    pub window_s: f64,
+    /// A window is significant when its residual RMS exceeds this many noise floors.
+    pub threshold: f64,
+    /// Most windows reported.
+    pub max_findings: usize,
+    /// Speed below which a joint counts as at rest (velocity reversals need more), rad/s.
+    pub rest_speed: f64,
+}
+
+impl Default for LocateOptions {
+    fn default() -> Self {
+        Self {
+            window_s: 0.5,
+            threshold: 3.0,
+            max_findings: 6,
+            rest_speed: 0.05,
+        }
+    }
+}
+
+/// One significant window.
+#[derive(Debug, Clone, Serialize)]
+pub struct Finding {
+    /// Recording.
+    pub recording: String,
+    /// Channel (joint torque).
+    pub channel: String,
+    /// Window start, s.
+    pub t0: f64,
+    /// Window end, s.
+    pub t1: f64,
+    /// Residual RMS in the window, N·m.
+    pub rms: f64,
+    /// Noise floor of the channel, N·m.
+    pub noise_floor: f64,
+    /// State tags of the window.
+    pub tags: Vec<String>,
+    /// The finding in words.
+    pub text: String,
+}
+
+/// How strongly a state tag goes with a large residual on a channel.
+#[derive(Debug, Clone, Serialize)]
+pub struct Association {
+    /// Channel.
+    pub channel: String,
+    /// State tag.
+    pub tag: String,
+    /// Mean residual RMS in windows with the tag / without it.
+    pub ratio: f64,
+    /// Windows with the tag.
+    pub windows: usize,
+}
+
+/// How closely a channel's residual follows a state signal (Pearson correlation over all
+/// samples): a residual following the sign of a joint's velocity looks like friction, one
+/// following an acceleration like inertia, one following the measured load like a scale error.
+#[derive(Debug, Clone, Serialize)]
+pub struct StateCorrelation {
+    /// Channel.
+    pub channel: String,
+    /// State signal.
+    pub state: String,
+    /// Correlation coefficient.
+    pub r: f64,
+}
+
+/// Result of the localisation.
+#[derive(Debug, Clone, Serialize, Default)]
+pub struct Location {
+    /// Per channel, the state signals the residual follows most closely (|r| ≥ 0.3), strongest
+    /// first.
+    pub correlations: Vec<StateCorrelation>,
+    /// Strongest significant windows.
+    pub findings: Vec<Finding>,
+    /// Per channel, the state tags that go with large residuals, strongest first.
+    pub associations: Vec<Association>,
+    /// Fraction of windows significant, per channel.
+    pub significant_fraction: Vec<(String, f64)>,
+}
+
+fn pearson(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len()) as f64;
+    if n < 2.0 {
+        return 0.0;
+    }
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma).powi(2);
+        sbb += (y - mb).powi(2);
+    }
+    if saa == 0.0 || sbb == 0.0 {
+        0.0
+    } else {
+        sab / (saa * sbb).sqrt()
+    }
+}
+
+fn percentile(mut v: Vec<f64>, p: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * p).round() as usize]
+}
+
+/// Windows of the nominal residual (parameters `theta`) of every recording.
+pub fn locate(
+    model: &dyn InverseDynamicsModel,
+    data: &[MotionData],
+    theta: &[f64],
+    sigma: &[f64],
+    opts: &LocateOptions,
+) -> Location {
+    let nj = model.joints();
+    let acc_hi: Vec<f64> = (0..nj)
+        .map(|j| {
+            percentile(
+                data.iter()
+                    .flat_map(|d| d.qdd[j].iter().map(|v| v.abs()))
+                    .collect(),
+                0.9,
+            )
+        })
+        .collect();
+    let spd_hi: Vec<f64> = (0..nj)
+        .map(|j| {
+            percentile(
+                data.iter()
+                    .flat_map(|d| d.qd[j].iter().map(|v| v.abs()))
+                    .collect(),
+                0.75,
+            )
+        })
+        .collect();
+    // (channel, rms, tags, finding)
+    let mut windows: Vec<(usize, f64, Vec<String>, Finding)> = vec![];
+    for d in data {
+        let nominal = d.model_torques(model, theta);
+        let mut a = 0;
+        while a < d.len() {
+            let t_end = d.t[a] + opts.window_s;
+            let b = d.t.iter().position(|&t| t >= t_end).unwrap_or(d.len());
+            if b - a < 5 {
+                break;
+            }
+            let mut tags = vec![];
+            for k in 0..nj {
+                let qd = &d.qd[k][a..b];
+                let moving: Vec<f64> = qd.iter().copied().filter(|v| v.abs() > opts.rest_speed).collect();
+                if moving.windows(2).any(|w| w[0] * w[1] < 0.0) {
+                    tags.push(format!("velocity reversal of joint {}", k + 1));
+                }
+                let tau = &d.tau[k][a..b];
+                let loaded: Vec<f64> = tau.iter().copied().filter(|v| v.abs() > 3.0 * sigma[k]).collect();
+                if loaded.windows(2).any(|w| w[0] * w[1] < 0.0) {
+                    tags.push(format!("load reversal in joint {}", k + 1));
+                }
+                if d.qdd[k][a..b].iter().any(|v| v.abs() > acc_hi[k]) {
+                    tags.push(format!("acceleration peak of joint {}", k + 1));
+                }
+                if qd.iter().map(|v| v.abs()).sum::<f64>() / qd.len() as f64 > spd_hi[k] {
+                    tags.push(format!("high speed of joint {}", k + 1));
+                }
+                if qd.iter().all(|v| v.abs() <= opts.rest_speed) {
+                    tags.push(format!("joint {} at rest", k + 1));
+                }
+            }
+            for j in 0..nj {
+                let res: Vec<f64> = (a..b).map(|i| d.tau[j][i] - nominal[j][i]).collect();
+                let r = rms(&res);
+                let f = Finding {
+                    recording: d.name.clone(),
+                    channel: model.joint_name(j),
+                    t0: d.t[a],
+                    t1: d.t[b - 1],
+                    rms: r,
+                    noise_floor: sigma[j],
+                    tags: tags.clone(),
+                    text: String::new(),
+                };
+                windows.push((j, r, tags.clone(), f));
+            }
+            a = b;
+        }
+    }
+    let mut out = Location::default();
+    for j in 0..nj {
+        let mut res = vec![];
+        let mut states: Vec<(String, Vec<f64>)> = (0..nj)
+            .flat_map(|k| {
+                [
+                    format!("sign of joint {} velocity", k + 1),
+                    format!("joint {} velocity", k + 1),
+                    format!("joint {} acceleration", k + 1),
+                    format!("joint {} measured torque", k + 1),
+                ]
+            })
+            .map(|n| (n, vec![]))
+            .collect();
+        for d in data {
+            let nominal = d.model_torques(model, theta);
+            res.extend((0..d.len()).map(|i| d.tau[j][i] - nominal[j][i]));
+            for k in 0..nj {
+                states[4 * k]
+                    .1
+                    .extend(d.qd[k].iter().map(|v| (v / opts.rest_speed).tanh()));
+                states[4 * k + 1].1.extend(&d.qd[k]);
+                states[4 * k + 2].1.extend(&d.qdd[k]);
+                states[4 * k + 3].1.extend(&d.tau[k]);
+            }
+        }
+        let mut cs: Vec<StateCorrelation> = states
+            .into_iter()
+            .map(|(name, x)| StateCorrelation {
+                channel: model.joint_name(j),
+                state: name,
+                r: pearson(&res, &x),
+            })
+            .filter(|c| c.r.abs() >= 0.3)
+            .collect();
+        cs.sort_by(|a, b| b.r.abs().total_cmp(&a.r.abs()));
+        out.correlations.extend(cs.into_iter().take(3));
+    }
+    for j in 0..nj {
+        let ch: Vec<&(usize, f64, Vec<String>, Finding)> = windows.iter().filter(|w| w.0 == j).collect();
+        if ch.is_empty() {
+            continue;
+        }
+        let sig = ch.iter().filter(|w| w.1 > opts.threshold * sigma[j]).count();
+        out.significant_fraction
+            .push((model.joint_name(j), sig as f64 / ch.len() as f64));
+        let mut tags: Vec<String> = ch.iter().flat_map(|w| w.2.clone()).collect();
+        tags.sort();
+        tags.dedup();
+        let mut assoc: Vec<Association> = tags
+            .iter()
+            .filter_map(|tag| {
+                let with: Vec<f64> = ch.iter().filter(|w| w.2.contains(tag)).map(|w| w.1).collect();
+                let without: Vec<f64> = ch.iter().filter(|w| !w.2.contains(tag)).map(|w| w.1).collect();
+                if with.len() < 3 || without.len() < 3 {
+                    return None;
+                }
+                let m = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+                Some(Association {
+                    channel: model.joint_name(j),
+                    tag: tag.clone(),
+                    ratio: m(&with) / m(&without).max(1e-300),
+                    windows: with.len(),
+                })
+            })
+            .collect();
+        assoc.sort_by(|a, b| b.ratio.total_cmp(&a.ratio));
+        out.associations.extend(assoc.into_iter().take(3));
+    }
+    let mut sig: Vec<_> = windows
+        .into_iter()
+        .filter(|w| w.1 > opts.threshold * sigma[w.0])
+        .collect();
+    sig.sort_by(|a, b| (b.1 / sigma[b.0]).total_cmp(&(a.1 / sigma[a.0])));
+    for (_, _, tags, mut f) in sig.into_iter().take(opts.max_findings) {
+        let state = if tags.is_empty() {
+            "no distinctive state".to_string()
+        } else {
+            tags.join(", ")
+        };
+        f.text = format!(
+            "in the {} torque, {} t = {:.2}–{:.2} s ({state}): residual {:.3} N m RMS against a {:.4} N m noise floor",
+            f.channel, f.recording, f.t0, f.t1, f.rms, f.noise_floor
+        );
+        out.findings.push(f);
+    }
+    out
+}

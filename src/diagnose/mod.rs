@@ -1,0 +1,51 @@
+//! Diagnosis: locate where simulation and recordings disagree, name the physics the model
+//! leaves out, fit it, and show the improvement on data the fit never saw.
+//!
+//! | file | concern |
+//! |---|---|
+//! | `recording.rs` | CSV recordings, column mapping, errors with file and line |
+//! | `signal.rs` | noise floor, derivatives on irregular grids, autocorrelation |
+//! | `model.rs` | the nominal model in equation-error form, its perturbable parameters |
+//! | `data.rs` | measured motion and torques of one recording |
+//! | `candidates.rs` | the library of candidate physics and their regressors |
+//! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
+//! | `locate.rs` | significant residual windows tied to the mechanism's state |
+//! | `equation_error.rs` | ranking, greedy selection, estimates, confounding, held-out check |
+//! | `report.rs` | the report folder (Markdown, JSON, plots) |
+//!
+//! Equation-error mode needs no integration: the parameter sensitivities are the
+//! derivatives ∂τ/∂θ of the inverse dynamics (central differences of a closed-form or
+//! multibody model), exact for effects linear in their parameters.
+//!
+//! ```no_run
+//! use lash::diagnose::{data::MotionData, equation_error::{diagnose, DiagnoseOptions}};
+//! use lash::diagnose::model::DoublePendulumModel;
+//! use lash::diagnose::recording::read_csv;
+//! use lash::mechanisms::double_pendulum::{DoublePendulumParams, DFKI_README};
+//! use std::path::Path;
+//!
+//! let model = DoublePendulumModel { params: DoublePendulumParams::from_readme(Path::new(DFKI_README))? };
+//! let map: Vec<(String, String)> = [("q1", "pos_filt1"), ("q2", "pos_filt2"), ("qd1", "vel_filt1"),
+//!     ("qd2", "vel_filt2"), ("tau1", "tau_meas1"), ("tau2", "tau_meas2")]
+//!     .iter().map(|(a, b)| (a.to_string(), b.to_string())).collect();
+//! let load = |f: &str| -> Result<MotionData, Box<dyn std::error::Error>> {
+//!     let rec = read_csv(Path::new(f), "time", &map)?;
+//!     Ok(MotionData::from_recording(&rec, 2, 5)?)
+//! };
+//! let dir = "../shared/data/dfki-double-pendulum/recordings";
+//! let fit = vec![load(&format!("{dir}/trajectory_00.csv"))?, load(&format!("{dir}/trajectory_01.csv"))?];
+//! let held = vec![load(&format!("{dir}/trajectory_12.csv"))?];
+//! let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {});
+//! println!("{}", d.verdict);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod candidates;
+pub mod data;
+pub mod equation_error;
+pub mod locate;
+pub mod model;
+pub mod recording;
+pub mod report;
+pub mod signal;
+pub mod stats;

@@ -1,0 +1,219 @@
+//! The report folder: `report.md` (for people), `report.json` (for scripts), and residual
+//! plots before/after the fit for every held-out recording and channel (PNG and SVG).
+
+use super::equation_error::Diagnosis;
+use crate::plot::{LineChart, Series};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Why the report could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// File system.
+    #[error("{path}: {message}")]
+    Io {
+        /// Path.
+        path: String,
+        /// Message.
+        message: String,
+    },
+}
+
+fn io(path: &Path, e: impl std::fmt::Display) -> ReportError {
+    ReportError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    }
+}
+
+fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '-'
+            }
+        })
+        .collect::<String>()
+        .split('-')
+        .filter(|p| !p.is_empty())
+        .collect::<Vec<_>>()
+        .join("-")
+}
+
+/// Writes the report into `dir` (created if needed); returns the Markdown path.
+pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<std::path::PathBuf, ReportError> {
+    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+    let mut plots = vec![];
+    for tr in &d.traces {
+        let stem = dir.join(format!("holdout-{}-{}", slug(&tr.recording), slug(&tr.channel)));
+        let chart = LineChart {
+            title: format!("{}: {} torque residual (held out)", tr.recording, tr.channel),
+            x_label: "time [s]".into(),
+            y_label: "measured - model torque [N m]".into(),
+            series: vec![
+                Series {
+                    name: "nominal model".into(),
+                    points: tr.t.iter().copied().zip(tr.before.iter().copied()).collect(),
+                },
+                Series {
+                    name: "with the selected physics".into(),
+                    points: tr.t.iter().copied().zip(tr.after.iter().copied()).collect(),
+                },
+            ],
+            y_range: None,
+        };
+        chart.save(&stem).map_err(|e| io(&stem, e))?;
+        plots.push((tr.recording.clone(), tr.channel.clone(), stem));
+    }
+    let json = dir.join("report.json");
+    std::fs::write(
+        &json,
+        serde_json::to_string_pretty(d).expect("diagnosis serialises"),
+    )
+    .map_err(|e| io(&json, e))?;
+    let mut m = String::new();
+    let _ = writeln!(m, "# lash diagnose: {}\n", d.model);
+    let _ = writeln!(m, "## Verdict\n\n{}\n", d.verdict);
+    let _ = writeln!(
+        m,
+        "Fit recordings: {}. Held out: {}. {} residual samples, {:.0} effective (residual autocorrelation).\n",
+        d.fit_recordings.join(", "),
+        if d.holdout_recordings.is_empty() { "none".into() } else { d.holdout_recordings.join(", ") },
+        d.samples,
+        d.effective_samples
+    );
+    if !d.derivative_window.1.is_empty() {
+        let _ = writeln!(
+            m,
+            "Accelerations: rates differentiated by local lines over ±{} samples, chosen by leave-one-recording-out cross-validation on the fit recordings (torque prediction RMS in noise floors: {}).\n",
+            d.derivative_window.0,
+            d.derivative_window
+                .1
+                .iter()
+                .map(|(w, v)| format!("±{w}: {v:.1}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let _ = writeln!(m, "## Before and after, per channel\n");
+    let _ = writeln!(
+        m,
+        "| channel | noise floor [N m] | fit RMS before | fit RMS after | held-out RMS before | held-out RMS after | held-out reduction |\n|---|---|---|---|---|---|---|"
+    );
+    for c in &d.channels {
+        let _ = writeln!(
+            m,
+            "| {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1} % |",
+            c.channel,
+            c.noise_floor,
+            c.fit_before,
+            c.fit_after,
+            c.holdout_before,
+            c.holdout_after,
+            100.0 * c.holdout_reduction
+        );
+    }
+    let _ = writeln!(m, "\n## Where the nominal model disagrees\n");
+    for (ch, f) in &d.location.significant_fraction {
+        let _ = writeln!(
+            m,
+            "- {ch}: {:.0} % of the windows above 3 noise floors.",
+            100.0 * f
+        );
+    }
+    for c in &d.location.correlations {
+        let _ = writeln!(
+            m,
+            "- {}: the residual follows the {} (r = {:+.2}).",
+            c.channel, c.state, c.r
+        );
+    }
+    for a in &d.location.associations {
+        let _ = writeln!(
+            m,
+            "- {}: residual {:.2}× larger in windows with {} ({} windows).",
+            a.channel, a.ratio, a.tag, a.windows
+        );
+    }
+    let _ = writeln!(m, "\nStrongest windows:\n");
+    for f in &d.location.findings {
+        let _ = writeln!(m, "- {}", f.text);
+    }
+    let _ = writeln!(m, "\n## Candidate physics ranked at the nominal model\n");
+    let _ = writeln!(
+        m,
+        "Likelihood-ratio statistic with effective samples; CV ratio = leave-one-recording-out residual RMS with the candidate alone / nominal.\n\n| # | candidate | statistic | p | CV ratio | plausible alone |\n|---|---|---|---|---|---|"
+    );
+    for (k, r) in d.ranking.iter().enumerate().take(20) {
+        let _ = writeln!(
+            m,
+            "| {} | {} | {:.1} | {:.1e} | {:.3} | {} |",
+            k + 1,
+            r.candidate,
+            r.statistic,
+            r.p_value,
+            r.cv_ratio,
+            if r.plausible { "yes" } else { "no" }
+        );
+    }
+    let _ = writeln!(m, "\n## Greedy selection\n\n| step | added | statistic | p | CV RMS [noise floors] | BIC |\n|---|---|---|---|---|---|");
+    for (k, s) in d.steps.iter().enumerate() {
+        let _ = writeln!(
+            m,
+            "| {} | {} | {:.1} | {:.1e} | {:.3} | {:.1} |",
+            k + 1,
+            s.added,
+            s.statistic,
+            s.p_value,
+            s.cv_rms,
+            s.bic
+        );
+    }
+    if d.steps.is_empty() {
+        let _ = writeln!(m, "\nNothing joined the model: no significant mismatch.");
+    }
+    let _ = writeln!(m, "\n## Estimates (± one standard deviation)\n\n| effect | parameter | value | std |\n|---|---|---|---|");
+    for e in &d.estimates {
+        let _ = writeln!(
+            m,
+            "| {} | {} | {:.5} | {:.5} |",
+            e.candidate, e.parameter, e.value, e.std
+        );
+    }
+    if !d.correlations.is_empty() {
+        let _ = writeln!(m, "\nStrongly correlated estimates:\n");
+        for (a, b, r) in &d.correlations {
+            let _ = writeln!(m, "- {a} and {b}: {r:+.2}");
+        }
+    }
+    let _ = writeln!(m, "\n## What this data cannot separate\n");
+    if d.confounded.is_empty() {
+        let _ = writeln!(
+            m,
+            "Every selected effect fits clearly better than any alternative outside its own family."
+        );
+    }
+    for c in &d.confounded {
+        let _ = writeln!(
+            m,
+            "- {} or {} (cross-validated fits within {:.2} %). Separating recording: {}.",
+            c.selected,
+            c.alternative,
+            100.0 * (c.cv_ratio - 1.0).abs(),
+            c.experiment
+        );
+    }
+    let _ = writeln!(m, "\n## Held-out residuals\n");
+    for (rec, ch, stem) in &plots {
+        let name = stem
+            .file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let _ = writeln!(m, "### {rec}, {ch}\n\n![{rec} {ch}]({name}.png)\n");
+    }
+    let md = dir.join("report.md");
+    std::fs::write(&md, m).map_err(|e| io(&md, e))?;
+    Ok(md)
+}
