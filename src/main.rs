@@ -143,6 +143,9 @@ enum BenchWhat {
         /// lash::bench::mr2120::BENCH_DAMPING for why the benchmark uses 300).
         #[arg(long, default_value_t = 300.0)]
         alpha: f64,
+        /// Wall-time budget of each explicit run, s (the time ratio is then a lower bound).
+        #[arg(long, default_value_t = 900.0)]
+        explicit_budget: f64,
         /// Relative tolerance of an extra Dormand–Prince run that checks the reference (0: skip;
         /// every Dormand–Prince run of the sweep is already an independent check).
         #[arg(long, default_value_t = 0.0)]
@@ -289,6 +292,7 @@ fn bench_mr2120(
     bdf_rtols: &str,
     dopri_rtols: &str,
     alpha: f64,
+    explicit_budget: f64,
     check_rtol: f64,
     out: &std::path::Path,
     json: bool,
@@ -317,6 +321,7 @@ fn bench_mr2120(
         dopri_rtols,
         reference_check_rtol: (check_rtol > 0.0).then_some(check_rtol),
         damping: lash::contact::Damping::HuntCrossley(alpha),
+        explicit_budget_s: explicit_budget,
         ..Default::default()
     };
     let mut current = String::new();
@@ -356,12 +361,12 @@ fn bench_mr2120(
             .unwrap_or_default()
     );
     println!(
-        "\n{:<44} {:>7} {:>10} {:>8} {:>8} {:>9} {:>8} {:>7} {:>9}",
-        "solver", "rtol", "error [m]", "steps", "rejected", "rhs evals", "newton", "LU", "wall [s]"
+        "\n{:<44} {:>7} {:>10} {:>8} {:>8} {:>9} {:>8} {:>7} {:>9} {:>8}",
+        "solver", "rtol", "error [m]", "steps", "rejected", "rhs evals", "newton", "LU", "wall [s]", "t [s]"
     );
     for p in &b.points {
         println!(
-            "{:<44} {:>7.0e} {:>10.2e} {:>8} {:>8} {:>9} {:>8} {:>7} {:>9.3}{}",
+            "{:<44} {:>7.0e} {:>10.2e} {:>8} {:>8} {:>9} {:>8} {:>7} {:>9.3} {:>8.3}{}",
             p.solver,
             p.rtol,
             p.error,
@@ -371,9 +376,10 @@ fn bench_mr2120(
             p.newton_iters,
             p.factorisations,
             p.wall_s,
+            p.reached_t,
             p.failure
                 .as_ref()
-                .map(|f| format!("  FAILED: {f}"))
+                .map(|f| format!("  STOPPED: {f}"))
                 .unwrap_or_default()
         );
     }
@@ -387,7 +393,13 @@ fn bench_mr2120(
                 "  {:<44} rtol {:.0e}: {:.3} s, {} steps; time {:.2}x, steps {:.2}x lash",
                 c.solver, p.rtol, p.wall_s, p.steps, c.time_ratio, c.steps_ratio
             ),
-            None => println!("  {:<44} no setting in the sweep reached the target", c.solver),
+            None => match c.time_ratio_at_least {
+                Some(r) => println!(
+                    "  {:<44} ran out of its wall-time budget while within the target: time >= {r:.1}x lash",
+                    c.solver
+                ),
+                None => println!("  {:<44} no setting in the sweep reached the target", c.solver),
+            },
         }
     }
     println!("{plot_note}");
@@ -1040,6 +1052,7 @@ fn main() -> ExitCode {
                     bdf_rtols,
                     dopri_rtols,
                     alpha,
+                    explicit_budget,
                     check_rtol,
                     out,
                     json,
@@ -1052,6 +1065,7 @@ fn main() -> ExitCode {
             &bdf_rtols,
             &dopri_rtols,
             alpha,
+            explicit_budget,
             check_rtol,
             &out,
             json,

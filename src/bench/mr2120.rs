@@ -53,6 +53,9 @@ pub struct Mr2120BenchOptions {
     pub reference_check_rtol: Option<f64>,
     /// Contact damping of the bearings (see [`BENCH_DAMPING`]).
     pub damping: Damping,
+    /// Wall-time budget of each explicit run, s: a run that exhausts it stops and reports
+    /// how far it got, and the time ratio becomes a lower bound.
+    pub explicit_budget_s: f64,
 }
 
 /// Contact damping of the benchmark: Hunt–Crossley α = 300 s/m (lubricated steel joints;
@@ -76,6 +79,7 @@ impl Default for Mr2120BenchOptions {
             dopri_rtols: vec![1e-5],
             reference_check_rtol: None,
             damping: BENCH_DAMPING,
+            explicit_budget_s: 900.0,
         }
     }
 }
@@ -101,8 +105,13 @@ pub struct WorkPoint {
     pub factorisations: usize,
     /// Wall time including set-up, s.
     pub wall_s: f64,
+    /// Simulated time reached, s (the trajectory end unless the run failed or ran out of
+    /// its wall-time budget).
+    pub reached_t: f64,
     /// Failure message, if the run failed.
     pub failure: Option<String>,
+    /// True if the run stopped because it exhausted its wall-time budget.
+    pub out_of_budget: bool,
 }
 
 /// The comparison at equal accuracy.
@@ -114,6 +123,9 @@ pub struct Comparison {
     pub chosen: Option<WorkPoint>,
     /// Wall time / lash's wall time (NaN if either did not meet the target).
     pub time_ratio: f64,
+    /// If the solver ran out of its wall-time budget before the end while still within the
+    /// target accuracy: its budget / lash's wall time, a lower bound of the time ratio.
+    pub time_ratio_at_least: Option<f64>,
     /// Steps / lash's steps.
     pub steps_ratio: f64,
 }
@@ -176,7 +188,9 @@ fn point(solver: &str, rtol: f64) -> WorkPoint {
         newton_iters: 0,
         factorisations: 0,
         wall_s: f64::NAN,
+        reached_t: 0.0,
         failure: None,
+        out_of_budget: false,
     }
 }
 
@@ -197,6 +211,7 @@ fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, O
     wp.wall_s = start.elapsed().as_secs_f64();
     match res {
         Ok((tr, st)) if tr.samples.len() == m.times.len() => {
+            wp.reached_t = tr.samples.last().map_or(0.0, |s| s.t);
             wp.steps = st.steps;
             wp.rejected = st.error_test_failures + st.newton_failures;
             wp.rhs_evals = st.residual_evals;
@@ -225,9 +240,10 @@ fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, O
     }
 }
 
-fn run_dopri(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, Option<Path>) {
+fn run_dopri(m: &Model, rtol: f64, budget: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, Option<Path>) {
     let mut wp = point("Dormand-Prince 5(4) (index 1 + Baumgarte)", rtol);
     let start = Instant::now();
+    let mut over = false;
     let res = (|| -> Result<(Path, crate::dae::explicit::ExplicitStats), String> {
         let s0 = Analysis::new(m.mech.clone())
             .and_then(|mut a| a.initial_state(0.0))
@@ -248,6 +264,10 @@ fn run_dopri(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint,
             let y = dp.y();
             path.push([y[7 * p], y[7 * p + 1], y[7 * p + 2]]);
             progress(t);
+            if start.elapsed().as_secs_f64() > budget && t < m.times[m.times.len() - 1] {
+                over = true;
+                break;
+            }
         }
         Ok((path, *dp.stats()))
     })();
@@ -257,6 +277,14 @@ fn run_dopri(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint,
             wp.steps = st.steps;
             wp.rejected = st.rejected;
             wp.rhs_evals = st.rhs_evals;
+            wp.reached_t = m.times[path.len().saturating_sub(1).min(m.times.len() - 1)];
+            if over {
+                wp.out_of_budget = true;
+                wp.failure = Some(format!(
+                    "wall-time budget of {budget:.0} s exhausted at t = {:.3} s",
+                    wp.reached_t
+                ));
+            }
             (wp, Some(path))
         }
         Err(e) => {
@@ -266,6 +294,7 @@ fn run_dopri(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint,
     }
 }
 
+/// Largest distance over the samples both paths have.
 fn distance(a: &Path, b: &Path) -> f64 {
     a.iter()
         .zip(b)
@@ -288,7 +317,9 @@ pub fn bench_mr2120(
     reference.error = 0.0;
     let reference_check = opts.reference_check_rtol.map(|rtol| {
         let label = format!("reference check: Dormand-Prince rtol {rtol:.0e}");
-        let (_, path) = run_dopri(&m, rtol, &mut |t| progress(&label, t / t_end));
+        let (_, path) = run_dopri(&m, rtol, opts.explicit_budget_s, &mut |t| {
+            progress(&label, t / t_end)
+        });
         path.map_or(f64::NAN, |p| distance(&p, &ref_path))
     });
     let mut points = vec![];
@@ -302,7 +333,9 @@ pub fn bench_mr2120(
     }
     for &rtol in &opts.dopri_rtols {
         let label = format!("Dormand-Prince rtol {rtol:.0e}");
-        let (mut wp, path) = run_dopri(&m, rtol, &mut |t| progress(&label, t / t_end));
+        let (mut wp, path) = run_dopri(&m, rtol, opts.explicit_budget_s, &mut |t| {
+            progress(&label, t / t_end)
+        });
         if let Some(p) = path {
             wp.error = distance(&p, &ref_path);
         }
@@ -348,11 +381,20 @@ pub fn compare(points: &[WorkPoint], target: f64) -> Vec<Comparison> {
                 (Some(c), Some(b)) => (c.wall_s / b.wall_s, c.steps as f64 / b.steps as f64),
                 _ => (f64::NAN, f64::NAN),
             };
+            let at_least = match (&c, &base) {
+                (None, Some(b)) => points
+                    .iter()
+                    .filter(|p| p.solver == *s && p.out_of_budget && p.error <= target)
+                    .map(|p| p.wall_s / b.wall_s)
+                    .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.min(v)))),
+                _ => None,
+            };
             Comparison {
                 solver: s.to_string(),
                 chosen: c,
                 time_ratio: tr,
                 steps_ratio: sr,
+                time_ratio_at_least: at_least,
             }
         })
         .collect()
