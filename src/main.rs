@@ -118,6 +118,22 @@ enum BenchWhat {
         #[arg(long, default_value_t = 3)]
         repeats: usize,
     },
+    /// Cost per BDF step of a chain of N links joined by universal joints with clearance,
+    /// against N, with the fitted log-log slope (sparse factorisation must stay sparse).
+    Scaling {
+        /// Chain lengths, comma-separated.
+        #[arg(long, default_value = "10,100,1000,10000")]
+        links: String,
+        /// Simulated time per run, s (long enough for every bearing to come into contact).
+        #[arg(long, default_value_t = 0.01)]
+        t_end: f64,
+        /// Output folder for the log-log plot.
+        #[arg(long, default_value = "out/bench-scaling")]
+        out: std::path::PathBuf,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// The 63-DOF MR2120 clearance model along the 4 s trajectory: lash's BDF against
     /// Dormand–Prince at equal accuracy (platform centre within --target of a tight reference).
     Mr2120 {
@@ -403,6 +419,116 @@ fn bench_mr2120(
         }
     }
     println!("{plot_note}");
+    ExitCode::SUCCESS
+}
+
+fn bench_scaling_cmd(links: &str, t_end: f64, out: &std::path::Path, json: bool) -> ExitCode {
+    use lash::plot::{LineChart, Series};
+    let lengths: Result<Vec<usize>, String> = links
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            s.parse::<usize>()
+                .ok()
+                .filter(|n| *n > 0)
+                .ok_or_else(|| format!("--links: '{s}' is not a positive integer"))
+        })
+        .collect();
+    let lengths = match lengths {
+        Ok(l) if !l.is_empty() => l,
+        Ok(_) => {
+            eprintln!("error: --links names no chain length");
+            return ExitCode::FAILURE;
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if !(t_end > 0.0 && t_end.is_finite()) {
+        eprintln!("error: --t-end must be positive");
+        return ExitCode::FAILURE;
+    }
+    let total = lengths.len() as f64;
+    let mut progress = Progress::new("bench scaling", total);
+    let mut k = 0.0;
+    let s = lash::bench::scaling::bench_scaling(&lengths, t_end, |_| {
+        progress.update(k);
+        k += 1.0;
+    });
+    progress.finish();
+    let note = match std::fs::create_dir_all(out) {
+        Err(e) => format!("could not create {}: {e}", out.display()),
+        Ok(()) => {
+            let ok: Vec<_> = s.rows.iter().filter(|r| r.failure.is_none()).collect();
+            let chart = LineChart {
+                title: format!(
+                    "clearance chain: cost per step and memory vs N (slopes {:.2} and {:.2})",
+                    s.slope, s.memory_slope
+                ),
+                x_label: "links N".into(),
+                y_label: "time per step [s] / resident memory [GB]".into(),
+                series: vec![
+                    Series {
+                        name: format!("time per BDF step (slope {:.2})", s.slope),
+                        points: ok.iter().map(|r| (r.links as f64, r.per_step_s)).collect(),
+                    },
+                    Series {
+                        name: format!("resident memory (slope {:.2})", s.memory_slope),
+                        points: ok
+                            .iter()
+                            .map(|r| (r.links as f64, r.resident_bytes as f64 / 1e9))
+                            .collect(),
+                    },
+                ],
+                y_range: None,
+            };
+            let stem = out.join("scaling");
+            match chart.save_log_log(&stem) {
+                Ok(()) => format!("plot: {}.png / .svg", stem.display()),
+                Err(e) => format!("could not write the plot: {e}"),
+            }
+        }
+    };
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&s).expect("scaling serialises")
+        );
+        return ExitCode::SUCCESS;
+    }
+    println!(
+        "clearance chain (links + crosses, 4 bearings per joint), {} s simulated per run",
+        s.t_end
+    );
+    println!(
+        "{:>7} {:>8} {:>9} {:>9} {:>9} {:>7} {:>7} {:>12} {:>10}",
+        "links", "bodies", "unknowns", "setup s", "wall s", "steps", "LU", "per step s", "RSS MB"
+    );
+    for r in &s.rows {
+        println!(
+            "{:>7} {:>8} {:>9} {:>9.3} {:>9.3} {:>7} {:>7} {:>12.3e} {:>10.1}{}",
+            r.links,
+            r.bodies,
+            r.unknowns,
+            r.setup_s,
+            r.wall_s,
+            r.steps,
+            r.factorisations,
+            r.per_step_s,
+            r.resident_bytes as f64 / 1e6,
+            r.failure
+                .as_ref()
+                .map(|f| format!("  FAILED: {f}"))
+                .unwrap_or_default()
+        );
+    }
+    println!(
+        "log-log slope of time per step against N (N >= 100): {:.2} (target <= 1.2); memory: {:.2}",
+        s.slope, s.memory_slope
+    );
+    println!("{note}");
     ExitCode::SUCCESS
 }
 
@@ -1070,6 +1196,15 @@ fn main() -> ExitCode {
             &out,
             json,
         ),
+        Command::Bench {
+            what:
+                BenchWhat::Scaling {
+                    links,
+                    t_end,
+                    out,
+                    json,
+                },
+        } => bench_scaling_cmd(&links, t_end, &out, json),
         Command::Bench {
             what: BenchWhat::Dae { json, repeats },
         } => {

@@ -2,6 +2,7 @@
 //! (`lash bench dae`), measured in one run with ratios to lash.
 
 pub mod mr2120;
+pub mod scaling;
 
 use crate::dae::explicit::{Dopri5, Dopri5Options, SymplecticEuler};
 use crate::dae::{BdfOptions, BdfSolver, DaeSystem};

@@ -190,6 +190,18 @@ impl Analysis {
             )));
         }
         let mut q = guess.to_vec();
+        if lay.m == 0 {
+            // No constraints: only the Euler parameters need normalising.
+            for b in 0..lay.nb {
+                let p = &mut q[7 * b + 3..7 * b + 7];
+                let n = p.iter().map(|v| v * v).sum::<f64>().sqrt();
+                if n == 0.0 {
+                    return Err(ModelError::Output(format!("body {b} has zero Euler parameters")));
+                }
+                p.iter_mut().for_each(|v| *v /= n);
+            }
+            return Ok(q);
+        }
         let mut last = f64::INFINITY;
         for _ in 0..self.max_iterations {
             let (f, j) = self.position_system(t, &q);
@@ -295,6 +307,24 @@ impl Analysis {
         w: &[f64],
     ) -> Result<(Vec<f64>, Vec<f64>), ModelError> {
         let lay = self.ev.layout;
+        if lay.m == 0 {
+            // Free bodies: Newton–Euler per body, no global system.
+            self.ev.set_state(q, w);
+            self.ev.eval_loads(t);
+            let mut wdot = vec![0.0; 6 * lay.nb];
+            for (b, body) in self.ev.model.bodies.bodies.iter().enumerate() {
+                let st = &self.ev.states[b];
+                let ld = &self.ev.loads[b];
+                let a = ld.force / body.mass;
+                let rhs = ld.torque - st.omega.cross(&(body.inertia * st.omega));
+                let al = body.inertia.lu().solve(&rhs).ok_or_else(|| {
+                    ModelError::Output(format!("body '{}' has a singular inertia", body.name))
+                })?;
+                wdot[6 * b..6 * b + 3].copy_from_slice(a.as_slice());
+                wdot[6 * b + 3..6 * b + 6].copy_from_slice(al.as_slice());
+            }
+            return Ok((wdot, vec![]));
+        }
         let gamma = self.gamma(t, q, w);
         self.ev.set_state(q, w);
         self.ev.eval_constraints(t);

@@ -1,0 +1,159 @@
+//! `lash bench scaling`: cost per BDF step of a chain of N links with clearance universal
+//! joints ([`clearance_chain`]) against N, and the fitted log-log slope. Sparse assembly and
+//! factorisation should keep the per-step cost near O(N).
+
+use crate::mechanisms::chain::{chain_design, clearance_chain};
+use crate::multibody::{Simulation, SimulationOptions};
+use serde::Serialize;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// One chain length.
+#[derive(Debug, Clone, Serialize)]
+pub struct ScalingRow {
+    /// Links.
+    pub links: usize,
+    /// Bodies (links and crosses).
+    pub bodies: usize,
+    /// DAE unknowns.
+    pub unknowns: usize,
+    /// Set-up time (model, initial state, pattern, symbolic analysis), s.
+    pub setup_s: f64,
+    /// Integration wall time, s.
+    pub wall_s: f64,
+    /// Accepted steps.
+    pub steps: usize,
+    /// LU factorisations.
+    pub factorisations: usize,
+    /// Residual evaluations.
+    pub residual_evals: usize,
+    /// Wall time per step, s.
+    pub per_step_s: f64,
+    /// Resident memory of the process after the run, bytes (Linux; 0 elsewhere).
+    pub resident_bytes: u64,
+    /// Failure, if any.
+    pub failure: Option<String>,
+}
+
+/// The scaling result.
+#[derive(Debug, Clone, Serialize)]
+pub struct Scaling {
+    /// Simulated time per run, s.
+    pub t_end: f64,
+    /// Rows.
+    pub rows: Vec<ScalingRow>,
+    /// Least-squares slope of log(time per step) against log(N) over N ≥ 100 (all rows if
+    /// fewer than two qualify).
+    pub slope: f64,
+    /// The same for memory.
+    pub memory_slope: f64,
+}
+
+fn resident_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmRSS:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|v| v.parse::<u64>().ok())
+        })
+        .map_or(0, |kb| kb * 1024)
+}
+
+/// Least-squares slope of log y on log x.
+pub fn log_slope(points: &[(f64, f64)]) -> f64 {
+    let pts: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+        .map(|p| (p.0.ln(), p.1.ln()))
+        .collect();
+    let n = pts.len() as f64;
+    if n < 2.0 {
+        return f64::NAN;
+    }
+    let (mx, my) = (
+        pts.iter().map(|p| p.0).sum::<f64>() / n,
+        pts.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    sxy / sxx
+}
+
+/// Runs each chain length for `t_end` seconds of simulated time. `progress` receives the
+/// chain length about to run.
+pub fn bench_scaling(lengths: &[usize], t_end: f64, mut progress: impl FnMut(usize)) -> Scaling {
+    let mut rows = vec![];
+    for &n in lengths {
+        progress(n);
+        let mut row = ScalingRow {
+            links: n,
+            bodies: 2 * n,
+            unknowns: 0,
+            setup_s: f64::NAN,
+            wall_s: f64::NAN,
+            steps: 0,
+            factorisations: 0,
+            residual_evals: 0,
+            per_step_s: f64::NAN,
+            resident_bytes: 0,
+            failure: None,
+        };
+        let start = Instant::now();
+        let built = clearance_chain(n, &chain_design())
+            .map_err(|e| e.to_string())
+            .and_then(|m| {
+                let opts = SimulationOptions {
+                    rtol: 1e-4,
+                    atol: 1e-6,
+                    velocities_index2: true,
+                    singularity_warning: 0.0,
+                    max_steps: 1_000_000,
+                    ..Default::default()
+                };
+                Simulation::new(Arc::new(m), 0.0, opts).map_err(|e| e.to_string())
+            });
+        row.setup_s = start.elapsed().as_secs_f64();
+        match built {
+            Ok(mut sim) => {
+                row.unknowns = sim.layout().dim();
+                let t0 = Instant::now();
+                let res = sim.run(&[t_end], |_| {});
+                row.wall_s = t0.elapsed().as_secs_f64();
+                let st = *sim.stats();
+                row.steps = st.steps;
+                row.factorisations = st.lu_factorisations;
+                row.residual_evals = st.residual_evals;
+                row.per_step_s = row.wall_s / st.steps.max(1) as f64;
+                row.resident_bytes = resident_bytes();
+                if let Err(e) = res {
+                    row.failure = Some(e.to_string());
+                }
+            }
+            Err(e) => row.failure = Some(e),
+        }
+        rows.push(row);
+    }
+    let ok: Vec<&ScalingRow> = rows.iter().filter(|r| r.failure.is_none()).collect();
+    let big: Vec<&ScalingRow> = ok.iter().copied().filter(|r| r.links >= 100).collect();
+    let use_rows = if big.len() >= 2 { big } else { ok };
+    let slope = log_slope(
+        &use_rows
+            .iter()
+            .map(|r| (r.links as f64, r.per_step_s))
+            .collect::<Vec<_>>(),
+    );
+    let memory_slope = log_slope(
+        &use_rows
+            .iter()
+            .map(|r| (r.links as f64, r.resident_bytes as f64))
+            .collect::<Vec<_>>(),
+    );
+    Scaling {
+        t_end,
+        rows,
+        slope,
+        memory_slope,
+    }
+}
