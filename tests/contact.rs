@@ -195,3 +195,117 @@ fn bad_contact_data_are_clear_errors() {
         Err(Mr2120Error::Contact(ContactError::NegativeClearance { .. }))
     ));
 }
+
+/// The exact load derivatives of the contact elements against central differences of their
+/// loads, in contact (radial and axial at once) with moving bodies.
+#[test]
+fn contact_load_jacobians_match_differences() {
+    use lash::contact::{BallInSocket, ClearanceBearing, NormalLaw};
+    use lash::multibody::rotation::{from_axis_angle, rotation};
+    use lash::multibody::{BodyLoad, BodyState, ForceElement};
+    let state = |r: Vector3<f64>, axis: Vector3<f64>, ang: f64, v: Vector3<f64>, w: Vector3<f64>| {
+        let p = from_axis_angle(&axis.normalize(), ang);
+        BodyState {
+            r,
+            p,
+            a: rotation(&p),
+            v,
+            omega: w,
+        }
+    };
+    let states = vec![
+        state(
+            Vector3::new(0.1, 0.0, 0.0),
+            Vector3::new(0.2, 1.0, 0.1),
+            0.3,
+            Vector3::new(0.01, -0.02, 0.005),
+            Vector3::new(0.3, -0.1, 0.2),
+        ),
+        state(
+            Vector3::new(0.1 + 3e-5, 2e-5, -1e-5),
+            Vector3::new(0.2, 1.0, 0.1),
+            0.3 + 1e-4,
+            Vector3::new(-0.01, 0.01, 0.0),
+            Vector3::new(0.1, 0.2, -0.3),
+        ),
+    ];
+    let mut mech = Mechanism::new();
+    let h0 = mech.add_body(RigidBody::rod("ball side", 1.0, 0.1));
+    let h1 = mech.add_body(RigidBody::rod("socket side", 1.0, 0.1));
+    let (b0, b1) = (Attach::Body(h0), Attach::Body(h1));
+    let law = NormalLaw::HuntCrossley {
+        k: 1e10,
+        n: 1.5,
+        alpha: 300.0,
+    };
+    let bearing = ClearanceBearing {
+        name: "b".into(),
+        ball_body: b0,
+        ball_centre: Vector3::new(0.012, 0.001, 0.0),
+        socket_body: b1,
+        socket_centre: Vector3::new(0.012, 0.001, 0.0),
+        socket_axis: Vector3::x(),
+        radial_clearance: 5e-6,
+        axial_stop: -1e-5,
+        radial_law: law,
+        axial_law: law,
+        friction: None,
+    };
+    let socket = BallInSocket {
+        name: "s".into(),
+        ball_body: b0,
+        ball_centre: Vector3::new(0.0, 0.01, 0.0),
+        socket_body: b1,
+        socket_centre: Vector3::new(0.0, 0.01, 0.0),
+        clearance: 5e-6,
+        law,
+        friction: None,
+    };
+    let elements: [&dyn ForceElement; 2] = [&bearing, &socket];
+    for el in elements {
+        let blocks = el.load_jacobian(0.0, &states).expect("exact derivatives");
+        assert_eq!(blocks.len(), 4, "{}", el.name());
+        let loads = |st: &[BodyState]| {
+            let mut l = vec![BodyLoad::default(); 2];
+            el.apply(0.0, st, &mut l);
+            l
+        };
+        for blk in &blocks {
+            for c in 0..13 {
+                // Loads are linear in the velocities (large increments are exact there) and
+                // strongly nonlinear in the positions near contact (tiny increments).
+                let h = if c < 7 { 1e-9 } else { 1e-5 };
+                let perturb = |sign: f64| {
+                    let mut st = states.clone();
+                    let s = &mut st[blk.wrt.index()];
+                    match c {
+                        0..=2 => s.r[c] += sign * h,
+                        3..=6 => {
+                            s.p[c - 3] += sign * h;
+                            s.a = rotation(&s.p);
+                        }
+                        7..=9 => s.v[c - 7] += sign * h,
+                        _ => s.omega[c - 10] += sign * h,
+                    }
+                    loads(&st)[blk.loaded.index()]
+                };
+                let (lp, lm) = (perturb(1.0), perturb(-1.0));
+                for r in 0..6 {
+                    let fd = if r < 3 {
+                        (lp.force[r] - lm.force[r]) / (2.0 * h)
+                    } else {
+                        (lp.torque[r - 3] - lm.torque[r - 3]) / (2.0 * h)
+                    };
+                    let an = blk.d[(r, c)];
+                    assert!(
+                        (fd - an).abs() <= 1e-5 * (1.0 + an.abs().max(fd.abs())),
+                        "{}: d load[{r}] of body {} / state {c} of body {}: exact {an}, difference {fd}",
+                        el.name(),
+                        blk.loaded.index(),
+                        blk.wrt.index()
+                    );
+                }
+            }
+        }
+    }
+}

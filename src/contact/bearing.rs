@@ -1,8 +1,9 @@
 //! Force elements for clearance contacts: a ball end in a cylindrical socket (radial and
 //! axial clearance), and a ball in a spherical socket.
 
+use super::dual::{self as ad, DState, D, V3};
 use super::laws::{Friction, NormalLaw};
-use crate::multibody::forces::{BodyLoad, BodyState, ForceElement};
+use crate::multibody::forces::{BodyLoad, BodyState, ForceElement, LoadDerivative};
 use crate::multibody::{Attach, BodyHandle};
 use nalgebra::Vector3;
 
@@ -25,6 +26,60 @@ fn apply_pair(
             loads[h.index()].add_force_at(st, &s_local, &(sign * f));
         }
     }
+}
+
+/// The loads of a contact force `f` (with derivatives) at base-frame point `x` as
+/// [`LoadDerivative`] blocks: +f on the ball side, −f on the socket side.
+fn pair_derivatives(
+    ball: Attach,
+    socket: Attach,
+    bs: &DState,
+    ss: &DState,
+    x: &V3,
+    f: &V3,
+) -> Vec<LoadDerivative> {
+    let mut out = vec![];
+    for (side, st, sign) in [(ball, bs, 1.0), (socket, ss, -1.0)] {
+        let Attach::Body(h) = side else { continue };
+        let fs: V3 = [f[0] * sign, f[1] * sign, f[2] * sign];
+        let s_local = st.rot_t(&ad::sub(x, &st.r));
+        let torque = ad::cross(&s_local, &st.rot_t(&fs));
+        for (wrt_side, offset) in [(ball, 0usize), (socket, 13usize)] {
+            let Attach::Body(w) = wrt_side else { continue };
+            let mut d = nalgebra::SMatrix::<f64, 6, 13>::zeros();
+            for c in 0..13 {
+                for r in 0..3 {
+                    d[(r, c)] = fs[r].g[offset + c];
+                    d[(3 + r, c)] = torque[r].g[offset + c];
+                }
+            }
+            out.push(LoadDerivative { loaded: h, wrt: w, d });
+        }
+    }
+    out
+}
+
+/// The two sides' states carrying derivatives (ball: variables 0..13, socket: 13..26).
+fn dual_states(states: &[BodyState], ball: Attach, socket: Attach) -> (DState, DState) {
+    let off = |a: Attach, o: usize| matches!(a, Attach::Body(_)).then_some(o);
+    (
+        DState::new(&state(states, ball), off(ball, 0)),
+        DState::new(&state(states, socket), off(socket, 13)),
+    )
+}
+
+/// Velocity of the material point of `st` at base-frame point `x`.
+fn point_velocity(st: &DState, x: &V3) -> V3 {
+    let s_local = st.rot_t(&ad::sub(x, &st.r));
+    ad::add(&st.v, &st.rot(&ad::cross(&st.omega, &s_local)))
+}
+
+/// Normal force of `law` along unit `n` (pointing into the contact) with derivatives: −n·F.
+fn normal_force(law: &NormalLaw, delta: D, rate: D, n: &V3) -> V3 {
+    let (f, f_d, f_r) = law.force_with_derivatives(delta.v, rate.v);
+    let mut fd = delta * f_d + rate * f_r;
+    fd.v = f;
+    ad::scale(n, -fd)
 }
 
 /// Relative velocity of the ball-side material point at `x` with respect to the socket-side
@@ -161,6 +216,40 @@ impl ForceElement for ClearanceBearing {
             apply_pair(states, loads, self.ball_body, self.socket_body, &c, &f);
         }
     }
+
+    fn load_jacobian(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
+        if self.friction.is_some() {
+            return None;
+        }
+        let (b, s) = dual_states(states, self.ball_body, self.socket_body);
+        let c = ad::add(&b.r, &b.rot(&ad::constant(&self.ball_centre)));
+        let a = s.rot(&ad::constant(&self.socket_axis));
+        let d = ad::sub(&c, &ad::add(&s.r, &s.rot(&ad::constant(&self.socket_centre))));
+        let axial = ad::dot(&d, &a);
+        let radial = ad::sub(&d, &ad::scale(&a, axial));
+        let rho = ad::dot(&radial, &radial).sqrt();
+        let v_rel = ad::sub(&point_velocity(&b, &c), &point_velocity(&s, &c));
+        let mut f: V3 = [D::c(0.0); 3];
+        let delta_r = rho - D::c(self.radial_clearance);
+        if delta_r.v > 0.0 && rho.v > 0.0 {
+            let n = ad::scale(&radial, rho.recip());
+            f = ad::add(
+                &f,
+                &normal_force(&self.radial_law, delta_r, ad::dot(&v_rel, &n), &n),
+            );
+        }
+        let delta_a = axial - D::c(self.axial_stop);
+        if delta_a.v > 0.0 {
+            f = ad::add(
+                &f,
+                &normal_force(&self.axial_law, delta_a, ad::dot(&v_rel, &a), &a),
+            );
+        }
+        if f.iter().all(|x| x.v == 0.0 && x.g.iter().all(|g| *g == 0.0)) {
+            return Some(vec![]);
+        }
+        Some(pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f))
+    }
 }
 
 /// A ball (centre fixed on the ball body) in a spherical socket with radial clearance.
@@ -207,5 +296,23 @@ impl ForceElement for BallInSocket {
             let f = -n * fn_mag + friction_force(&self.friction, fn_mag, &v_rel, &n);
             apply_pair(states, loads, self.ball_body, self.socket_body, &c, &f);
         }
+    }
+
+    fn load_jacobian(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
+        if self.friction.is_some() {
+            return None;
+        }
+        let (b, s) = dual_states(states, self.ball_body, self.socket_body);
+        let c = ad::add(&b.r, &b.rot(&ad::constant(&self.ball_centre)));
+        let d = ad::sub(&c, &ad::add(&s.r, &s.rot(&ad::constant(&self.socket_centre))));
+        let r = ad::dot(&d, &d).sqrt();
+        let delta = r - D::c(self.clearance);
+        if !(delta.v > 0.0 && r.v > 0.0) {
+            return Some(vec![]);
+        }
+        let n = ad::scale(&d, r.recip());
+        let v_rel = ad::sub(&point_velocity(&b, &c), &point_velocity(&s, &c));
+        let f = normal_force(&self.law, delta, ad::dot(&v_rel, &n), &n);
+        Some(pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f))
     }
 }

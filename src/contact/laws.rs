@@ -136,12 +136,24 @@ impl NormalLaw {
 
     /// Normal force, N (≥ 0; the damping term cannot pull).
     pub fn force(&self, delta: f64, delta_rate: f64) -> f64 {
+        self.force_with_derivatives(delta, delta_rate).0
+    }
+
+    /// The normal force (N) and its derivatives with respect to the penetration (N/m) and
+    /// the penetration rate (N·s/m).
+    pub fn force_with_derivatives(&self, delta: f64, delta_rate: f64) -> (f64, f64, f64) {
         if delta <= 0.0 {
-            return 0.0;
+            return (0.0, 0.0, 0.0);
         }
         let (k, n) = self.stiffness();
+        let c = self.damping_factor();
         let elastic = k * delta.powf(n);
-        (elastic * (1.0 + self.damping_factor() * delta_rate)).max(0.0)
+        let damp = 1.0 + c * delta_rate;
+        let f = elastic * damp;
+        if f <= 0.0 {
+            return (0.0, 0.0, 0.0);
+        }
+        (f, k * n * delta.powf(n - 1.0) * damp, elastic * c)
     }
 }
 

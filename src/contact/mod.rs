@@ -14,6 +14,7 @@
 //! All quantities SI: N, m, Pa, s.
 
 pub mod bearing;
+mod dual;
 pub mod joints;
 pub mod laws;
 pub mod stiffness;

@@ -72,6 +72,24 @@ pub trait ForceElement: Debug + Send + Sync {
     /// Adds this element's loads at time `t` (s). `states[b]` and `loads[b]` are indexed by
     /// body index.
     fn apply(&self, t: f64, states: &[BodyState], loads: &mut [BodyLoad]);
+    /// Exact derivatives of this element's loads at time `t`, if it provides them; `None`
+    /// (the default) lets the formulation difference [`apply`](Self::apply) instead.
+    fn load_jacobian(&self, _t: f64, _states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
+        None
+    }
+}
+
+/// ∂(force, body-frame torque) on body `loaded` with respect to the state (r, p, v, ω') of
+/// body `wrt`: rows force x, y, z (N), torque x', y', z' (N·m); columns r (3), p (4), v (3),
+/// ω' (3).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadDerivative {
+    /// Body whose load is differentiated.
+    pub loaded: BodyHandle,
+    /// Body whose state varies.
+    pub wrt: BodyHandle,
+    /// The 6 × 13 block.
+    pub d: nalgebra::SMatrix<f64, 6, 13>,
 }
 
 /// The state of a side (the ground is at rest at the origin).

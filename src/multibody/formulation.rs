@@ -179,7 +179,8 @@ pub struct MultibodyDae {
     pub analytic_jacobian: bool,
     /// Measure velocity errors as index-2 variables in the error test.
     pub velocities_index2: bool,
-    /// Relative central-difference increment for force-element Jacobians.
+    /// Relative central-difference increment for the Jacobians of force elements that do
+    /// not provide exact derivatives ([`ForceElement::load_jacobian`](super::ForceElement::load_jacobian)).
     pub force_fd_step: f64,
 }
 
@@ -610,6 +611,19 @@ impl MultibodyDae {
         let mut loads_p = vec![BodyLoad::default(); nb];
         let mut loads_m = vec![BodyLoad::default(); nb];
         for f in &model.forces {
+            if let Some(blocks) = f.load_jacobian(t, &self.ev.states) {
+                for blk in blocks {
+                    let (br, bc) = (blk.loaded.0, blk.wrt.0);
+                    for c in 0..13 {
+                        let gc = if c < 7 { lay.q(bc) + c } else { lay.w(bc) + c - 7 };
+                        for r in 0..3 {
+                            add(lay.w(br) + r, gc, -blk.d[(r, c)]);
+                            add(lay.w(br) + 3 + r, gc, -blk.d[(3 + r, c)]);
+                        }
+                    }
+                }
+                continue;
+            }
             let bodies = f.bodies();
             for &bc in &bodies {
                 let saved = states[bc.0];

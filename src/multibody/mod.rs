@@ -35,7 +35,7 @@ pub use body::{Attach, BodyHandle, BodySet, RigidBody};
 pub use drivers::{MotionLaw, Profile};
 pub use error::ModelError;
 pub use explicit::{BaumgarteGains, MultibodyOde};
-pub use forces::{BodyLoad, BodyState, ForceElement, PointForce, SpringDamper, Torque};
+pub use forces::{BodyLoad, BodyState, ForceElement, LoadDerivative, PointForce, SpringDamper, Torque};
 pub use formulation::{Layout, MultibodyDae};
 pub use joints::{Joint, JointFrame, JointHandle, JointKind};
 pub use model::{Driver, DriverHandle, Marker, MarkerHandle, Mechanism, STANDARD_GRAVITY};
