@@ -74,12 +74,12 @@ impl Default for Mr2120BenchOptions {
             t_end: 4.0,
             dt: 0.01,
             target: 1e-6,
-            reference_rtol: 1e-7,
-            bdf_rtols: vec![1e-3, 1e-4, 1e-5, 1e-6],
+            reference_rtol: 1e-8,
+            bdf_rtols: vec![1e-4, 1e-5, 1e-6, 1e-7],
             dopri_rtols: vec![1e-5],
             reference_check_rtol: None,
             damping: BENCH_DAMPING,
-            explicit_budget_s: 900.0,
+            explicit_budget_s: 600.0,
         }
     }
 }
