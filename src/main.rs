@@ -117,6 +117,10 @@ enum BenchWhat {
         /// Repeats per timing (the best is kept).
         #[arg(long, default_value_t = 3)]
         repeats: usize,
+        /// Also sweep Andrews' squeezer over tolerances 1e-3..1e-9 and draw its
+        /// work-precision diagram into this folder.
+        #[arg(long)]
+        plots: Option<std::path::PathBuf>,
     },
     /// Cost per BDF step of a chain of N links joined by universal joints with clearance,
     /// against N, with the fitted log-log slope (sparse factorisation must stay sparse).
@@ -558,6 +562,48 @@ fn bench_scaling_cmd(links: &str, t_end: f64, out: &std::path::Path, json: bool)
     ExitCode::SUCCESS
 }
 
+fn andrews_work_precision(dir: &std::path::Path, repeats: usize) -> String {
+    use lash::plot::{LineChart, Series};
+    let tols = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9];
+    let rows = lash::bench::andrews_work_precision(&tols, repeats);
+    let mut solvers: Vec<String> = vec![];
+    for r in &rows {
+        if !solvers.contains(&r.solver) {
+            solvers.push(r.solver.clone());
+        }
+    }
+    let series = solvers
+        .iter()
+        .map(|s| {
+            // In tolerance order: the line joins successive tolerances.
+            let points: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(|r| &r.solver == s && r.failure.is_none() && r.error.is_finite())
+                .map(|r| (r.wall_s, r.error.max(1e-16)))
+                .collect();
+            Series {
+                name: s.clone(),
+                points,
+            }
+        })
+        .collect();
+    if let Err(e) = std::fs::create_dir_all(dir) {
+        return format!("could not create {}: {e}", dir.display());
+    }
+    let chart = LineChart {
+        title: "Andrews' squeezer: work-precision (rtol = atol = 1e-3 .. 1e-9)".into(),
+        x_label: "wall time [s]".into(),
+        y_label: "max relative angle error at 0.03 s".into(),
+        series,
+        y_range: None,
+    };
+    let stem = dir.join("andrews-work-precision");
+    match chart.save_log_log(&stem) {
+        Ok(()) => format!("Andrews work-precision diagram: {}.png / .svg", stem.display()),
+        Err(e) => format!("could not write the diagram: {e}"),
+    }
+}
+
 fn write_work_precision(b: &lash::bench::mr2120::Mr2120Bench, out: &std::path::Path) -> String {
     use lash::plot::{LineChart, Series};
     if let Err(e) = std::fs::create_dir_all(out) {
@@ -567,7 +613,8 @@ fn write_work_precision(b: &lash::bench::mr2120::Mr2120Bench, out: &std::path::P
         .comparison
         .iter()
         .map(|c| {
-            let mut points: Vec<(f64, f64)> = b
+            // In tolerance order: the line joins successive tolerances.
+            let points: Vec<(f64, f64)> = b
                 .points
                 .iter()
                 .filter(|p| {
@@ -575,7 +622,6 @@ fn write_work_precision(b: &lash::bench::mr2120::Mr2120Bench, out: &std::path::P
                 })
                 .map(|p| (p.wall_to_horizon_s, p.error_to_horizon.max(1e-12)))
                 .collect();
-            points.sort_by(|a, b| a.0.total_cmp(&b.0));
             Series {
                 name: c.solver.clone(),
                 points,
@@ -1241,9 +1287,12 @@ fn main() -> ExitCode {
                 },
         } => bench_scaling_cmd(&links, t_end, &out, json),
         Command::Bench {
-            what: BenchWhat::Dae { json, repeats },
+            what: BenchWhat::Dae { json, repeats, plots },
         } => {
             let rows = lash::bench::bench_dae(repeats);
+            if let Some(dir) = plots {
+                eprintln!("{}", andrews_work_precision(&dir, repeats));
+            }
             if json {
                 println!("{}", serde_json::to_string_pretty(&rows).expect("rows serialise"));
             } else {

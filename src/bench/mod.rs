@@ -10,6 +10,12 @@ use crate::validation::{andrews, reference, robertson, stiff_spring};
 use serde::Serialize;
 use std::time::Instant;
 
+/// Work-precision data for Andrews' squeezer: every solver of [`andrews_rows_at`] at each
+/// tolerance.
+pub fn andrews_work_precision(tols: &[f64], repeats: usize) -> Vec<BenchRow> {
+    tols.iter().flat_map(|&t| andrews_rows_at(t, repeats)).collect()
+}
+
 /// One solver on one problem.
 #[derive(Debug, Clone, Serialize)]
 pub struct BenchRow {
@@ -225,8 +231,13 @@ pub fn stiff_spring_rows(repeats: usize) -> Vec<BenchRow> {
 /// Andrews at rtol = atol = 1e-6: lash's BDF on four formulations and diffsol's BDF on the
 /// index-1 one (the only one in its M·y' = f form).
 pub fn andrews_rows(repeats: usize) -> Vec<BenchRow> {
+    andrews_rows_at(1e-6, repeats)
+}
+
+/// Andrews' squeezer at one tolerance (rtol = atol = `tol`) for every lash formulation and
+/// diffsol, with ratios to lash's index-2 + projection run.
+pub fn andrews_rows_at(tol: f64, repeats: usize) -> Vec<BenchRow> {
     let (y0, yp0) = andrews::initial_values();
-    let tol = 1e-6;
     let measure = "max relative angle error at 0.03 s";
     let err = |y: &[f64]| andrews::angle_error(y);
     let name = "andrews";
