@@ -24,7 +24,7 @@
 //! * Velocity errors are tested as index-2 quantities (scaled by the step) for the clearance
 //!   runs: the settling rattle at M1 took 26 000 steps with index-1 velocities, 1 500 with
 //!   index 2.
-//! * What remains: on the benchmark trajectory (`lash bench mr2120`, rtol 1e-4) 2 150 of 8 744
+//! * What remains: on the benchmark trajectory (`lash bench mr2120`, rtol 1e-4) 2 657 of 9 920
 //!   attempted steps are rejected, mostly Newton divergences at onset.
 
 pub mod bearing;
