@@ -488,39 +488,30 @@ fn bench_scaling_cmd(links: &str, t_end: f64, out: &std::path::Path, json: bool)
         k += 1.0;
     });
     progress.finish();
-    let note = match std::fs::create_dir_all(out) {
-        Err(e) => format!("could not create {}: {e}", out.display()),
-        Ok(()) => {
-            let ok: Vec<_> = s.rows.iter().filter(|r| r.failure.is_none()).collect();
-            let chart = LineChart {
-                title: format!(
-                    "clearance chain: cost per step and memory vs N (slopes {:.2} and {:.2})",
-                    s.slope, s.memory_slope
-                ),
-                x_label: "links N".into(),
-                y_label: "time per step [s] / resident memory [GB]".into(),
-                series: vec![
-                    Series {
-                        name: format!("time per BDF step (slope {:.2})", s.slope),
-                        points: ok.iter().map(|r| (r.links as f64, r.per_step_s)).collect(),
-                    },
-                    Series {
-                        name: format!("resident memory (slope {:.2})", s.memory_slope),
-                        points: ok
-                            .iter()
-                            .map(|r| (r.links as f64, r.resident_bytes as f64 / 1e9))
-                            .collect(),
-                    },
-                ],
-                y_range: None,
-            };
-            let stem = out.join("scaling");
-            match chart.save_log_log(&stem) {
-                Ok(()) => format!("plot: {}.png / .svg", stem.display()),
-                Err(e) => format!("could not write the plot: {e}"),
-            }
-        }
+    let ok: Vec<_> = s.rows.iter().filter(|r| r.failure.is_none()).collect();
+    let chart = LineChart {
+        title: format!(
+            "clearance chain: cost per step and memory vs N (slopes {:.2} and {:.2})",
+            s.slope, s.memory_slope
+        ),
+        x_label: "links N".into(),
+        y_label: "time per step [s] / resident memory [GB]".into(),
+        series: vec![
+            Series {
+                name: format!("time per BDF step (slope {:.2})", s.slope),
+                points: ok.iter().map(|r| (r.links as f64, r.per_step_s)).collect(),
+            },
+            Series {
+                name: format!("resident memory (slope {:.2})", s.memory_slope),
+                points: ok
+                    .iter()
+                    .map(|r| (r.links as f64, r.resident_bytes as f64 / 1e9))
+                    .collect(),
+            },
+        ],
+        y_range: None,
     };
+    let note = save_log_log_chart(&chart, out, "scaling", "plot");
     if json {
         println!(
             "{}",
@@ -562,6 +553,24 @@ fn bench_scaling_cmd(links: &str, t_end: f64, out: &std::path::Path, json: bool)
     ExitCode::SUCCESS
 }
 
+/// Writes a chart with logarithmic axes as `<dir>/<stem>.png` and `.svg`, creating `dir`;
+/// returns the line to print (where it went, or why it could not be written).
+fn save_log_log_chart(
+    chart: &lash::plot::LineChart,
+    dir: &std::path::Path,
+    stem: &str,
+    what: &str,
+) -> String {
+    if let Err(e) = std::fs::create_dir_all(dir) {
+        return format!("could not create {}: {e}", dir.display());
+    }
+    let stem = dir.join(stem);
+    match chart.save_log_log(&stem) {
+        Ok(()) => format!("{what}: {}.png / .svg", stem.display()),
+        Err(e) => format!("could not write the {what}: {e}"),
+    }
+}
+
 fn andrews_work_precision(dir: &std::path::Path, repeats: usize) -> String {
     use lash::plot::{LineChart, Series};
     let tols = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9];
@@ -587,9 +596,6 @@ fn andrews_work_precision(dir: &std::path::Path, repeats: usize) -> String {
             }
         })
         .collect();
-    if let Err(e) = std::fs::create_dir_all(dir) {
-        return format!("could not create {}: {e}", dir.display());
-    }
     let chart = LineChart {
         title: "Andrews' squeezer: work-precision (rtol = atol = 1e-3 .. 1e-9)".into(),
         x_label: "wall time [s]".into(),
@@ -597,18 +603,16 @@ fn andrews_work_precision(dir: &std::path::Path, repeats: usize) -> String {
         series,
         y_range: None,
     };
-    let stem = dir.join("andrews-work-precision");
-    match chart.save_log_log(&stem) {
-        Ok(()) => format!("Andrews work-precision diagram: {}.png / .svg", stem.display()),
-        Err(e) => format!("could not write the diagram: {e}"),
-    }
+    save_log_log_chart(
+        &chart,
+        dir,
+        "andrews-work-precision",
+        "Andrews work-precision diagram",
+    )
 }
 
 fn write_work_precision(b: &lash::bench::mr2120::Mr2120Bench, out: &std::path::Path) -> String {
     use lash::plot::{LineChart, Series};
-    if let Err(e) = std::fs::create_dir_all(out) {
-        return format!("could not create {}: {e}", out.display());
-    }
     let series = b
         .comparison
         .iter()
@@ -638,11 +642,7 @@ fn write_work_precision(b: &lash::bench::mr2120::Mr2120Bench, out: &std::path::P
         series,
         y_range: None,
     };
-    let stem = out.join("work-precision");
-    match chart.save_log_log(&stem) {
-        Ok(()) => format!("work-precision diagram: {}.png / .svg", stem.display()),
-        Err(e) => format!("could not write the diagram: {e}"),
-    }
+    save_log_log_chart(&chart, out, "work-precision", "work-precision diagram")
 }
 
 fn mr2120_kinematics(json: bool) -> ExitCode {

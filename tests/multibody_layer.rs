@@ -87,12 +87,11 @@ fn slider_crank() -> (
     (mech, rev, pri, x0)
 }
 
-#[test]
-fn slider_crank_assembles_closed_loop_and_keeps_drift_below_1e8() {
+/// The slider-crank with its crank turning at 10 rad/s. Gravity acts along the crank axis, so
+/// the spin is what moves it (the velocity analysis makes the other bodies' velocities
+/// consistent).
+fn turning_slider_crank() -> Arc<Mechanism> {
     let (mut mech, _, _, _) = slider_crank();
-    assert_eq!(mech.degrees_of_freedom(), 1);
-    // Gravity acts along the crank axis; start the crank turning instead (the velocity
-    // analysis makes the other bodies' velocities consistent).
     let crank = mech
         .bodies
         .iter()
@@ -100,7 +99,13 @@ fn slider_crank_assembles_closed_loop_and_keeps_drift_below_1e8() {
         .map(|(h, _)| h)
         .unwrap();
     mech.bodies.get_mut(crank).unwrap().angular_velocity = Vector3::new(0.0, 0.0, 10.0);
-    let mech = Arc::new(mech);
+    Arc::new(mech)
+}
+
+#[test]
+fn slider_crank_assembles_closed_loop_and_keeps_drift_below_1e8() {
+    let mech = turning_slider_crank();
+    assert_eq!(mech.degrees_of_freedom(), 1);
     let mut an = Analysis::new(mech.clone()).unwrap();
     let (guess, _) = an.initial_guess();
     assert!(
@@ -258,15 +263,7 @@ fn markers_and_csv_outputs() {
 fn explicit_ode_form_agrees_with_the_implicit_ggl_run_on_the_slider_crank() {
     use lash::dae::explicit::{Dopri5, Dopri5Options};
     use lash::multibody::MultibodyOde;
-    let (mut mech, _, _, _) = slider_crank();
-    let crank = mech
-        .bodies
-        .iter()
-        .find(|(_, b)| b.name == "crank")
-        .map(|(h, _)| h)
-        .unwrap();
-    mech.bodies.get_mut(crank).unwrap().angular_velocity = Vector3::new(0.0, 0.0, 10.0);
-    let mech = Arc::new(mech);
+    let mech = turning_slider_crank();
     let s0 = Analysis::new(mech.clone()).unwrap().initial_state(0.0).unwrap();
     let mut sim = Simulation::new(mech.clone(), 0.0, SimulationOptions::default()).unwrap();
     let traj = sim.run(&[0.5], |_| {}).unwrap();
