@@ -59,6 +59,16 @@ enum Command {
         /// Print the diagnosis as JSON.
         #[arg(long)]
         json: bool,
+        /// Run the concealed-effects suite on the MR2120 (synthetic recordings from a truth
+        /// with hidden effects, each diagnosed blind) and print the scoreboard.
+        #[arg(long)]
+        suite: bool,
+        /// With --suite: the reduced design CI runs (fewer, shorter recordings).
+        #[arg(long)]
+        reduced: bool,
+        /// With --suite: only the cases whose names contain one of these (comma-separated).
+        #[arg(long, default_value = "")]
+        only: String,
     },
     /// The WUT MR2120 parallel mechanism of the reference paper.
     Mr2120 {
@@ -69,6 +79,42 @@ enum Command {
 
 #[derive(Subcommand)]
 enum Mr2120What {
+    /// Synthetic recordings from a truth with hidden effects: drive angles, rates and
+    /// torques, platform centre from a tracker, with stated noise (CSV), and the truth
+    /// (truth.json, which the diagnosis never reads).
+    Record {
+        /// Hidden effects, comma-separated name=value (SI), e.g. "payload=0.01,clearance_c=4e-6";
+        /// names: payload, tilt_x, tilt_y, arm_length_error_a.., forearm_length_error_a..,
+        /// compliance_error_a.., viscous_a.., coulomb_a.., rotor_inertia_a.., backlash_a..,
+        /// clearance_a.., encoder_offset_a.., torque_offset_a.., torque_scale_a..,
+        /// tracker_offset_x|y|z.
+        #[arg(long, default_value = "")]
+        effects: String,
+        /// Or a suite case by name (its effects and design), e.g. "clearance".
+        #[arg(long)]
+        case: Option<String>,
+        /// Number of recordings (different paths).
+        #[arg(long, default_value_t = 4)]
+        recordings: usize,
+        /// Seed of paths and noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Duration of each recording, s.
+        #[arg(long, default_value_t = 8.0)]
+        duration: f64,
+        /// Sampling rate, Hz.
+        #[arg(long, default_value_t = 500.0)]
+        rate: f64,
+        /// Leave out the drive torques (tracker only).
+        #[arg(long)]
+        no_torques: bool,
+        /// Output folder.
+        #[arg(long, default_value = "out/mr2120-record")]
+        out: std::path::PathBuf,
+        /// Print a summary as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Table 2: drive angles at M1, M2, M3 beside the paper's, with singularity measures.
     Kinematics {
         /// Print the rows as JSON.
@@ -287,6 +333,227 @@ fn diagnose_cmd(
         println!("  none: no significant mismatch");
     }
     println!("\nreport: {}", md.display());
+    ExitCode::SUCCESS
+}
+
+fn suite_cmd(reduced: bool, only: &str, report: &std::path::Path, json: bool) -> ExitCode {
+    use lash::diagnose::suite::{run_suite, SuiteOptions};
+    let mut opts = if reduced {
+        SuiteOptions::reduced()
+    } else {
+        SuiteOptions::default()
+    };
+    opts.only = only
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(String::from)
+        .collect();
+    let mut progress = Progress::new("diagnose --suite", 1.0);
+    let board = match run_suite(&opts, |_, f| progress.update(f)) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    progress.finish();
+    let text = serde_json::to_string_pretty(&board).expect("scoreboard serialises");
+    let dir = if report == std::path::Path::new("out/diagnose") {
+        std::path::PathBuf::from("out/diagnose-suite")
+    } else {
+        report.to_path_buf()
+    };
+    if let Err(e) =
+        std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("scoreboard.json"), &text))
+    {
+        eprintln!("error: {}: {e}", dir.display());
+        return ExitCode::FAILURE;
+    }
+    if json {
+        println!("{text}");
+        return if board.targets_met {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::FAILURE
+        };
+    }
+    let (f, h, d, r) = board.design;
+    println!(
+        "Concealed-effects suite on the MR2120: {f} recordings fitted, {h} held out per case, {d} s at {r} Hz; noise: torque {} N m, tracker {} m, encoder {} rad, rate {} rad/s\n",
+        board.noise.torque, board.noise.tracker, board.noise.encoder, board.noise.rate
+    );
+    println!(
+        "{:<24} {:>7} {:>6}  {:<6} {:<22} {:>8}  {:<5}  selected first",
+        "case", "<noise", "peak", "ranked", "estimate (rel. err.)", "held/σ", "pass"
+    );
+    for c in &board.cases {
+        let est: Vec<String> = c
+            .estimates
+            .iter()
+            .map(|e| match e {
+                Some((_, r)) => format!("{:.1} %", 100.0 * r),
+                None => "not found".into(),
+            })
+            .collect();
+        println!(
+            "{:<24} {:>6.0}% {:>6.1}  {:<6} {:<22} {:>8.2}  {:<5}  {}",
+            c.case,
+            100.0 * c.below_noise_fraction,
+            c.peak_snr,
+            if c.ranked_first { "yes" } else { "no" },
+            if est.is_empty() {
+                "-".to_string()
+            } else {
+                est.join(", ")
+            },
+            c.holdout_noise_ratio,
+            if c.pass { "yes" } else { "NO" },
+            if c.selected.is_empty() {
+                "nothing (no significant mismatch)".to_string()
+            } else {
+                c.selected.iter().take(3).cloned().collect::<Vec<_>>().join("; ")
+            }
+        );
+        if let Some(x) = &c.confounded {
+            println!("{:<24} flagged as confounded; separating experiment: {x}", "");
+        }
+    }
+    println!(
+        "\nranked first {}/{}  estimates within 25 % {}/{}  held-out ≤ 1.1× noise {}/{}  null case {}  pair case {}",
+        board.ranked_first.0,
+        board.ranked_first.1,
+        board.estimates_within_25pct.0,
+        board.estimates_within_25pct.1,
+        board.holdout_at_noise.0,
+        board.holdout_at_noise.1,
+        if board.null_ok { "ok" } else { "FAILED" },
+        if board.pair_ok { "ok" } else { "FAILED" }
+    );
+    println!(
+        "targets {}; scoreboard: {}",
+        if board.targets_met { "met" } else { "NOT met" },
+        dir.join("scoreboard.json").display()
+    );
+    if board.targets_met {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn record_cmd(
+    effects: &str,
+    case: Option<&str>,
+    recordings: usize,
+    seed: u64,
+    duration: f64,
+    rate: f64,
+    no_torques: bool,
+    out: &std::path::Path,
+    json: bool,
+) -> ExitCode {
+    use lash::diagnose::suite::{cases, excitation};
+    use lash::mechanisms::mr2120::record::{nominal_model, record, HiddenEffects, RecordOptions};
+    let fail = |e: &dyn std::fmt::Display| {
+        eprintln!("error: {e}");
+        ExitCode::FAILURE
+    };
+    let mut hidden = HiddenEffects::default();
+    let mut torques = !no_torques;
+    if let Some(name) = case {
+        match cases().into_iter().find(|c| c.name == name) {
+            Some(c) => {
+                hidden = c.effects;
+                torques &= c.torques;
+            }
+            None => {
+                let names: Vec<String> = cases().into_iter().map(|c| c.name).collect();
+                return fail(&format!("unknown case '{name}' (cases: {})", names.join(", ")));
+            }
+        }
+    }
+    for item in effects.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let Some((k, v)) = item.split_once('=') else {
+            return fail(&format!("--effects: '{item}' is not name=value"));
+        };
+        let value = match v.trim().parse::<f64>() {
+            Ok(x) => x,
+            Err(_) => return fail(&format!("--effects: '{v}' is not a number")),
+        };
+        if let Err(e) = hidden.set(k.trim(), value) {
+            return fail(&format!("--effects: {e}"));
+        }
+    }
+    if recordings == 0 {
+        return fail(&"--recordings must be at least 1");
+    }
+    let opts = RecordOptions {
+        duration,
+        rate,
+        torques,
+        ..RecordOptions::default()
+    };
+    if let Err(e) = std::fs::create_dir_all(out) {
+        return fail(&format!("{}: {e}", out.display()));
+    }
+    let nominal = nominal_model();
+    let mut files = vec![];
+    for r in 0..recordings {
+        let ex = excitation(seed, r);
+        let rec = match record(&nominal, &hidden, &ex, &opts, seed.wrapping_add(r as u64)) {
+            Ok(x) => x,
+            Err(e) => return fail(&e),
+        };
+        let path = out.join(format!("recording-{:02}.csv", r + 1));
+        if let Err(e) = rec.write(&path) {
+            return fail(&e);
+        }
+        files.push(serde_json::json!({
+            "file": path.display().to_string(),
+            "samples": rec.t.len(),
+            "min_direct_measure": rec.min_direct_measure,
+            "torque_reversals": rec.torque_reversals,
+            "forearm_force_reversals": rec.tension_reversals,
+            "velocity_reversals": rec.velocity_reversals,
+        }));
+    }
+    let truth = serde_json::json!({
+        "effects": hidden,
+        "noise": opts.noise,
+        "seed": seed,
+        "recordings": files,
+    });
+    let text = serde_json::to_string_pretty(&truth).expect("truth serialises");
+    let tpath = out.join("truth.json");
+    if let Err(e) = std::fs::write(&tpath, &text) {
+        return fail(&format!("{}: {e}", tpath.display()));
+    }
+    if json {
+        println!("{text}");
+    } else {
+        println!(
+            "{} recordings of {duration} s at {rate} Hz in {} (columns: time, q1..q3 [rad], qd1..qd3 [rad/s]{}, x, y, z [m]); truth in {}",
+            recordings,
+            out.display(),
+            if torques { ", tau1..tau3 [N m]" } else { "" },
+            tpath.display()
+        );
+        println!(
+            "diagnose them: lash diagnose --model mr2120 --fit {} --holdout {}",
+            files
+                .iter()
+                .take(recordings.saturating_sub(1).max(1))
+                .map(|f| f["file"].as_str().unwrap_or_default().to_string())
+                .collect::<Vec<_>>()
+                .join(","),
+            files
+                .last()
+                .map(|f| f["file"].as_str().unwrap_or_default().to_string())
+                .unwrap_or_default()
+        );
+    }
     ExitCode::SUCCESS
 }
 
@@ -1208,6 +1475,14 @@ fn main() -> ExitCode {
             }
         }
         Command::Diagnose {
+            report,
+            json,
+            suite,
+            reduced,
+            only,
+            ..
+        } if suite => suite_cmd(reduced, &only, &report, json),
+        Command::Diagnose {
             model,
             params,
             fit,
@@ -1217,6 +1492,7 @@ fn main() -> ExitCode {
             derivative_window,
             report,
             json,
+            ..
         } => diagnose_cmd(
             &model,
             &params,
@@ -1226,6 +1502,30 @@ fn main() -> ExitCode {
             &map,
             &derivative_window,
             &report,
+            json,
+        ),
+        Command::Mr2120 {
+            what:
+                Mr2120What::Record {
+                    effects,
+                    case,
+                    recordings,
+                    seed,
+                    duration,
+                    rate,
+                    no_torques,
+                    out,
+                    json,
+                },
+        } => record_cmd(
+            &effects,
+            case.as_deref(),
+            recordings,
+            seed,
+            duration,
+            rate,
+            no_torques,
+            &out,
             json,
         ),
         Command::Mr2120 {

@@ -46,6 +46,7 @@ fn run(seed: u64, f: [f64; 2], extra: &dyn Fn(usize, f64, f64) -> f64, noise: f6
     let mut rng = Rng(seed);
     let n = 5000;
     let mut d = MotionData {
+        y: vec![],
         name: format!("synthetic-{seed}"),
         t: vec![],
         q: vec![vec![]; 2],
@@ -176,7 +177,7 @@ fn rotor_inertia_of_joint_1_and_link_1_inertia_are_flagged_as_confounded() {
         .confounded
         .iter()
         .find(|c| names.iter().any(|n| c.alternative.starts_with(n)))
-        .unwrap_or_else(|| panic!("not flagged: {:?}", d.confounded));
+        .unwrap_or_else(|| panic!("not flagged: {:?} selected {:?} steps {:?}", d.confounded, d.selected, d.steps));
     assert!(!c.experiment.is_empty());
     assert!(d.verdict.contains("cannot tell"), "{}", d.verdict);
 }

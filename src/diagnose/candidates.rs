@@ -13,10 +13,21 @@
 //! | torque-sensor offset | o |
 //! | torque-sensor scale | (k − 1)·τ_j,nominal |
 //! | torque-sensor delay | −d·dτ_j,nominal/dt |
-//! | model parameter θ_k (link length, centre of mass, mass, inertia, base tilt, payload) | Δθ_k·∂τ/∂θ_k (all joints) |
-
-use super::data::MotionData;
-use super::model::{InverseDynamicsModel, ParameterFamily};
+//! | model parameter θ_k (link length, centre of mass, mass, inertia, base tilt, payload, drive compliance) | Δθ_k·∂τ/∂θ_k (all joints) and Δθ_k·∂y/∂θ_k (all outputs) |
+//!
+//! Models with outputs y (output-error channels, e.g. a tracked platform position predicted
+//! from the joint positions) add candidates that act on them, and every joint-side torque
+//! (friction) also winds up the drive's transmission, moving the outputs by
+//! −∂y/∂q_j·c_j·τ (c_j the drive's compliance):
+//!
+//! | effect | output term |
+//! |---|---|
+//! | joint-position sensor offset o_j | −o_j·∂(τ, y)/∂q_j (torques too) |
+//! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) |
+//! | clearance h at a site (e.g. the joints of a leg) | h·∂y/∂s·tanh(F/F_c), F the site's load |
+//! | output-sensor offset | o_k on output k |
+use super::data::{Channel, MotionData};
+use super::model::{InverseDynamicsModel, OutputSensitivities, ParameterFamily};
 use super::signal::derivative;
 use serde::Serialize;
 
@@ -62,6 +73,20 @@ pub enum Effect {
     TorqueScale,
     /// Torque-sensor delay, s.
     TorqueDelay,
+    /// Offset of a joint-position sensor (encoder), rad.
+    PositionOffset,
+    /// Backlash of a drive (half the play), rad.
+    Backlash,
+    /// Clearance at a site of the model (index into its clearance sites), m.
+    Clearance {
+        /// Site index.
+        site: usize,
+    },
+    /// Offset of an output sensor (index of the output), in its unit.
+    OutputOffset {
+        /// Output index.
+        output: usize,
+    },
     /// Error of a nominal model parameter (index into the model's parameters).
     Parameter {
         /// Index.
@@ -157,6 +182,42 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
             0,
             &[(-0.05, 0.05)],
         ));
+        if model.outputs() > 0 {
+            out.push(mk(
+                "joint-position sensor offset",
+                Effect::PositionOffset,
+                &["o [rad]"],
+                0,
+                &[(-0.05, 0.05)],
+            ));
+            out.push(mk(
+                "drive backlash",
+                Effect::Backlash,
+                &["b [rad]"],
+                0,
+                &[(0.0, 0.05)],
+            ));
+        }
+    }
+    for (site, name) in model.clearance_sites().iter().enumerate() {
+        out.push(Candidate {
+            name: format!("clearance in {name}"),
+            effect: Effect::Clearance { site },
+            joint: None,
+            parameters: vec!["h [m]".into()],
+            grid_parameters: 0,
+            bounds: vec![(0.0, 0.01)],
+        });
+    }
+    for k in 0..model.outputs() {
+        out.push(Candidate {
+            name: format!("{} sensor offset", model.output_name(k)),
+            effect: Effect::OutputOffset { output: k },
+            joint: None,
+            parameters: vec![format!("o [{}]", model.output_unit(k))],
+            grid_parameters: 0,
+            bounds: vec![(-f64::INFINITY, f64::INFINITY)],
+        });
     }
     for (k, p) in model.parameters().iter().enumerate() {
         out.push(Candidate {
@@ -173,6 +234,7 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
                 ParameterFamily::MassProperties => (-0.5 * p.scale, 0.5 * p.scale),
                 ParameterFamily::Payload => (0.0, p.scale),
                 ParameterFamily::BaseTilt => (-0.2, 0.2),
+                ParameterFamily::DriveCompliance => (-0.9 * p.scale, 10.0 * p.scale),
             }],
         });
     }
@@ -180,25 +242,90 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
 }
 
 /// Regressor columns of every candidate on one recording: `cols[c][k]` is column k of
-/// candidate c, stacked joint by joint (joint 0's samples, then joint 1's, ...).
+/// candidate c, stacked channel by channel in the order of [`MotionData::channels`] (the
+/// first channel's samples, then the second's, ...).
 pub fn columns(
     cands: &[Candidate],
     d: &MotionData,
     model: &dyn InverseDynamicsModel,
     opts: &LibraryOptions,
 ) -> Vec<Vec<Vec<f64>>> {
-    let nj = model.joints();
+    let chans = d.channels();
+    let nc = chans.len();
     let n = d.len();
     let params = model.parameters();
     let theta0: Vec<f64> = params.iter().map(|p| p.nominal).collect();
-    let tau_nom = d.model_torques(model, &theta0);
+    let (tau_nom, y_nom) = d.model_all(model, &theta0);
+    let torque_row = |j: usize| chans.iter().position(|&c| c == Channel::Torque(j));
+    let output_rows: Vec<(usize, usize)> = chans
+        .iter()
+        .enumerate()
+        .filter_map(|(r, c)| match c {
+            Channel::Output(k) => Some((r, *k)),
+            Channel::Torque(_) => None,
+        })
+        .collect();
+    // Output sensitivities per sample (only when outputs are recorded).
+    let sens: Vec<Option<OutputSensitivities>> = if output_rows.is_empty() {
+        vec![]
+    } else {
+        (0..n)
+            .map(|i| {
+                let (q, qd, qdd) = d.motion_at(i);
+                let y: Vec<f64> = y_nom.iter().map(|v| v[i]).collect();
+                model.output_sensitivities(&theta0, &q, &qd, &qdd, &y)
+            })
+            .collect()
+    };
     let sgn = |v: f64| (v / opts.coulomb_velocity).tanh();
-    let per_joint = |j: usize, f: &dyn Fn(usize) -> f64| {
-        let mut c = vec![0.0; nj * n];
-        for i in 0..n {
-            c[j * n + i] = f(i);
+    // A torque g(i) acting on the joint side of drive j: the torque channel, and the outputs
+    // through the wind-up of the transmission.
+    let joint_torque = |j: usize, g: &dyn Fn(usize) -> f64| {
+        let mut c = vec![0.0; nc * n];
+        if let Some(r) = torque_row(j) {
+            for i in 0..n {
+                c[r * n + i] = g(i);
+            }
+        }
+        for &(r, k) in &output_rows {
+            for i in 0..n {
+                if let Some(s) = &sens[i] {
+                    c[r * n + i] = -s.dy_dq[k][j] * s.compliance[j] * g(i);
+                }
+            }
         }
         c
+    };
+    // A torque seen by the torque sensor only.
+    let sensor_torque = |j: usize, g: &dyn Fn(usize) -> f64| {
+        let mut c = vec![0.0; nc * n];
+        if let Some(r) = torque_row(j) {
+            for i in 0..n {
+                c[r * n + i] = g(i);
+            }
+        }
+        c
+    };
+    let outputs_only = |g: &dyn Fn(usize, &OutputSensitivities, usize) -> f64| {
+        let mut c = vec![0.0; nc * n];
+        for &(r, k) in &output_rows {
+            for i in 0..n {
+                if let Some(s) = &sens[i] {
+                    c[r * n + i] = g(k, s, i);
+                }
+            }
+        }
+        c
+    };
+    let stack = |a: &[Vec<f64>], b: &[Vec<f64>], h: f64| {
+        let mut col = vec![0.0; nc * n];
+        for r in 0..nc {
+            for i in 0..n {
+                let v = (a[r][i] - b[r][i]) / (2.0 * h);
+                col[r * n + i] = if v.is_finite() { v } else { 0.0 };
+            }
+        }
+        col
     };
     cands
         .iter()
@@ -208,51 +335,84 @@ pub fn columns(
                 let (mut tp, mut tm) = (theta0.clone(), theta0.clone());
                 tp[index] += h;
                 tm[index] -= h;
-                let (a, b) = (d.model_torques(model, &tp), d.model_torques(model, &tm));
-                let mut col = vec![0.0; nj * n];
-                for j in 0..nj {
-                    for i in 0..n {
-                        col[j * n + i] = (a[j][i] - b[j][i]) / (2.0 * h);
-                    }
+                vec![stack(
+                    &d.model_channels(model, &tp),
+                    &d.model_channels(model, &tm),
+                    h,
+                )]
+            }
+            (Effect::PositionOffset, Some(j)) => {
+                // Measured = true + o, so the model sees q − o: column −∂(τ, y)/∂q_j.
+                let h = 1e-6;
+                let (mut dp, mut dm) = (d.clone(), d.clone());
+                dp.q[j].iter_mut().for_each(|v| *v -= h);
+                dm.q[j].iter_mut().for_each(|v| *v += h);
+                vec![stack(
+                    &dp.model_channels(model, &theta0),
+                    &dm.model_channels(model, &theta0),
+                    h,
+                )]
+            }
+            (Effect::Backlash, Some(j)) => {
+                let tb = model.backlash_torque_scale();
+                vec![outputs_only(&|k, s, _| {
+                    -s.dy_dq[k][j] * (s.drive_torque[j] / tb).tanh()
+                })]
+            }
+            (Effect::Clearance { site }, _) => {
+                let fc = model.clearance_load_scale();
+                vec![outputs_only(&|k, s, _| {
+                    s.sites
+                        .get(site)
+                        .map(|(dy, load)| dy[k] * (load / fc).tanh())
+                        .unwrap_or(0.0)
+                })]
+            }
+            (Effect::OutputOffset { output }, _) => {
+                let mut col = vec![0.0; nc * n];
+                if let Some(r) = chans.iter().position(|&c| c == Channel::Output(output)) {
+                    col[r * n..(r + 1) * n].iter_mut().for_each(|v| *v = 1.0);
                 }
                 vec![col]
             }
             (e, Some(j)) => {
                 let qd = &d.qd[j];
                 match e {
-                    Effect::Viscous => vec![per_joint(j, &|i| qd[i])],
-                    Effect::Coulomb => vec![per_joint(j, &|i| sgn(qd[i]))],
+                    Effect::Viscous => vec![joint_torque(j, &|i| qd[i])],
+                    Effect::Coulomb => vec![joint_torque(j, &|i| sgn(qd[i]))],
                     Effect::Stribeck { v_s } => {
-                        vec![per_joint(j, &|i| sgn(qd[i]) * (-(qd[i] / v_s).powi(2)).exp())]
+                        vec![joint_torque(j, &|i| sgn(qd[i]) * (-(qd[i] / v_s).powi(2)).exp())]
                     }
                     Effect::AsymmetricFriction => vec![
-                        per_joint(j, &|i| sgn(qd[i]).max(0.0)),
-                        per_joint(j, &|i| sgn(qd[i]).min(0.0)),
+                        joint_torque(j, &|i| sgn(qd[i]).max(0.0)),
+                        joint_torque(j, &|i| sgn(qd[i]).min(0.0)),
                     ],
                     Effect::RotorInertia => {
-                        let mut col = vec![0.0; nj * n];
-                        let (mut a, mut out) = (vec![0.0; nj], vec![0.0; nj]);
+                        let mut col = vec![0.0; nc * n];
+                        let (mut a, mut out) = (vec![0.0; model.joints()], vec![0.0; model.joints()]);
                         for i in 0..n {
-                            for k in 0..nj {
+                            for k in 0..model.joints() {
                                 a[k] = d.qdd[k][i];
                             }
                             model.rotor_regressor(j, &a, &mut out);
-                            for k in 0..nj {
-                                col[k * n + i] = out[k];
+                            for k in 0..model.joints() {
+                                if let Some(r) = torque_row(k) {
+                                    col[r * n + i] = out[k];
+                                }
                             }
                         }
                         vec![col]
                     }
-                    Effect::TorqueOffset => vec![per_joint(j, &|_| 1.0)],
-                    Effect::TorqueScale => vec![per_joint(j, &|i| tau_nom[j][i])],
+                    Effect::TorqueOffset => vec![sensor_torque(j, &|_| 1.0)],
+                    Effect::TorqueScale => vec![sensor_torque(j, &|i| tau_nom[j][i])],
                     Effect::TorqueDelay => {
                         let dt = derivative(&d.t, &tau_nom[j], 2);
-                        vec![per_joint(j, &|i| -dt[i])]
+                        vec![sensor_torque(j, &|i| -dt[i])]
                     }
-                    Effect::Parameter { .. } => unreachable!("handled above"),
+                    _ => vec![vec![0.0; nc * n]],
                 }
             }
-            (_, None) => vec![vec![0.0; nj * n]],
+            (_, None) => vec![vec![0.0; nc * n]],
         })
         .collect()
 }
@@ -266,7 +426,16 @@ pub fn separating_experiment(a: &Candidate, b: &Candidate) -> String {
             .unwrap_or("the joints".into())
     };
     let friction = |e: Effect| matches!(e, Viscous | Coulomb | Stribeck { .. } | AsymmetricFriction);
+    let play = |e: Effect| matches!(e, Backlash | Clearance { .. });
     match (a.effect, b.effect) {
+        (x, y) if (friction(x) && play(y)) || (play(x) && friction(y)) => format!(
+            "a slow motion that reverses the velocity of {} while the loads keep their sign, then one that reverses the loads at constant velocity (friction flips with the velocity, play with the load)",
+            joint(if a.joint.is_some() { a } else { b })
+        ),
+        (Backlash, Clearance { .. }) | (Clearance { .. }, Backlash) => format!(
+            "a motion that reverses the torque of {} while the forces in the other links keep their sign (backlash follows the drive torque, clearance the joint's own load)",
+            joint(if a.joint.is_some() { a } else { b })
+        ),
         (x, y) if friction(x) && friction(y) => format!(
             "a run holding {} at several constant speeds, slow and fast, in both directions (friction against speed)",
             joint(a)

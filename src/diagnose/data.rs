@@ -17,8 +17,10 @@ pub struct MotionData {
     pub qd: Vec<Vec<f64>>,
     /// Joint accelerations per joint (differentiated rates), rad/s².
     pub qdd: Vec<Vec<f64>>,
-    /// Measured joint torques per joint, N·m.
+    /// Measured joint torques per joint, N·m (empty: the recording has no torque channels).
     pub tau: Vec<Vec<f64>>,
+    /// Measured outputs per output channel (empty: none recorded), in the model's units.
+    pub y: Vec<Vec<f64>>,
 }
 
 /// Roles a recording must map for an n-joint model: q1.., qd1.., tau1.. (1-based).
@@ -30,6 +32,39 @@ pub fn roles(joints: usize) -> Vec<String> {
         }
     }
     r
+}
+
+/// Roles of a model: q1.., qd1.., tau1.. and its output roles.
+pub fn model_roles(model: &dyn InverseDynamicsModel) -> Vec<String> {
+    let mut r = roles(model.joints());
+    r.extend((0..model.outputs()).map(|k| model.output_role(k)));
+    r
+}
+
+/// One residual channel: a joint torque or a model output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Channel {
+    /// Torque of joint j.
+    Torque(usize),
+    /// Output k.
+    Output(usize),
+}
+
+impl Channel {
+    /// Name for reports.
+    pub fn name(self, model: &dyn InverseDynamicsModel) -> String {
+        match self {
+            Channel::Torque(j) => format!("{} torque", model.joint_name(j)),
+            Channel::Output(k) => model.output_name(k),
+        }
+    }
+    /// Unit.
+    pub fn unit(self, model: &dyn InverseDynamicsModel) -> String {
+        match self {
+            Channel::Torque(_) => "N m".into(),
+            Channel::Output(k) => model.output_unit(k),
+        }
+    }
 }
 
 impl MotionData {
@@ -55,6 +90,7 @@ impl MotionData {
             qd: vec![],
             qdd: vec![],
             tau: vec![],
+            y: vec![],
         };
         for j in 1..=joints {
             d.q.push(get(format!("q{j}"))?);
@@ -64,6 +100,123 @@ impl MotionData {
             d.tau.push(get(format!("tau{j}"))?);
         }
         Ok(d)
+    }
+
+    /// From a recording for a model with outputs: joint positions and rates are required;
+    /// torque channels are used if any is mapped (then all must be), output channels likewise;
+    /// at least one of the two sets must be present.
+    pub fn from_recording_with_outputs(
+        rec: &Recording,
+        model: &dyn InverseDynamicsModel,
+        half_window: usize,
+    ) -> Result<Self, RecordingError> {
+        let nj = model.joints();
+        let get = |role: String| {
+            rec.channel(&role)
+                .map(<[f64]>::to_vec)
+                .ok_or(RecordingError::Unmapped {
+                    role: role.clone(),
+                    hint: format!("--map {role}=<column>"),
+                })
+        };
+        let mut d = MotionData {
+            name: rec.name(),
+            t: rec.time.clone(),
+            q: vec![],
+            qd: vec![],
+            qdd: vec![],
+            tau: vec![],
+            y: vec![],
+        };
+        for j in 1..=nj {
+            d.q.push(get(format!("q{j}"))?);
+            let qd = get(format!("qd{j}"))?;
+            d.qdd.push(derivative(&rec.time, &qd, half_window));
+            d.qd.push(qd);
+        }
+        let any_tau = (1..=nj).any(|j| rec.channel(&format!("tau{j}")).is_some());
+        let any_y = (0..model.outputs()).any(|k| rec.channel(&model.output_role(k)).is_some());
+        if any_tau || !any_y {
+            for j in 1..=nj {
+                d.tau.push(get(format!("tau{j}"))?);
+            }
+        }
+        if any_y {
+            for k in 0..model.outputs() {
+                d.y.push(get(model.output_role(k))?);
+            }
+        }
+        Ok(d)
+    }
+
+    /// The residual channels of this recording: torques (if recorded), then outputs.
+    pub fn channels(&self) -> Vec<Channel> {
+        (0..self.tau.len())
+            .map(Channel::Torque)
+            .chain((0..self.y.len()).map(Channel::Output))
+            .collect()
+    }
+
+    /// Measured values of a channel.
+    pub fn measured(&self, c: Channel) -> &[f64] {
+        match c {
+            Channel::Torque(j) => &self.tau[j],
+            Channel::Output(k) => &self.y[k],
+        }
+    }
+
+    /// The model's value of every channel of [`channels`](Self::channels) at every sample.
+    pub fn model_channels(&self, model: &dyn InverseDynamicsModel, theta: &[f64]) -> Vec<Vec<f64>> {
+        let (tau, y) = self.model_all(model, theta);
+        let mut out = vec![];
+        for c in self.channels() {
+            out.push(match c {
+                Channel::Torque(j) => tau[j].clone(),
+                Channel::Output(k) => y[k].clone(),
+            });
+        }
+        out
+    }
+
+    /// The model's torques (per joint) and outputs (per output) at every sample.
+    pub fn model_all(
+        &self,
+        model: &dyn InverseDynamicsModel,
+        theta: &[f64],
+    ) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+        let nj = model.joints();
+        let no = model.outputs();
+        let mut out = vec![vec![0.0; self.len()]; nj];
+        let mut outy = vec![vec![0.0; self.len()]; no];
+        let (mut q, mut qd, mut qdd, mut tau) = (vec![0.0; nj], vec![0.0; nj], vec![0.0; nj], vec![0.0; nj]);
+        let mut y = vec![0.0f64; no];
+        for i in 0..self.len() {
+            for j in 0..nj {
+                q[j] = self.q[j][i];
+                qd[j] = self.qd[j][i];
+                qdd[j] = self.qdd[j][i];
+            }
+            if y.iter().any(|v| !v.is_finite()) {
+                y.iter_mut().for_each(|v| *v = 0.0);
+            }
+            model.evaluate(theta, &q, &qd, &qdd, &mut tau, &mut y);
+            for j in 0..nj {
+                out[j][i] = tau[j];
+            }
+            for k in 0..no {
+                outy[k][i] = y[k];
+            }
+        }
+        (out, outy)
+    }
+
+    /// Joint positions, rates and accelerations at sample i.
+    pub fn motion_at(&self, i: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        (
+            self.q.iter().map(|v| v[i]).collect(),
+            self.qd.iter().map(|v| v[i]).collect(),
+            self.qdd.iter().map(|v| v[i]).collect(),
+        )
     }
 
     /// Samples.
@@ -78,20 +231,6 @@ impl MotionData {
 
     /// The model's torques per joint at every sample with parameters `theta`.
     pub fn model_torques(&self, model: &dyn InverseDynamicsModel, theta: &[f64]) -> Vec<Vec<f64>> {
-        let nj = model.joints();
-        let mut out = vec![vec![0.0; self.len()]; nj];
-        let (mut q, mut qd, mut qdd, mut tau) = (vec![0.0; nj], vec![0.0; nj], vec![0.0; nj], vec![0.0; nj]);
-        for i in 0..self.len() {
-            for j in 0..nj {
-                q[j] = self.q[j][i];
-                qd[j] = self.qd[j][i];
-                qdd[j] = self.qdd[j][i];
-            }
-            model.torques(theta, &q, &qd, &qdd, &mut tau);
-            for j in 0..nj {
-                out[j][i] = tau[j];
-            }
-        }
-        out
+        self.model_all(model, theta).0
     }
 }

@@ -38,6 +38,15 @@ pub struct DiagnoseOptions {
     pub confound_tolerance: f64,
     /// Localisation settings.
     pub locate: LocateOptions,
+    /// Re-weigh the channels once by the residual the first selection leaves, then select
+    /// again.
+    pub reweight: bool,
+    /// Re-linearise once: move the selected model-parameter and sensor-offset estimates into
+    /// the model, recompute every column around them and select again (one Gauss–Newton
+    /// step for effects that are not linear in their parameters).
+    pub relinearize: bool,
+    /// Candidates that start the selection (set by the re-linearisation).
+    pub keep: Vec<String>,
 }
 
 impl Default for DiagnoseOptions {
@@ -45,11 +54,14 @@ impl Default for DiagnoseOptions {
         Self {
             library: LibraryOptions::default(),
             significance: 1e-3,
-            min_gain: 0.01,
+            min_gain: 0.002,
             max_effects: 6,
             shortlist: 6,
             confound_tolerance: 0.005,
             locate: LocateOptions::default(),
+            reweight: true,
+            relinearize: true,
+            keep: vec![],
         }
     }
 }
@@ -113,9 +125,11 @@ pub struct Confound {
 /// Residual of one torque channel before and after the fit.
 #[derive(Debug, Clone, Serialize)]
 pub struct ChannelFit {
-    /// Joint name.
+    /// Channel name.
     pub channel: String,
-    /// Noise floor of the measured torque, N·m.
+    /// Unit of the values below (N m for torques).
+    pub unit: String,
+    /// Noise floor of the measured channel (in `unit`).
     pub noise_floor: f64,
     /// RMS on the fit recordings, nominal model, N·m.
     pub fit_before: f64,
@@ -136,6 +150,8 @@ pub struct ResidualTrace {
     pub recording: String,
     /// Channel.
     pub channel: String,
+    /// Unit of the residuals.
+    pub unit: String,
     /// Time, s.
     pub t: Vec<f64>,
     /// Nominal residual, N·m.
@@ -204,18 +220,34 @@ fn prepare(
     cands: &[Candidate],
     opts: &DiagnoseOptions,
 ) -> Prepared {
-    let nj = model.joints();
     let theta0: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
     let mut cols_of = vec![];
     let mut blocks = vec![];
     for d in data {
         let n = d.len();
-        let per = columns(cands, d, model, &opts.library);
-        let nominal = d.model_torques(model, &theta0);
-        let mut b = vec![0.0; nj * n];
-        for j in 0..nj {
+        let chans = d.channels();
+        let nc = chans.len();
+        let mut per = columns(cands, d, model, &opts.library);
+        let nominal = d.model_channels(model, &theta0);
+        let mut b = vec![0.0; nc * n];
+        for (j, &c) in chans.iter().enumerate() {
+            let meas = d.measured(c);
             for i in 0..n {
-                b[j * n + i] = (d.tau[j][i] - nominal[j][i]) / sigma[j];
+                b[j * n + i] = (meas[i] - nominal[j][i]) / sigma[j];
+            }
+        }
+        // Samples the model cannot evaluate (e.g. beyond a singular configuration) carry no
+        // weight.
+        for i in 0..n {
+            if (0..nc).any(|j| !b[j * n + i].is_finite()) {
+                for j in 0..nc {
+                    b[j * n + i] = 0.0;
+                    for cc in per.iter_mut() {
+                        for col in cc.iter_mut() {
+                            col[j * n + i] = 0.0;
+                        }
+                    }
+                }
             }
         }
         let mut flat = vec![];
@@ -223,7 +255,7 @@ fn prepare(
         for cc in per {
             let mut ids = vec![];
             for mut col in cc {
-                for j in 0..nj {
+                for j in 0..nc {
                     for v in &mut col[j * n..(j + 1) * n] {
                         *v /= sigma[j];
                     }
@@ -246,6 +278,27 @@ fn prepare(
 }
 
 impl Prepared {
+    /// The same columns and residual with channel j divided by `w[j]` (recording r has
+    /// `lens[r]` samples per channel).
+    fn reweighed(&self, w: &[f64], lens: &[usize]) -> Prepared {
+        let blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)> = self
+            .blocks
+            .iter()
+            .zip(lens)
+            .map(|((cols, b), &n)| {
+                let scale =
+                    |v: &[f64]| -> Vec<f64> { v.iter().enumerate().map(|(i, x)| x / w[i / n]).collect() };
+                (cols.iter().map(|c| scale(c)).collect(), scale(b))
+            })
+            .collect();
+        let grams = blocks.iter().map(|(c, b)| Gram::new(c, b)).collect();
+        Prepared {
+            cands: self.cands.clone(),
+            cols_of: self.cols_of.clone(),
+            blocks,
+            grams,
+        }
+    }
     fn idx(&self, set: &[usize]) -> Vec<usize> {
         set.iter().flat_map(|&c| self.cols_of[c].clone()).collect()
     }
@@ -339,12 +392,179 @@ pub fn diagnose(
     opts: &DiagnoseOptions,
     mut progress: impl FnMut(&str, f64),
 ) -> Diagnosis {
-    let nj = model.joints();
+    let first = diagnose_once(model, fit, holdout, opts, |s, f| progress(s, 0.5 * f));
+    if !opts.relinearize {
+        progress("done", 1.0);
+        return first;
+    }
+    // Shift the model by the selected parameter and sensor-offset estimates.
+    let cands = library(model, &opts.library);
+    let mut delta = vec![0.0; model.parameters().len()];
+    let mut q_offset = vec![0.0; model.joints()];
+    let mut moved = vec![];
+    for e in &first.estimates {
+        let Some(c) = cands.iter().find(|c| c.name == e.candidate) else {
+            continue;
+        };
+        match (c.effect, c.joint) {
+            (Effect::Parameter { index, .. }, _) => delta[index] += e.value,
+            (Effect::PositionOffset, Some(j)) => q_offset[j] += e.value,
+            _ => continue,
+        }
+        moved.push(c.name.clone());
+    }
+    if moved.is_empty() {
+        progress("done", 1.0);
+        return first;
+    }
+    let shifted = Shifted {
+        inner: model,
+        delta: delta.clone(),
+        q_offset: q_offset.clone(),
+    };
+    let mut o2 = opts.clone();
+    o2.relinearize = false;
+    o2.keep = moved.clone();
+    let mut second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.5 * f));
+    // Estimates relative to the nominal model again.
+    for e in second.estimates.iter_mut() {
+        if let Some(c) = cands.iter().find(|c| c.name == e.candidate) {
+            match (c.effect, c.joint) {
+                (Effect::Parameter { index, .. }, _) => e.value += delta[index],
+                (Effect::PositionOffset, Some(j)) => e.value += q_offset[j],
+                _ => {}
+            }
+        }
+    }
+    // "Before" is the nominal model's, and so are the localisation and the score tests.
+    for (c2, c1) in second.channels.iter_mut().zip(&first.channels) {
+        c2.fit_before = c1.fit_before;
+        c2.holdout_before = c1.holdout_before;
+        c2.holdout_reduction = if c1.holdout_before > 0.0 {
+            1.0 - c2.holdout_after / c1.holdout_before
+        } else {
+            0.0
+        };
+    }
+    for (t2, t1) in second.traces.iter_mut().zip(&first.traces) {
+        t2.before = t1.before.clone();
+    }
+    // An effect moved into the model leaves no signal to test or swap in the second pass:
+    // its step and its rivals are those of the first.
+    for st in second.steps.iter_mut() {
+        if let Some(f) = first.steps.iter().find(|f| f.added == st.added && moved.contains(&f.added)) {
+            *st = f.clone();
+        }
+    }
+    let mut confounded: Vec<Confound> = first
+        .confounded
+        .iter()
+        .filter(|c| moved.contains(&c.selected) && second.selected.contains(&c.selected))
+        .cloned()
+        .collect();
+    confounded.extend(second.confounded.iter().filter(|c| !moved.contains(&c.selected)).cloned());
+    second.confounded = confounded;
+    second.location = first.location;
+    second.ranking = first.ranking;
+    second.model = first.model;
+    second.no_significant_mismatch = second.selected.is_empty();
+    second.verdict = verdict_text(model, &second, &cands);
+    progress("done", 1.0);
+    second
+}
+
+/// The nominal model with its parameters moved by `delta` and its joint positions read with
+/// `q_offset` removed.
+struct Shifted<'a> {
+    inner: &'a dyn InverseDynamicsModel,
+    delta: Vec<f64>,
+    q_offset: Vec<f64>,
+}
+
+impl Shifted<'_> {
+    fn q(&self, q: &[f64]) -> Vec<f64> {
+        q.iter().zip(&self.q_offset).map(|(a, b)| a - b).collect()
+    }
+}
+
+impl InverseDynamicsModel for Shifted<'_> {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+    fn joints(&self) -> usize {
+        self.inner.joints()
+    }
+    fn joint_name(&self, j: usize) -> String {
+        self.inner.joint_name(j)
+    }
+    fn parameters(&self) -> Vec<super::model::ModelParameter> {
+        let mut p = self.inner.parameters();
+        for (x, d) in p.iter_mut().zip(&self.delta) {
+            x.nominal += d;
+        }
+        p
+    }
+    fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
+        self.inner.torques(theta, &self.q(q), qd, qdd, tau)
+    }
+    fn rotor_regressor(&self, j: usize, qdd: &[f64], out: &mut [f64]) {
+        self.inner.rotor_regressor(j, qdd, out)
+    }
+    fn outputs(&self) -> usize {
+        self.inner.outputs()
+    }
+    fn output_name(&self, k: usize) -> String {
+        self.inner.output_name(k)
+    }
+    fn output_unit(&self, k: usize) -> String {
+        self.inner.output_unit(k)
+    }
+    fn output_role(&self, k: usize) -> String {
+        self.inner.output_role(k)
+    }
+    fn evaluate(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64], y: &mut [f64]) {
+        self.inner.evaluate(theta, &self.q(q), qd, qdd, tau, y)
+    }
+    fn output_sensitivities(
+        &self,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        y: &[f64],
+    ) -> Option<super::model::OutputSensitivities> {
+        self.inner.output_sensitivities(theta, &self.q(q), qd, qdd, y)
+    }
+    fn clearance_sites(&self) -> Vec<String> {
+        self.inner.clearance_sites()
+    }
+    fn clearance_load_scale(&self) -> f64 {
+        self.inner.clearance_load_scale()
+    }
+    fn backlash_torque_scale(&self) -> f64 {
+        self.inner.backlash_torque_scale()
+    }
+    fn configuration_tag(&self, theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
+        self.inner.configuration_tag(theta, &self.q(q), y)
+    }
+}
+
+/// One pass of the diagnosis at the model's nominal parameters.
+fn diagnose_once(
+    model: &dyn InverseDynamicsModel,
+    fit: &[MotionData],
+    holdout: &[MotionData],
+    opts: &DiagnoseOptions,
+    mut progress: impl FnMut(&str, f64),
+) -> Diagnosis {
+    let chans = fit.first().map(MotionData::channels).unwrap_or_default();
+    let nj = chans.len();
     progress("noise floor", 0.0);
     // Noise floor per channel: median over the fit recordings.
-    let sigma: Vec<f64> = (0..nj)
-        .map(|j| {
-            let mut v: Vec<f64> = fit.iter().map(|d| noise_floor(&d.tau[j])).collect();
+    let sigma: Vec<f64> = chans
+        .iter()
+        .map(|&c| {
+            let mut v: Vec<f64> = fit.iter().map(|d| noise_floor(d.measured(c))).collect();
             v.sort_by(f64::total_cmp);
             v[v.len() / 2].max(1e-12)
         })
@@ -357,112 +577,174 @@ pub fn diagnose(
     // Channel weights: the larger of the noise floor and the nominal misfit of the channel,
     // so a channel whose misfit dwarfs its noise does not drown the others (one step of
     // feasible generalised least squares).
-    let weight_scale: Vec<f64> = (0..nj)
+    let mut weight_scale: Vec<f64> = (0..nj)
         .map(|j| {
             let r: Vec<f64> = fit
                 .iter()
                 .flat_map(|d| {
-                    let nom = d.model_torques(model, &theta0);
+                    let nom = d.model_channels(model, &theta0);
+                    let meas = d.measured(chans[j]);
                     (0..d.len())
-                        .map(move |i| d.tau[j][i] - nom[j][i])
+                        .map(move |i| meas[i] - nom[j][i])
+                        .filter(|v| v.is_finite())
                         .collect::<Vec<_>>()
                 })
                 .collect();
             rms(&r).max(sigma[j])
         })
         .collect();
-    let prep = prepare(model, fit, &weight_scale, &cands, opts);
-    let n: usize = prep.grams.iter().map(|g| g.n).sum();
-    // Effective samples from the residual left by the whole library.
-    let all: Vec<usize> = (0..cands.len()).collect();
-    let total = prep.total();
-    let x_all = total.solve(&prep.idx(&all));
-    let rhos: Vec<f64> = (0..fit.len())
-        .flat_map(|r| {
-            let res = prep.residual(r, &all, &x_all);
-            let len = fit[r].len();
-            (0..nj)
-                .map(move |j| lag1(&res[j * len..(j + 1) * len]))
-                .collect::<Vec<_>>()
-        })
-        .collect();
-    let rho = rhos.iter().sum::<f64>() / rhos.len() as f64;
-    let n_eff = effective_samples(n, rho);
-    let lr = |rss0: f64, rss1: f64| n_eff * (rss0.max(1e-300) / rss1.max(1e-300)).ln();
-    let bic = |set: &[usize]| n_eff * (prep.rss(set) / n as f64).ln() + prep.dof(set) as f64 * n_eff.ln();
-    // Ranking at the nominal model.
-    progress("score tests", 0.3);
-    let rss0 = total.bb;
-    let cv0 = prep.cv_rss(&[]);
-    let mut ranking: Vec<(usize, Ranked)> = (0..cands.len())
-        .map(|c| {
-            let stat = lr(rss0, prep.rss(&[c]));
-            let k = prep.cols_of[c].len() + cands[c].grid_parameters;
-            (
-                c,
-                Ranked {
-                    candidate: cands[c].name.clone(),
-                    statistic: stat,
-                    p_value: chi2_sf(stat, k),
-                    cv_ratio: (prep.cv_rss(&[c]) / cv0).sqrt(),
-                    plausible: prep.plausible(&[c]),
-                },
-            )
-        })
-        .collect();
-    ranking.sort_by(|a, b| b.1.statistic.total_cmp(&a.1.statistic));
-    // Greedy selection.
-    let mut set: Vec<usize> = vec![];
-    let mut steps = vec![];
-    let mut cv_cur = cv0;
-    let mut bic_cur = bic(&[]);
-    while set.len() < opts.max_effects {
-        progress(
-            "selection",
-            0.4 + 0.4 * set.len() as f64 / opts.max_effects as f64,
-        );
-        let rss_cur = prep.rss(&set);
-        let mut tests: Vec<(usize, f64)> = (0..cands.len())
-            .filter(|c| !set.contains(c))
-            .map(|c| {
-                let mut s = set.clone();
-                s.push(c);
-                (c, lr(rss_cur, prep.rss(&s)))
+    let lens: Vec<usize> = fit.iter().map(MotionData::len).collect();
+    let raw = prepare(model, fit, &vec![1.0; nj], &cands, opts);
+    let mut pass = 0;
+    let (prep, set, steps, cv_cur, ranking, n, n_eff, total) = loop {
+        let prep = raw.reweighed(&weight_scale, &lens);
+        let n: usize = prep.grams.iter().map(|g| g.n).sum();
+        // Effective samples from the residual left by the whole library.
+        let all: Vec<usize> = (0..cands.len()).collect();
+        let total = prep.total();
+        let x_all = total.solve(&prep.idx(&all));
+        let rhos: Vec<f64> = (0..fit.len())
+            .flat_map(|r| {
+                let res = prep.residual(r, &all, &x_all);
+                let len = fit[r].len();
+                (0..nj)
+                    .map(move |j| lag1(&res[j * len..(j + 1) * len]))
+                    .collect::<Vec<_>>()
             })
             .collect();
-        tests.sort_by(|a, b| b.1.total_cmp(&a.1));
-        let best = tests
-            .iter()
-            .filter(|&&(c, _)| {
-                let mut s = set.clone();
-                s.push(c);
-                prep.plausible(&s)
+        let rho = rhos.iter().sum::<f64>() / rhos.len() as f64;
+        let n_eff = effective_samples(n, rho);
+        let lr = |rss0: f64, rss1: f64| n_eff * (rss0.max(1e-300) / rss1.max(1e-300)).ln();
+        let bic = |set: &[usize]| n_eff * (prep.rss(set) / n as f64).ln() + prep.dof(set) as f64 * n_eff.ln();
+        // Ranking at the nominal model.
+        progress("score tests", 0.3);
+        let rss0 = total.bb;
+        let cv0 = prep.cv_rss(&[]);
+        let mut ranking: Vec<(usize, Ranked)> = (0..cands.len())
+            .map(|c| {
+                let stat = lr(rss0, prep.rss(&[c]));
+                let k = prep.cols_of[c].len() + cands[c].grid_parameters;
+                (
+                    c,
+                    Ranked {
+                        candidate: cands[c].name.clone(),
+                        statistic: stat,
+                        p_value: chi2_sf(stat, k),
+                        cv_ratio: (prep.cv_rss(&[c]) / cv0).sqrt(),
+                        plausible: prep.plausible(&[c]),
+                    },
+                )
             })
-            .take(opts.shortlist)
-            .map(|&(c, stat)| {
-                let mut s = set.clone();
-                s.push(c);
-                (c, stat, prep.cv_rss(&s), bic(&s))
-            })
-            .min_by(|a, b| a.2.total_cmp(&b.2));
-        let Some((c, stat, cv, b)) = best else { break };
-        let k = prep.cols_of[c].len() + cands[c].grid_parameters;
-        let p = chi2_sf(stat, k);
-        let gain = 1.0 - (cv / cv_cur).sqrt();
-        if p > opts.significance || gain < opts.min_gain || b >= bic_cur {
-            break;
+            .collect();
+        ranking.sort_by(|a, b| b.1.statistic.total_cmp(&a.1.statistic));
+        // Greedy selection.
+        let mut set: Vec<usize> = vec![];
+        let mut steps = vec![];
+        let mut cv_cur = cv0;
+        let mut bic_cur = bic(&[]);
+        // Effects a previous linearisation selected stay in (their values moved into the
+        // model, the columns are now exact around them).
+        for name in &opts.keep {
+            if let Some(c) = cands.iter().position(|x| &x.name == name) {
+                let rss_cur = prep.rss(&set);
+                set.push(c);
+                let stat = lr(rss_cur, prep.rss(&set));
+                cv_cur = prep.cv_rss(&set);
+                bic_cur = bic(&set);
+                steps.push(Step {
+                    added: cands[c].name.clone(),
+                    statistic: stat,
+                    p_value: chi2_sf(stat, prep.cols_of[c].len() + cands[c].grid_parameters),
+                    cv_rms: (cv_cur / n as f64).sqrt(),
+                    bic: bic_cur,
+                });
+            }
         }
-        set.push(c);
-        cv_cur = cv;
-        bic_cur = b;
-        steps.push(Step {
-            added: cands[c].name.clone(),
-            statistic: stat,
-            p_value: p,
-            cv_rms: (cv / n as f64).sqrt(),
-            bic: b,
-        });
-    }
+        while set.len() < opts.max_effects {
+            progress(
+                "selection",
+                0.4 + 0.4 * set.len() as f64 / opts.max_effects as f64,
+            );
+            let rss_cur = prep.rss(&set);
+            let mut tests: Vec<(usize, f64)> = (0..cands.len())
+                .filter(|c| !set.contains(c))
+                .map(|c| {
+                    let mut s = set.clone();
+                    s.push(c);
+                    (c, lr(rss_cur, prep.rss(&s)))
+                })
+                .collect();
+            tests.sort_by(|a, b| b.1.total_cmp(&a.1));
+            let short: Vec<(usize, f64, f64, f64)> = tests
+                .iter()
+                .filter(|&&(c, _)| {
+                    let mut s = set.clone();
+                    s.push(c);
+                    prep.plausible(&s)
+                })
+                .take(opts.shortlist)
+                .map(|&(c, stat)| {
+                    let mut s = set.clone();
+                    s.push(c);
+                    (c, stat, prep.cv_rss(&s), bic(&s))
+                })
+                .collect();
+            // Smallest cross-validated error; among those the data cannot tell from it
+            // (within the confounding tolerance), the smallest information criterion — the
+            // simpler law (Coulomb before Stribeck or asymmetric friction) unless the data
+            // ask for more.
+            let cv_min = short.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
+            let tol = (1.0 + opts.confound_tolerance).powi(2);
+            let best = short
+                .iter()
+                .filter(|x| x.2 <= cv_min * tol)
+                .min_by(|a, b| a.3.total_cmp(&b.3))
+                .copied();
+            let Some((c, stat, cv, b)) = best else { break };
+            let k = prep.cols_of[c].len() + cands[c].grid_parameters;
+            let p = chi2_sf(stat, k);
+            let gain = 1.0 - (cv / cv_cur).sqrt();
+            if p > opts.significance || gain < opts.min_gain || b >= bic_cur {
+                break;
+            }
+            set.push(c);
+            cv_cur = cv;
+            bic_cur = b;
+            steps.push(Step {
+                added: cands[c].name.clone(),
+                statistic: stat,
+                p_value: p,
+                cv_rms: (cv / n as f64).sqrt(),
+                bic: b,
+            });
+        }
+        // Re-weigh once: the channel scales the selected physics leaves (a large effect
+        // found first no longer inflates its channel's weight, so what hides under it can
+        // show).
+        if pass == 0 && opts.reweight && !set.is_empty() {
+            let x = total.solve(&prep.idx(&set));
+            let mut ss = vec![0.0; nj];
+            let mut cnt = vec![0usize; nj];
+            for r in 0..fit.len() {
+                let res = prep.residual(r, &set, &x);
+                for j in 0..nj {
+                    for v in &res[j * lens[r]..(j + 1) * lens[r]] {
+                        ss[j] += (v * weight_scale[j]).powi(2);
+                        cnt[j] += 1;
+                    }
+                }
+            }
+            let new_w: Vec<f64> = (0..nj)
+                .map(|j| (ss[j] / cnt[j].max(1) as f64).sqrt().max(sigma[j]))
+                .collect();
+            if new_w.iter().zip(&weight_scale).any(|(a, b)| a / b < 0.8) {
+                weight_scale = new_w;
+                pass += 1;
+                continue;
+            }
+        }
+        break (prep, set, steps, cv_cur, ranking, n, n_eff, total);
+    };
     progress("estimates", 0.85);
     // Estimates with uncertainty.
     let idx = prep.idx(&set);
@@ -572,7 +854,13 @@ pub fn diagnose_recordings(
     let nj = model.joints();
     let load = |recs: &[super::recording::Recording], w: usize| -> Result<Vec<MotionData>, _> {
         recs.iter()
-            .map(|r| MotionData::from_recording(r, nj, w))
+            .map(|r| {
+                if model.outputs() > 0 {
+                    MotionData::from_recording_with_outputs(r, model, w)
+                } else {
+                    MotionData::from_recording(r, nj, w)
+                }
+            })
             .collect()
     };
     let mut scores = vec![];
@@ -610,6 +898,10 @@ fn same_family(a: &Candidate, b: &Candidate) -> bool {
         TorqueScale => 5,
         TorqueDelay => 6,
         Parameter { .. } => 7,
+        PositionOffset => 8,
+        Backlash => 9,
+        Clearance { .. } => 10,
+        OutputOffset { .. } => 11,
     };
     a.joint == b.joint && fam(a.effect) == fam(b.effect) && fam(a.effect) != 7
 }
@@ -626,7 +918,8 @@ fn channel_fits(
     noise: &[f64],
     opts: &DiagnoseOptions,
 ) -> (Vec<ChannelFit>, Vec<ResidualTrace>) {
-    let nj = model.joints();
+    let chans = fit.first().map(MotionData::channels).unwrap_or_default();
+    let nj = chans.len();
     let mut fit_b = vec![vec![]; nj];
     let mut fit_a = vec![vec![]; nj];
     for r in 0..fit.len() {
@@ -654,7 +947,8 @@ fn channel_fits(
                 ho_a[j].extend(&a);
                 traces.push(ResidualTrace {
                     recording: holdout[r].name.clone(),
-                    channel: model.joint_name(j),
+                    channel: chans[j].name(model),
+                    unit: chans[j].unit(model),
                     t: holdout[r].t.clone(),
                     before: b,
                     after: a,
@@ -666,7 +960,8 @@ fn channel_fits(
         .map(|j| {
             let (hb, ha) = (rms(&ho_b[j]), rms(&ho_a[j]));
             ChannelFit {
-                channel: model.joint_name(j),
+                channel: chans[j].name(model),
+                unit: chans[j].unit(model),
                 noise_floor: noise[j],
                 fit_before: rms(&fit_b[j]),
                 fit_after: rms(&fit_a[j]),
@@ -677,6 +972,35 @@ fn channel_fits(
         })
         .collect();
     (channels, traces)
+}
+
+/// A value with four significant-looking digits: fixed for ordinary magnitudes, exponent
+/// for small ones (µm-scale outputs).
+pub fn number(v: f64) -> String {
+    if v == 0.0 || (1e-2..1e4).contains(&v.abs()) {
+        format!("{v:.4}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+/// The verdict of a finished diagnosis (after its estimates were moved back to the nominal
+/// model).
+fn verdict_text(model: &dyn InverseDynamicsModel, d: &Diagnosis, cands: &[Candidate]) -> String {
+    let set: Vec<usize> = d
+        .selected
+        .iter()
+        .filter_map(|n| cands.iter().position(|c| &c.name == n))
+        .collect();
+    verdict(
+        model,
+        &set,
+        cands,
+        &d.estimates,
+        &d.channels,
+        &d.confounded,
+        &d.location,
+    )
 }
 
 fn verdict(
@@ -707,7 +1031,7 @@ fn verdict(
     }
     for a in location.associations.iter().filter(|a| a.ratio > 1.5) {
         s.push_str(&format!(
-            "In the {} torque the residual is {:.1}× larger in windows with {}. ",
+            "In the {} the residual is {:.1}× larger in windows with {}. ",
             a.channel, a.ratio, a.tag
         ));
     }
@@ -718,7 +1042,7 @@ fn verdict(
             let est: Vec<String> = estimates
                 .iter()
                 .filter(|e| e.candidate == cands[c].name)
-                .map(|e| format!("{} = {:.4} ± {:.4}", e.parameter, e.value, e.std))
+                .map(|e| format!("{} = {} ± {}", e.parameter, number(e.value), number(e.std)))
                 .collect();
             format!("{} ({})", cands[c].name, est.join(", "))
         })
@@ -727,13 +1051,14 @@ fn verdict(
     s.push_str(". ");
     for c in channels {
         if c.holdout_before > 0.0 {
+            let u = &c.unit;
             s.push_str(&format!(
-                "Held out, the {} torque residual falls from {:.4} to {:.4} N m RMS ({:+.1} %; noise floor {:.4} N m). ",
+                "Held out, the {} residual falls from {} to {} {u} RMS ({:+.1} %; noise floor {} {u}). ",
                 c.channel,
-                c.holdout_before,
-                c.holdout_after,
+                number(c.holdout_before),
+                number(c.holdout_after),
                 -100.0 * c.holdout_reduction,
-                c.noise_floor
+                number(c.noise_floor)
             ));
         }
     }

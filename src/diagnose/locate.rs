@@ -128,6 +128,8 @@ pub fn locate(
     opts: &LocateOptions,
 ) -> Location {
     let nj = model.joints();
+    let chans = data.first().map(MotionData::channels).unwrap_or_default();
+    let nc = chans.len();
     let acc_hi: Vec<f64> = (0..nj)
         .map(|j| {
             percentile(
@@ -151,7 +153,16 @@ pub fn locate(
     // (channel, rms, tags, finding)
     let mut windows: Vec<(usize, f64, Vec<String>, Finding)> = vec![];
     for d in data {
-        let nominal = d.model_torques(model, theta);
+        let nominal = d.model_channels(model, theta);
+        let (tau_model, y_model) = d.model_all(model, theta);
+        // Configuration tags per sample (e.g. near a singular configuration).
+        let config: Vec<Option<String>> = (0..d.len())
+            .map(|i| {
+                let q: Vec<f64> = d.q.iter().map(|v| v[i]).collect();
+                let y: Vec<f64> = y_model.iter().map(|v| v[i]).collect();
+                model.configuration_tag(theta, &q, &y)
+            })
+            .collect();
         let mut a = 0;
         while a < d.len() {
             let t_end = d.t[a] + opts.window_s;
@@ -166,8 +177,22 @@ pub fn locate(
                 if moving.windows(2).any(|w| w[0] * w[1] < 0.0) {
                     tags.push(format!("velocity reversal of joint {}", k + 1));
                 }
-                let tau = &d.tau[k][a..b];
-                let loaded: Vec<f64> = tau.iter().copied().filter(|v| v.abs() > 3.0 * sigma[k]).collect();
+                // The measured load if recorded, else the model's.
+                let tau = if d.tau.is_empty() {
+                    &tau_model[k][a..b]
+                } else {
+                    &d.tau[k][a..b]
+                };
+                let load_noise = if d.tau.is_empty() {
+                    0.01 * tau.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+                } else {
+                    sigma[k]
+                };
+                let loaded: Vec<f64> = tau
+                    .iter()
+                    .copied()
+                    .filter(|v| v.abs() > 3.0 * load_noise)
+                    .collect();
                 if loaded.windows(2).any(|w| w[0] * w[1] < 0.0) {
                     tags.push(format!("load reversal in joint {}", k + 1));
                 }
@@ -181,12 +206,21 @@ pub fn locate(
                     tags.push(format!("joint {} at rest", k + 1));
                 }
             }
-            for j in 0..nj {
-                let res: Vec<f64> = (a..b).map(|i| d.tau[j][i] - nominal[j][i]).collect();
+            for tag in config[a..b].iter().flatten() {
+                if !tags.contains(tag) {
+                    tags.push(tag.clone());
+                }
+            }
+            for j in 0..nc {
+                let meas = d.measured(chans[j]);
+                let res: Vec<f64> = (a..b)
+                    .map(|i| meas[i] - nominal[j][i])
+                    .filter(|v| v.is_finite())
+                    .collect();
                 let r = rms(&res);
                 let f = Finding {
                     recording: d.name.clone(),
-                    channel: model.joint_name(j),
+                    channel: chans[j].name(model),
                     t0: d.t[a],
                     t1: d.t[b - 1],
                     rms: r,
@@ -200,7 +234,7 @@ pub fn locate(
         }
     }
     let mut out = Location::default();
-    for j in 0..nj {
+    for j in 0..nc {
         let mut res = vec![];
         let mut states: Vec<(String, Vec<f64>)> = (0..nj)
             .flat_map(|k| {
@@ -208,27 +242,40 @@ pub fn locate(
                     format!("sign of joint {} velocity", k + 1),
                     format!("joint {} velocity", k + 1),
                     format!("joint {} acceleration", k + 1),
-                    format!("joint {} measured torque", k + 1),
+                    format!("joint {} torque", k + 1),
                 ]
             })
             .map(|n| (n, vec![]))
             .collect();
         for d in data {
-            let nominal = d.model_torques(model, theta);
-            res.extend((0..d.len()).map(|i| d.tau[j][i] - nominal[j][i]));
+            let nominal = d.model_channels(model, theta);
+            let tau_model = d.model_torques(model, theta);
+            let meas = d.measured(chans[j]);
+            res.extend((0..d.len()).map(|i| {
+                let v = meas[i] - nominal[j][i];
+                if v.is_finite() {
+                    v
+                } else {
+                    0.0
+                }
+            }));
             for k in 0..nj {
                 states[4 * k]
                     .1
                     .extend(d.qd[k].iter().map(|v| (v / opts.rest_speed).tanh()));
                 states[4 * k + 1].1.extend(&d.qd[k]);
                 states[4 * k + 2].1.extend(&d.qdd[k]);
-                states[4 * k + 3].1.extend(&d.tau[k]);
+                states[4 * k + 3].1.extend(if d.tau.is_empty() {
+                    &tau_model[k]
+                } else {
+                    &d.tau[k]
+                });
             }
         }
         let mut cs: Vec<StateCorrelation> = states
             .into_iter()
             .map(|(name, x)| StateCorrelation {
-                channel: model.joint_name(j),
+                channel: chans[j].name(model),
                 state: name,
                 r: pearson(&res, &x),
             })
@@ -237,14 +284,14 @@ pub fn locate(
         cs.sort_by(|a, b| b.r.abs().total_cmp(&a.r.abs()));
         out.correlations.extend(cs.into_iter().take(3));
     }
-    for j in 0..nj {
+    for j in 0..nc {
         let ch: Vec<&(usize, f64, Vec<String>, Finding)> = windows.iter().filter(|w| w.0 == j).collect();
         if ch.is_empty() {
             continue;
         }
         let sig = ch.iter().filter(|w| w.1 > opts.threshold * sigma[j]).count();
         out.significant_fraction
-            .push((model.joint_name(j), sig as f64 / ch.len() as f64));
+            .push((chans[j].name(model), sig as f64 / ch.len() as f64));
         let mut tags: Vec<String> = ch.iter().flat_map(|w| w.2.clone()).collect();
         tags.sort();
         tags.dedup();
@@ -258,7 +305,7 @@ pub fn locate(
                 }
                 let m = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
                 Some(Association {
-                    channel: model.joint_name(j),
+                    channel: chans[j].name(model),
                     tag: tag.clone(),
                     ratio: m(&with) / m(&without).max(1e-300),
                     windows: with.len(),
@@ -273,15 +320,21 @@ pub fn locate(
         .filter(|w| w.1 > opts.threshold * sigma[w.0])
         .collect();
     sig.sort_by(|a, b| (b.1 / sigma[b.0]).total_cmp(&(a.1 / sigma[a.0])));
-    for (_, _, tags, mut f) in sig.into_iter().take(opts.max_findings) {
+    for (ch, _, tags, mut f) in sig.into_iter().take(opts.max_findings) {
         let state = if tags.is_empty() {
             "no distinctive state".to_string()
         } else {
             tags.join(", ")
         };
+        let unit = chans[ch].unit(model);
         f.text = format!(
-            "in the {} torque, {} t = {:.2}–{:.2} s ({state}): residual {:.3} N m RMS against a {:.4} N m noise floor",
-            f.channel, f.recording, f.t0, f.t1, f.rms, f.noise_floor
+            "in the {}, {} t = {:.2}–{:.2} s ({state}): residual {} {unit} RMS against a {} {unit} noise floor",
+            f.channel,
+            f.recording,
+            f.t0,
+            f.t1,
+            super::equation_error::number(f.rms),
+            super::equation_error::number(f.noise_floor)
         );
         out.findings.push(f);
     }

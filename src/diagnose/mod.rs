@@ -5,17 +5,23 @@
 //! |---|---|
 //! | `recording.rs` | CSV recordings, column mapping, errors with file and line |
 //! | `signal.rs` | noise floor, derivatives on irregular grids, autocorrelation |
-//! | `model.rs` | the nominal model in equation-error form, its perturbable parameters |
+//! | `model.rs` | the nominal model (torques from measured motion, outputs such as a tracked platform position), its perturbable parameters; the DFKI pendulum and the MR2120 |
 //! | `data.rs` | measured motion and torques of one recording |
 //! | `candidates.rs` | the library of candidate physics and their regressors |
 //! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
 //! | `locate.rs` | significant residual windows tied to the mechanism's state |
 //! | `equation_error.rs` | ranking, greedy selection, estimates, confounding, held-out check |
 //! | `report.rs` | the report folder (Markdown, JSON, plots) |
+//! | `suite.rs` | the concealed-effects suite on synthetic MR2120 recordings and its scoreboard |
 //!
-//! Equation-error mode needs no integration: the parameter sensitivities are the
-//! derivatives ∂τ/∂θ of the inverse dynamics (central differences of a closed-form or
-//! multibody model), exact for effects linear in their parameters.
+//! Two residual modes share one selection. Equation error: measured motion → inverse
+//! dynamics → compare the measured torques. Output error: the outputs the model predicts
+//! from the recorded inputs (for the MR2120, a position-driven 3-DOF mechanism, simulating
+//! with the recorded drive angles is its forward kinematics through the compliant drives) →
+//! compare the measured outputs (a laser tracker's platform position). Neither needs a time
+//! integration, so the parameter sensitivities are central differences of the model (exact
+//! to first order, and one Gauss–Newton re-linearisation around the first estimates takes
+//! care of effects that are not linear in their parameters).
 //!
 //! ```no_run
 //! use lash::diagnose::{data::MotionData, equation_error::{diagnose, DiagnoseOptions}};
@@ -49,3 +55,4 @@ pub mod recording;
 pub mod report;
 pub mod signal;
 pub mod stats;
+pub mod suite;

@@ -3,6 +3,8 @@
 //! may perturb.
 
 use crate::mechanisms::double_pendulum::DoublePendulumParams;
+use crate::mechanisms::mr2120::lumped::{tilted_gravity, LumpedModel, LumpedState};
+use nalgebra::Vector3;
 use serde::Serialize;
 
 /// What a model parameter stands for (names the candidate and the experiment that
@@ -17,6 +19,24 @@ pub enum ParameterFamily {
     Payload,
     /// Tilt of the base (gravity direction).
     BaseTilt,
+    /// Compliance of a drive's transmission.
+    DriveCompliance,
+}
+
+/// How the outputs (e.g. a tracked platform position) respond at one sample to the joint
+/// positions, and the signals that set the side of each clearance.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputSensitivities {
+    /// ∂y_k/∂q_j: `dy_dq[k][j]`, output units per rad.
+    pub dy_dq: Vec<Vec<f64>>,
+    /// Joint-side deflection per unit drive torque of each drive, rad/(N·m) (a friction
+    /// torque on the joint side winds up the transmission like any other load).
+    pub compliance: Vec<f64>,
+    /// Per clearance site: ∂y/∂(displacement of the site along its load), and that load
+    /// (its sign sets which side of the clearance the joint sits on).
+    pub sites: Vec<(Vec<f64>, f64)>,
+    /// Each drive's nominal torque at the sample, N·m (its sign sets the side of a backlash).
+    pub drive_torque: Vec<f64>,
 }
 
 /// One perturbable parameter of a nominal model.
@@ -53,6 +73,59 @@ pub trait InverseDynamicsModel {
     fn rotor_regressor(&self, j: usize, qdd: &[f64], out: &mut [f64]) {
         out.iter_mut().for_each(|v| *v = 0.0);
         out[j] = qdd[j];
+    }
+    /// Number of output channels predicted from the measured joint positions (output-error
+    /// channels, e.g. the platform position from a laser tracker). Default: none.
+    fn outputs(&self) -> usize {
+        0
+    }
+    /// Name of output k, e.g. "platform x".
+    fn output_name(&self, k: usize) -> String {
+        format!("output {}", k + 1)
+    }
+    /// Unit of output k.
+    fn output_unit(&self, _k: usize) -> String {
+        "m".into()
+    }
+    /// Recording role of output k (the name `--map` uses), e.g. "x".
+    fn output_role(&self, k: usize) -> String {
+        format!("y{}", k + 1)
+    }
+    /// Torques and outputs at one sample. `y` holds, on entry, the previous sample's outputs
+    /// (zeros at the first) as a starting guess for iterative kinematics; a configuration the
+    /// model cannot evaluate gives NaN. Default: [`torques`](Self::torques), no outputs.
+    fn evaluate(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64], _y: &mut [f64]) {
+        self.torques(theta, q, qd, qdd, tau);
+    }
+    /// Output sensitivities at one sample (None for a model without outputs or where the
+    /// model cannot be evaluated).
+    fn output_sensitivities(
+        &self,
+        _theta: &[f64],
+        _q: &[f64],
+        _qd: &[f64],
+        _qdd: &[f64],
+        _y: &[f64],
+    ) -> Option<OutputSensitivities> {
+        None
+    }
+    /// Clearance sites (names), in the order of [`OutputSensitivities::sites`].
+    fn clearance_sites(&self) -> Vec<String> {
+        vec![]
+    }
+    /// Load scale over which a clearance changes sides (smooth sign), in the unit of the site
+    /// loads.
+    fn clearance_load_scale(&self) -> f64 {
+        1.0
+    }
+    /// Torque scale over which a drive backlash changes sides, N·m.
+    fn backlash_torque_scale(&self) -> f64 {
+        0.1
+    }
+    /// A tag naming the configuration at one sample when it matters (e.g. "near the
+    /// direct-kinematics singularity"), for the localisation.
+    fn configuration_tag(&self, _theta: &[f64], _q: &[f64], _y: &[f64]) -> Option<String> {
+        None
     }
 }
 
@@ -135,5 +208,221 @@ impl InverseDynamicsModel for DoublePendulumModel {
                 out[j] = qdd[j];
             }
         }
+    }
+}
+
+/// The MR2120 as the diagnosis sees it: drive torques by the closed-form rigid model
+/// ([`LumpedModel`]) and, as output channels, the platform centre (x, y, z) predicted from
+/// the drive encoders through the compliant transmissions and the forward kinematics (the
+/// output-error simulation of a position-driven 3-DOF mechanism). Its parameters: the six
+/// link lengths, the arm and forearm masses, a payload, the base tilt about x and y, and the
+/// three drive compliances. Its clearance sites: the joints of each leg (play along the
+/// forearm, on the side its tension or compression pushes to).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mr2120Model {
+    /// The nominal model.
+    pub nominal: LumpedModel,
+}
+
+/// Load scale over which a leg's clearance changes sides, N.
+pub const MR2120_CLEARANCE_LOAD_SCALE: f64 = 1.0;
+/// Torque scale over which a drive's backlash changes sides, N·m.
+pub const MR2120_BACKLASH_TORQUE_SCALE: f64 = 0.2;
+/// Direct-singularity measure below which the localisation tags a configuration as near it.
+pub const MR2120_NEAR_DIRECT: f64 = 0.15;
+
+impl Mr2120Model {
+    /// The lumped model with parameter values `theta`.
+    pub fn with(&self, theta: &[f64]) -> LumpedModel {
+        let mut m = self.nominal;
+        m.arm_length.copy_from_slice(&theta[0..3]);
+        m.forearm_length.copy_from_slice(&theta[3..6]);
+        m.compliance.copy_from_slice(&theta[11..14]);
+        m.arm_mass = theta[6];
+        m.forearm_mass = theta[7];
+        m.payload = theta[8];
+        m.gravity = tilted_gravity(theta[9], theta[10]);
+        m
+    }
+
+    fn guess(y: &[f64]) -> Vector3<f64> {
+        if y.len() == 3 && y.iter().all(|v| v.is_finite()) && y[2] > 0.0 {
+            Vector3::new(y[0], y[1], y[2])
+        } else {
+            Vector3::new(0.0, 0.0, 0.5)
+        }
+    }
+
+    /// The state at the arm angles: encoder angles less the transmission wind-up under the
+    /// drive torques (fixed-point passes until the wind-up settles to 1e-12 rad; the torques
+    /// change with the arm angles, strongly near the direct singularity).
+    fn arm_state(
+        &self,
+        m: &LumpedModel,
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        y: &[f64],
+    ) -> Option<LumpedState> {
+        let qe = [q[0], q[1], q[2]];
+        let (qd, qdd) = ([qd[0], qd[1], qd[2]], [qdd[0], qdd[1], qdd[2]]);
+        let mut s = m.state(qe, qd, qdd, Self::guess(y)).ok()?;
+        let mut qa = qe;
+        for _ in 0..20 {
+            let next: [f64; 3] = std::array::from_fn(|i| qe[i] - m.compliance[i] * s.torque[i]);
+            let change = (0..3).map(|i| (next[i] - qa[i]).abs()).fold(0.0, f64::max);
+            qa = next;
+            s = m.state(qa, qd, qdd, s.m).ok()?;
+            if change < 1e-12 {
+                break;
+            }
+        }
+        Some(s)
+    }
+}
+
+impl InverseDynamicsModel for Mr2120Model {
+    fn name(&self) -> String {
+        "WUT MR2120 (closed-form rigid model, compliant drives, tracked platform centre)".into()
+    }
+    fn joints(&self) -> usize {
+        3
+    }
+    fn joint_name(&self, j: usize) -> String {
+        format!("drive {}", ["A", "B", "C"][j.min(2)])
+    }
+    fn parameters(&self) -> Vec<ModelParameter> {
+        let n = &self.nominal;
+        let mk = |name: String, unit: &str, nominal: f64, scale: f64, family| ModelParameter {
+            name,
+            unit: unit.into(),
+            nominal,
+            scale,
+            family,
+        };
+        use ParameterFamily::*;
+        let mut p = vec![];
+        for (i, b) in ["A", "B", "C"].iter().enumerate() {
+            p.push(mk(
+                format!("arm {b} length"),
+                "m",
+                n.arm_length[i],
+                n.arm_length[i],
+                LinkGeometry,
+            ));
+        }
+        for (i, b) in ["A", "B", "C"].iter().enumerate() {
+            p.push(mk(
+                format!("forearm {b} length"),
+                "m",
+                n.forearm_length[i],
+                n.forearm_length[i],
+                LinkGeometry,
+            ));
+        }
+        p.push(mk(
+            "arm mass".into(),
+            "kg",
+            n.arm_mass,
+            n.arm_mass,
+            MassProperties,
+        ));
+        p.push(mk(
+            "forearm mass".into(),
+            "kg",
+            n.forearm_mass,
+            n.forearm_mass,
+            MassProperties,
+        ));
+        p.push(mk(
+            "payload on the platform".into(),
+            "kg",
+            n.payload,
+            n.platform_mass,
+            Payload,
+        ));
+        p.push(mk("base tilt about x".into(), "rad", 0.0, 0.1, BaseTilt));
+        p.push(mk("base tilt about y".into(), "rad", 0.0, 0.1, BaseTilt));
+        for (i, b) in ["A", "B", "C"].iter().enumerate() {
+            p.push(mk(
+                format!("drive {b} compliance"),
+                "rad/(N m)",
+                n.compliance[i],
+                n.compliance[i].max(1e-9),
+                DriveCompliance,
+            ));
+        }
+        p
+    }
+    fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
+        let mut y = [0.0; 3];
+        self.evaluate(theta, q, qd, qdd, tau, &mut y);
+    }
+    fn outputs(&self) -> usize {
+        3
+    }
+    fn output_name(&self, k: usize) -> String {
+        format!("platform {}", ["x", "y", "z"][k.min(2)])
+    }
+    fn output_role(&self, k: usize) -> String {
+        ["x", "y", "z"][k.min(2)].into()
+    }
+    fn evaluate(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64], y: &mut [f64]) {
+        let m = self.with(theta);
+        match self.arm_state(&m, q, qd, qdd, y) {
+            Some(s) => {
+                tau[..3].copy_from_slice(&s.torque);
+                y[..3].copy_from_slice(s.m.as_slice());
+            }
+            None => {
+                tau[..3].iter_mut().for_each(|v| *v = f64::NAN);
+                y[..3].iter_mut().for_each(|v| *v = f64::NAN);
+            }
+        }
+    }
+    fn output_sensitivities(
+        &self,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        y: &[f64],
+    ) -> Option<OutputSensitivities> {
+        let m = self.with(theta);
+        let s = self.arm_state(&m, q, qd, qdd, y)?;
+        // ∂M/∂L2_i = Jx⁻¹ e_i L2_i = (column i of ∂M/∂q) · L2_i / Jq_i, since ∂M/∂q = Jx⁻¹ diag(Jq).
+        let sites = (0..3)
+            .map(|i| {
+                let jqi = s.jq[i];
+                let dy: Vec<f64> = (0..3).map(|k| s.jm[(k, i)] * m.forearm_length[i] / jqi).collect();
+                (dy, s.tension[i])
+            })
+            .collect();
+        Some(OutputSensitivities {
+            dy_dq: (0..3).map(|k| (0..3).map(|j| s.jm[(k, j)]).collect()).collect(),
+            compliance: m.compliance.to_vec(),
+            sites,
+            drive_torque: s.torque.to_vec(),
+        })
+    }
+    fn clearance_sites(&self) -> Vec<String> {
+        ["A", "B", "C"]
+            .iter()
+            .map(|b| format!("the joints of leg {b} (elbow and platform)"))
+            .collect()
+    }
+    fn clearance_load_scale(&self) -> f64 {
+        MR2120_CLEARANCE_LOAD_SCALE
+    }
+    fn backlash_torque_scale(&self) -> f64 {
+        MR2120_BACKLASH_TORQUE_SCALE
+    }
+    fn configuration_tag(&self, theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
+        let m = self.with(theta);
+        let s = m
+            .state([q[0], q[1], q[2]], [0.0; 3], [0.0; 3], Self::guess(y))
+            .ok()?;
+        (s.direct_measure < MR2120_NEAR_DIRECT)
+            .then(|| format!("near the direct-kinematics singularity (measure below {MR2120_NEAR_DIRECT})"))
     }
 }

@@ -1,7 +1,7 @@
 //! The report folder: `report.md` (for people), `report.json` (for scripts), and residual
 //! plots before/after the fit for every held-out recording and channel (PNG and SVG).
 
-use super::equation_error::Diagnosis;
+use super::equation_error::{number, Diagnosis};
 use crate::plot::{LineChart, Series};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -49,9 +49,9 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<std::path::PathBuf, Rep
     for tr in &d.traces {
         let stem = dir.join(format!("holdout-{}-{}", slug(&tr.recording), slug(&tr.channel)));
         let chart = LineChart {
-            title: format!("{}: {} torque residual (held out)", tr.recording, tr.channel),
+            title: format!("{}: {} residual (held out)", tr.recording, tr.channel),
             x_label: "time [s]".into(),
-            y_label: "measured - model torque [N m]".into(),
+            y_label: format!("measured - model [{}]", tr.unit),
             series: vec![
                 Series {
                     name: "nominal model".into(),
@@ -100,18 +100,19 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<std::path::PathBuf, Rep
     let _ = writeln!(m, "## Before and after, per channel\n");
     let _ = writeln!(
         m,
-        "| channel | noise floor [N m] | fit RMS before | fit RMS after | held-out RMS before | held-out RMS after | held-out reduction |\n|---|---|---|---|---|---|---|"
+        "| channel | unit | noise floor | fit RMS before | fit RMS after | held-out RMS before | held-out RMS after | held-out reduction |\n|---|---|---|---|---|---|---|---|"
     );
     for c in &d.channels {
         let _ = writeln!(
             m,
-            "| {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1} % |",
+            "| {} | {} | {} | {} | {} | {} | {} | {:.1} % |",
             c.channel,
-            c.noise_floor,
-            c.fit_before,
-            c.fit_after,
-            c.holdout_before,
-            c.holdout_after,
+            c.unit,
+            number(c.noise_floor),
+            number(c.fit_before),
+            number(c.fit_after),
+            number(c.holdout_before),
+            number(c.holdout_after),
             100.0 * c.holdout_reduction
         );
     }

@@ -11,7 +11,9 @@ pub mod clearance;
 pub mod geometry;
 pub mod ideal;
 pub mod kinematics;
+pub mod lumped;
 pub mod paper;
+pub mod record;
 pub mod trajectory;
 
 pub use geometry::{Geometry, MassProperties};
