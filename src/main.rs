@@ -248,19 +248,80 @@ fn diagnose_cmd(
         eprintln!("error: {e}");
         ExitCode::FAILURE
     };
-    if model != "double-pendulum" {
-        return fail(&format!("unknown model '{model}' (available: double-pendulum)"));
-    }
-    let params = match lash::mechanisms::double_pendulum::DoublePendulumParams::from_readme(params) {
-        Ok(p) => p,
-        Err(e) => return fail(&e),
+    let dp;
+    let mr;
+    let (m, mapping): (
+        &dyn lash::diagnose::model::InverseDynamicsModel,
+        Vec<(String, String)>,
+    ) = match model {
+        "double-pendulum" => {
+            let params = match lash::mechanisms::double_pendulum::DoublePendulumParams::from_readme(params) {
+                Ok(p) => p,
+                Err(e) => return fail(&e),
+            };
+            dp = DoublePendulumModel { params };
+            match parse_mapping(map, &roles(2)) {
+                Ok(m) => (&dp, m),
+                Err(e) => return fail(&e),
+            }
+        }
+        "mr2120" => {
+            mr = lash::diagnose::model::Mr2120Model {
+                nominal: lash::mechanisms::mr2120::record::nominal_model(),
+            };
+            // Each role reads the column of its own name unless --map says otherwise; torque
+            // and tracker columns are used when the first fit file has them.
+            let first = fit
+                .split(',')
+                .map(str::trim)
+                .find(|s| !s.is_empty())
+                .unwrap_or_default();
+            let header: Vec<String> = std::fs::read_to_string(first)
+                .ok()
+                .and_then(|t| {
+                    t.lines()
+                        .next()
+                        .map(|l| l.split(',').map(|c| c.trim().to_string()).collect())
+                })
+                .unwrap_or_default();
+            let user: Vec<(String, String)> = if map.starts_with("q1=pos_filt1") {
+                vec![]
+            } else {
+                map.split(',')
+                    .filter_map(|kv| kv.split_once('='))
+                    .map(|(a, b)| (a.trim().to_string(), b.trim().to_string()))
+                    .collect()
+            };
+            let all = lash::diagnose::data::model_roles(&mr);
+            if let Some((r, _)) = user.iter().find(|(r, _)| !all.contains(r)) {
+                return fail(&format!(
+                    "--map: '{r}' is not a role of the MR2120 model ({})",
+                    all.join(", ")
+                ));
+            }
+            let mapping = all
+                .iter()
+                .map(|r| {
+                    let col = user
+                        .iter()
+                        .find(|(u, _)| u == r)
+                        .map(|(_, c)| c.clone())
+                        .unwrap_or(r.clone());
+                    (r.clone(), col)
+                })
+                .filter(|(r, c)| header.contains(c) || r.starts_with('q'))
+                .collect();
+            (&mr, mapping)
+        }
+        _ => {
+            return fail(&format!(
+                "unknown model '{model}' (available: double-pendulum, mr2120)"
+            ))
+        }
     };
-    let m = DoublePendulumModel { params };
-    let mapping = match parse_mapping(map, &roles(2)) {
-        Ok(m) => m,
-        Err(e) => return fail(&e),
-    };
-    let windows: Vec<usize> = if half_window == "auto" {
+    let windows: Vec<usize> = if half_window == "auto" && model == "mr2120" {
+        vec![4, 6, 8, 12, 16]
+    } else if half_window == "auto" {
         vec![2, 3, 5, 8, 12, 16, 20, 25, 30, 40, 50]
     } else {
         match half_window.parse::<usize>() {
@@ -287,7 +348,7 @@ fn diagnose_cmd(
         return fail(&"--fit names no recording");
     }
     let mut progress = Progress::new("diagnose", 1.0);
-    let d = match diagnose_recordings(&m, &fit, &held, &windows, &DiagnoseOptions::default(), |_, f| {
+    let d = match diagnose_recordings(m, &fit, &held, &windows, &DiagnoseOptions::default(), |_, f| {
         progress.update(f)
     }) {
         Ok(d) => d,

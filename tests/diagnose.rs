@@ -177,7 +177,12 @@ fn rotor_inertia_of_joint_1_and_link_1_inertia_are_flagged_as_confounded() {
         .confounded
         .iter()
         .find(|c| names.iter().any(|n| c.alternative.starts_with(n)))
-        .unwrap_or_else(|| panic!("not flagged: {:?} selected {:?} steps {:?}", d.confounded, d.selected, d.steps));
+        .unwrap_or_else(|| {
+            panic!(
+                "not flagged: {:?} selected {:?} steps {:?}",
+                d.confounded, d.selected, d.steps
+            )
+        });
     assert!(!c.experiment.is_empty());
     assert!(d.verdict.contains("cannot tell"), "{}", d.verdict);
 }

@@ -278,8 +278,35 @@ pub fn columns(
             .collect()
     };
     let sgn = |v: f64| (v / opts.coulomb_velocity).tanh();
-    // A torque g(i) acting on the joint side of drive j: the torque channel, and the outputs
-    // through the wind-up of the transmission.
+    // −∂(every channel)/∂q_j: how the model's channels move when arm j lags its encoder
+    // (central differences of the whole model, wind-up included).
+    let stack = |a: &[Vec<f64>], b: &[Vec<f64>], h: f64| {
+        let mut col = vec![0.0; nc * n];
+        for r in 0..nc {
+            for i in 0..n {
+                let v = (a[r][i] - b[r][i]) / (2.0 * h);
+                col[r * n + i] = if v.is_finite() { v } else { 0.0 };
+            }
+        }
+        col
+    };
+    let lag: Vec<std::cell::OnceCell<Vec<f64>>> =
+        (0..model.joints()).map(|_| std::cell::OnceCell::new()).collect();
+    let lag_of = |j: usize| -> &Vec<f64> {
+        lag[j].get_or_init(|| {
+            let h = 1e-6;
+            let (mut dp, mut dm) = (d.clone(), d.clone());
+            dp.q[j].iter_mut().for_each(|v| *v -= h);
+            dm.q[j].iter_mut().for_each(|v| *v += h);
+            stack(
+                &dp.model_channels(model, &theta0),
+                &dm.model_channels(model, &theta0),
+                h,
+            )
+        })
+    };
+    // A torque g(i) acting on the joint side of drive j: the torque channel, and — through
+    // the wind-up c_j·g of the transmission — every channel as the arm lags its encoder.
     let joint_torque = |j: usize, g: &dyn Fn(usize) -> f64| {
         let mut c = vec![0.0; nc * n];
         if let Some(r) = torque_row(j) {
@@ -287,10 +314,12 @@ pub fn columns(
                 c[r * n + i] = g(i);
             }
         }
-        for &(r, k) in &output_rows {
-            for i in 0..n {
-                if let Some(s) = &sens[i] {
-                    c[r * n + i] = -s.dy_dq[k][j] * s.compliance[j] * g(i);
+        let cj = model.drive_compliance(&theta0, j);
+        if cj != 0.0 {
+            let l = lag_of(j);
+            for r in 0..nc {
+                for i in 0..n {
+                    c[r * n + i] += cj * g(i) * l[r * n + i];
                 }
             }
         }
@@ -317,16 +346,6 @@ pub fn columns(
         }
         c
     };
-    let stack = |a: &[Vec<f64>], b: &[Vec<f64>], h: f64| {
-        let mut col = vec![0.0; nc * n];
-        for r in 0..nc {
-            for i in 0..n {
-                let v = (a[r][i] - b[r][i]) / (2.0 * h);
-                col[r * n + i] = if v.is_finite() { v } else { 0.0 };
-            }
-        }
-        col
-    };
     cands
         .iter()
         .map(|c| match (c.effect, c.joint) {
@@ -343,21 +362,24 @@ pub fn columns(
             }
             (Effect::PositionOffset, Some(j)) => {
                 // Measured = true + o, so the model sees q − o: column −∂(τ, y)/∂q_j.
-                let h = 1e-6;
-                let (mut dp, mut dm) = (d.clone(), d.clone());
-                dp.q[j].iter_mut().for_each(|v| *v -= h);
-                dm.q[j].iter_mut().for_each(|v| *v += h);
-                vec![stack(
-                    &dp.model_channels(model, &theta0),
-                    &dm.model_channels(model, &theta0),
-                    h,
-                )]
+                vec![lag_of(j).clone()]
             }
             (Effect::Backlash, Some(j)) => {
+                // The arm lags its encoder by b·tanh(τ_j/τ_b).
                 let tb = model.backlash_torque_scale();
-                vec![outputs_only(&|k, s, _| {
-                    -s.dy_dq[k][j] * (s.drive_torque[j] / tb).tanh()
-                })]
+                let l = lag_of(j);
+                let mut col = vec![0.0; nc * n];
+                for r in 0..nc {
+                    for i in 0..n {
+                        let side = tau_nom[j][i] / tb;
+                        col[r * n + i] = if side.is_finite() {
+                            side.tanh() * l[r * n + i]
+                        } else {
+                            0.0
+                        };
+                    }
+                }
+                vec![col]
             }
             (Effect::Clearance { site }, _) => {
                 let fc = model.clearance_load_scale();

@@ -2,7 +2,7 @@
 
 use super::model::InverseDynamicsModel;
 use super::recording::{Recording, RecordingError};
-use super::signal::derivative;
+use super::signal::{derivative, derivative_cubic};
 
 /// One recording in equation-error form.
 #[derive(Debug, Clone, PartialEq)]
@@ -104,7 +104,8 @@ impl MotionData {
 
     /// From a recording for a model with outputs: joint positions and rates are required;
     /// torque channels are used if any is mapped (then all must be), output channels likewise;
-    /// at least one of the two sets must be present.
+    /// at least one of the two sets must be present. Rates are differentiated by local cubics
+    /// over ±`half_window` samples (no bias from fast, shaking motion).
     pub fn from_recording_with_outputs(
         rec: &Recording,
         model: &dyn InverseDynamicsModel,
@@ -131,7 +132,7 @@ impl MotionData {
         for j in 1..=nj {
             d.q.push(get(format!("q{j}"))?);
             let qd = get(format!("qd{j}"))?;
-            d.qdd.push(derivative(&rec.time, &qd, half_window));
+            d.qdd.push(derivative_cubic(&rec.time, &qd, half_window));
             d.qd.push(qd);
         }
         let any_tau = (1..=nj).any(|j| rec.channel(&format!("tau{j}")).is_some());

@@ -45,8 +45,10 @@ pub struct DiagnoseOptions {
     /// the model, recompute every column around them and select again (one Gauss–Newton
     /// step for effects that are not linear in their parameters).
     pub relinearize: bool,
-    /// Candidates that start the selection (set by the re-linearisation).
-    pub keep: Vec<String>,
+    /// The linearisation point, set by the re-linearisation: candidates whose values the
+    /// model already contains (name, value). Residuals are taken as if from the nominal
+    /// model (r + Σ value·column), so estimates are totals and any effect can still drop out.
+    pub shift: Vec<(String, f64)>,
 }
 
 impl Default for DiagnoseOptions {
@@ -61,7 +63,7 @@ impl Default for DiagnoseOptions {
             locate: LocateOptions::default(),
             reweight: true,
             relinearize: true,
-            keep: vec![],
+            shift: vec![],
         }
     }
 }
@@ -250,6 +252,16 @@ fn prepare(
                 }
             }
         }
+        // Residual as if from the nominal model, linearised at the shifted point.
+        for (name, value) in &opts.shift {
+            if let Some(c) = cands.iter().position(|x| &x.name == name) {
+                for col in &per[c] {
+                    for (i, (bi, ci)) in b.iter_mut().zip(col).enumerate() {
+                        *bi += value * ci / sigma[i / n];
+                    }
+                }
+            }
+        }
         let mut flat = vec![];
         let mut idx = vec![];
         for cc in per {
@@ -401,7 +413,7 @@ pub fn diagnose(
     let cands = library(model, &opts.library);
     let mut delta = vec![0.0; model.parameters().len()];
     let mut q_offset = vec![0.0; model.joints()];
-    let mut moved = vec![];
+    let mut moved: Vec<(String, f64)> = vec![];
     for e in &first.estimates {
         let Some(c) = cands.iter().find(|c| c.name == e.candidate) else {
             continue;
@@ -411,7 +423,7 @@ pub fn diagnose(
             (Effect::PositionOffset, Some(j)) => q_offset[j] += e.value,
             _ => continue,
         }
-        moved.push(c.name.clone());
+        moved.push((c.name.clone(), e.value));
     }
     if moved.is_empty() {
         progress("done", 1.0);
@@ -419,23 +431,13 @@ pub fn diagnose(
     }
     let shifted = Shifted {
         inner: model,
-        delta: delta.clone(),
-        q_offset: q_offset.clone(),
+        delta,
+        q_offset,
     };
     let mut o2 = opts.clone();
     o2.relinearize = false;
-    o2.keep = moved.clone();
+    o2.shift = moved;
     let mut second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.5 * f));
-    // Estimates relative to the nominal model again.
-    for e in second.estimates.iter_mut() {
-        if let Some(c) = cands.iter().find(|c| c.name == e.candidate) {
-            match (c.effect, c.joint) {
-                (Effect::Parameter { index, .. }, _) => e.value += delta[index],
-                (Effect::PositionOffset, Some(j)) => e.value += q_offset[j],
-                _ => {}
-            }
-        }
-    }
     // "Before" is the nominal model's, and so are the localisation and the score tests.
     for (c2, c1) in second.channels.iter_mut().zip(&first.channels) {
         c2.fit_before = c1.fit_before;
@@ -449,21 +451,6 @@ pub fn diagnose(
     for (t2, t1) in second.traces.iter_mut().zip(&first.traces) {
         t2.before = t1.before.clone();
     }
-    // An effect moved into the model leaves no signal to test or swap in the second pass:
-    // its step and its rivals are those of the first.
-    for st in second.steps.iter_mut() {
-        if let Some(f) = first.steps.iter().find(|f| f.added == st.added && moved.contains(&f.added)) {
-            *st = f.clone();
-        }
-    }
-    let mut confounded: Vec<Confound> = first
-        .confounded
-        .iter()
-        .filter(|c| moved.contains(&c.selected) && second.selected.contains(&c.selected))
-        .cloned()
-        .collect();
-    confounded.extend(second.confounded.iter().filter(|c| !moved.contains(&c.selected)).cloned());
-    second.confounded = confounded;
     second.location = first.location;
     second.ranking = first.ranking;
     second.model = first.model;
@@ -544,6 +531,9 @@ impl InverseDynamicsModel for Shifted<'_> {
     fn backlash_torque_scale(&self) -> f64 {
         self.inner.backlash_torque_scale()
     }
+    fn drive_compliance(&self, theta: &[f64], j: usize) -> f64 {
+        self.inner.drive_compliance(theta, j)
+    }
     fn configuration_tag(&self, theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
         self.inner.configuration_tag(theta, &self.q(q), y)
     }
@@ -577,24 +567,23 @@ fn diagnose_once(
     // Channel weights: the larger of the noise floor and the nominal misfit of the channel,
     // so a channel whose misfit dwarfs its noise does not drown the others (one step of
     // feasible generalised least squares).
-    let mut weight_scale: Vec<f64> = (0..nj)
-        .map(|j| {
-            let r: Vec<f64> = fit
-                .iter()
-                .flat_map(|d| {
-                    let nom = d.model_channels(model, &theta0);
-                    let meas = d.measured(chans[j]);
-                    (0..d.len())
-                        .map(move |i| meas[i] - nom[j][i])
-                        .filter(|v| v.is_finite())
-                        .collect::<Vec<_>>()
-                })
-                .collect();
-            rms(&r).max(sigma[j])
-        })
-        .collect();
     let lens: Vec<usize> = fit.iter().map(MotionData::len).collect();
     let raw = prepare(model, fit, &vec![1.0; nj], &cands, opts);
+    let mut weight_scale: Vec<f64> = (0..nj)
+        .map(|j| {
+            let (ss, cnt) = raw
+                .blocks
+                .iter()
+                .zip(&lens)
+                .fold((0.0, 0usize), |(ss, cnt), ((_, b), &n)| {
+                    (
+                        ss + b[j * n..(j + 1) * n].iter().map(|v| v * v).sum::<f64>(),
+                        cnt + n,
+                    )
+                });
+            (ss / cnt.max(1) as f64).sqrt().max(sigma[j])
+        })
+        .collect();
     let mut pass = 0;
     let (prep, set, steps, cv_cur, ranking, n, n_eff, total) = loop {
         let prep = raw.reweighed(&weight_scale, &lens);
@@ -642,24 +631,6 @@ fn diagnose_once(
         let mut steps = vec![];
         let mut cv_cur = cv0;
         let mut bic_cur = bic(&[]);
-        // Effects a previous linearisation selected stay in (their values moved into the
-        // model, the columns are now exact around them).
-        for name in &opts.keep {
-            if let Some(c) = cands.iter().position(|x| &x.name == name) {
-                let rss_cur = prep.rss(&set);
-                set.push(c);
-                let stat = lr(rss_cur, prep.rss(&set));
-                cv_cur = prep.cv_rss(&set);
-                bic_cur = bic(&set);
-                steps.push(Step {
-                    added: cands[c].name.clone(),
-                    statistic: stat,
-                    p_value: chi2_sf(stat, prep.cols_of[c].len() + cands[c].grid_parameters),
-                    cv_rms: (cv_cur / n as f64).sqrt(),
-                    bic: bic_cur,
-                });
-            }
-        }
         while set.len() < opts.max_effects {
             progress(
                 "selection",
@@ -693,6 +664,18 @@ fn diagnose_once(
             // (within the confounding tolerance), the smallest information criterion — the
             // simpler law (Coulomb before Stribeck or asymmetric friction) unless the data
             // ask for more.
+            if std::env::var("LASH_DEBUG").is_ok() {
+                for x in &short {
+                    eprintln!(
+                        "pass {pass} set {:?} cand {} stat {:.1} cv {:.6} bic {:.1}",
+                        set.iter().map(|&c| cands[c].name.clone()).collect::<Vec<_>>(),
+                        cands[x.0].name,
+                        x.1,
+                        (x.2 / cv_cur).sqrt(),
+                        x.3 - bic_cur
+                    );
+                }
+            }
             let cv_min = short.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
             let tol = (1.0 + opts.confound_tolerance).powi(2);
             let best = short
@@ -717,6 +700,33 @@ fn diagnose_once(
                 cv_rms: (cv / n as f64).sqrt(),
                 bic: b,
             });
+        }
+        // Simplify: an effect chosen early may have absorbed part of one found later; if a
+        // simpler law of the same family (Coulomb for asymmetric or Stribeck friction) now
+        // fits as well (cross-validated, within the confounding tolerance) with a smaller
+        // information criterion, it replaces the richer one.
+        let tol = (1.0 + opts.confound_tolerance).powi(2);
+        for pos in 0..set.len() {
+            let c = set[pos];
+            let cost = |k: usize| prep.cols_of[k].len() + cands[k].grid_parameters;
+            let simpler = (0..cands.len())
+                .filter(|&d| !set.contains(&d) && same_family(&cands[c], &cands[d]) && cost(d) < cost(c))
+                .filter_map(|d| {
+                    let mut s2 = set.clone();
+                    s2[pos] = d;
+                    if !prep.plausible(&s2) {
+                        return None;
+                    }
+                    let (cv2, b2) = (prep.cv_rss(&s2), bic(&s2));
+                    (cv2 <= cv_cur * tol && b2 < bic_cur).then_some((d, cv2, b2))
+                })
+                .min_by(|a, b| a.2.total_cmp(&b.2));
+            if let Some((d, cv2, b2)) = simpler {
+                set[pos] = d;
+                steps[pos].added = cands[d].name.clone();
+                cv_cur = cv2;
+                bic_cur = b2;
+            }
         }
         // Re-weigh once: the channel scales the selected physics leaves (a large effect
         // found first no longer inflates its channel's weight, so what hides under it can

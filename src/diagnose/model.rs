@@ -109,6 +109,11 @@ pub trait InverseDynamicsModel {
     ) -> Option<OutputSensitivities> {
         None
     }
+    /// Compliance of drive j's transmission at parameters `theta`, rad/(N·m): a torque on
+    /// the joint side (friction) winds it up and moves the arm against its encoder. Default 0.
+    fn drive_compliance(&self, _theta: &[f64], _j: usize) -> f64 {
+        0.0
+    }
     /// Clearance sites (names), in the order of [`OutputSensitivities::sites`].
     fn clearance_sites(&self) -> Vec<String> {
         vec![]
@@ -404,6 +409,9 @@ impl InverseDynamicsModel for Mr2120Model {
             sites,
             drive_torque: s.torque.to_vec(),
         })
+    }
+    fn drive_compliance(&self, theta: &[f64], j: usize) -> f64 {
+        theta[11 + j]
     }
     fn clearance_sites(&self) -> Vec<String> {
         ["A", "B", "C"]
