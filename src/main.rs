@@ -410,8 +410,13 @@ fn suite_cmd(reduced: bool, only: &str, report: &std::path::Path, json: bool) ->
         .filter(|s| !s.is_empty())
         .map(String::from)
         .collect();
+    let dir = if report == std::path::Path::new("out/diagnose") {
+        std::path::PathBuf::from("out/diagnose-suite")
+    } else {
+        report.to_path_buf()
+    };
     let mut progress = Progress::new("diagnose --suite", 1.0);
-    let board = match run_suite(&opts, |_, f| progress.update(f)) {
+    let board = match run_suite(&opts, Some(&dir), |_, f| progress.update(f)) {
         Ok(b) => b,
         Err(e) => {
             eprintln!("error: {e}");
@@ -420,11 +425,6 @@ fn suite_cmd(reduced: bool, only: &str, report: &std::path::Path, json: bool) ->
     };
     progress.finish();
     let text = serde_json::to_string_pretty(&board).expect("scoreboard serialises");
-    let dir = if report == std::path::Path::new("out/diagnose") {
-        std::path::PathBuf::from("out/diagnose-suite")
-    } else {
-        report.to_path_buf()
-    };
     if let Err(e) =
         std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("scoreboard.json"), &text))
     {
@@ -492,9 +492,10 @@ fn suite_cmd(reduced: bool, only: &str, report: &std::path::Path, json: bool) ->
         if board.pair_ok { "ok" } else { "FAILED" }
     );
     println!(
-        "targets {}; scoreboard: {}",
+        "targets {}; scoreboard: {}; one diagnosis report per case in {}/<case>/",
         if board.targets_met { "met" } else { "NOT met" },
-        dir.join("scoreboard.json").display()
+        dir.join("scoreboard.json").display(),
+        dir.display()
     );
     if board.targets_met {
         ExitCode::SUCCESS

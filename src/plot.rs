@@ -125,6 +125,8 @@ where
                     .trim_end_matches('0')
                     .trim_end_matches('.')
                     .to_string()
+            } else if v.abs() < 1e-9 * (ys.1 - ys.0).abs() {
+                "0".to_string()
             } else {
                 format!("{v:.2e}")
             }

@@ -78,3 +78,33 @@ fn mr2120_kinematics_reproduces_table2_within_002_degrees() {
     let human = lash(&["mr2120", "kinematics"]);
     assert!(String::from_utf8_lossy(&human.stdout).contains("1.18 mm below"));
 }
+
+#[test]
+fn mr2120_record_writes_csv_and_truth_and_refuses_unknown_effects() {
+    let dir = std::env::temp_dir().join(format!("lash-record-{}", std::process::id()));
+    let d = dir.to_string_lossy().to_string();
+    let out = lash(&[
+        "mr2120",
+        "record",
+        "--effects",
+        "payload=0.01",
+        "--recordings",
+        "1",
+        "--duration",
+        "0.5",
+        "--out",
+        &d,
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let csv = std::fs::read_to_string(dir.join("recording-01.csv")).unwrap();
+    assert!(csv.starts_with("time,q1,q2,q3,qd1,qd2,qd3,tau1,tau2,tau3,x,y,z"));
+    assert_eq!(csv.lines().count(), 252);
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["effects"]["payload"], 0.01);
+    let bad = lash(&["mr2120", "record", "--effects", "gremlins_a=1", "--out", &d]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("gremlins_a"));
+    let bad = lash(&["diagnose", "--model", "robot"]);
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("available: double-pendulum, mr2120"));
+}

@@ -664,18 +664,6 @@ fn diagnose_once(
             // (within the confounding tolerance), the smallest information criterion — the
             // simpler law (Coulomb before Stribeck or asymmetric friction) unless the data
             // ask for more.
-            if std::env::var("LASH_DEBUG").is_ok() {
-                for x in &short {
-                    eprintln!(
-                        "pass {pass} set {:?} cand {} stat {:.1} cv {:.6} bic {:.1}",
-                        set.iter().map(|&c| cands[c].name.clone()).collect::<Vec<_>>(),
-                        cands[x.0].name,
-                        x.1,
-                        (x.2 / cv_cur).sqrt(),
-                        x.3 - bic_cur
-                    );
-                }
-            }
             let cv_min = short.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
             let tol = (1.0 + opts.confound_tolerance).powi(2);
             let best = short

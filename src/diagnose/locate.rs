@@ -328,7 +328,7 @@ pub fn locate(
         };
         let unit = chans[ch].unit(model);
         f.text = format!(
-            "in the {}, {} t = {:.2}–{:.2} s ({state}): residual {} {unit} RMS against a {} {unit} noise floor",
+            "in the {} of {}, t = {:.2}–{:.2} s ({state}): residual {} {unit} RMS against a {} {unit} noise floor",
             f.channel,
             f.recording,
             f.t0,

@@ -234,7 +234,7 @@ pub const MR2120_CLEARANCE_LOAD_SCALE: f64 = 1.0;
 /// Torque scale over which a drive's backlash changes sides, N·m.
 pub const MR2120_BACKLASH_TORQUE_SCALE: f64 = 0.2;
 /// Direct-singularity measure below which the localisation tags a configuration as near it.
-pub const MR2120_NEAR_DIRECT: f64 = 0.15;
+pub const MR2120_NEAR_DIRECT: f64 = 0.3;
 
 impl Mr2120Model {
     /// The lumped model with parameter values `theta`.

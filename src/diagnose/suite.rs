@@ -451,6 +451,14 @@ pub struct Scoreboard {
 /// Errors of the suite.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SuiteError {
+    /// A case's report could not be written.
+    #[error("case {case}: {message}")]
+    Report {
+        /// Case.
+        case: String,
+        /// Cause.
+        message: String,
+    },
     /// A recording could not be made.
     #[error("case {case}: {source}")]
     Record {
@@ -604,8 +612,13 @@ pub fn run_case(
     Ok((res, d))
 }
 
-/// Runs the suite; `progress` receives (case name, fraction done).
-pub fn run_suite(opts: &SuiteOptions, mut progress: impl FnMut(&str, f64)) -> Result<Scoreboard, SuiteError> {
+/// Runs the suite; `progress` receives (case name, fraction done). With `reports`, each
+/// case's diagnosis report (Markdown, JSON, plots) goes to `reports/<case>/`.
+pub fn run_suite(
+    opts: &SuiteOptions,
+    reports: Option<&std::path::Path>,
+    mut progress: impl FnMut(&str, f64),
+) -> Result<Scoreboard, SuiteError> {
     let all = cases();
     let chosen: Vec<(usize, &Case)> = all
         .iter()
@@ -615,7 +628,14 @@ pub fn run_suite(opts: &SuiteOptions, mut progress: impl FnMut(&str, f64)) -> Re
     let mut results = vec![];
     for (k, (i, c)) in chosen.iter().enumerate() {
         progress(&c.name, k as f64 / chosen.len() as f64);
-        results.push(run_case(c, opts, *i)?.0);
+        let (r, d) = run_case(c, opts, *i)?;
+        if let Some(dir) = reports {
+            super::report::write_report(&d, &dir.join(&c.name)).map_err(|e| SuiteError::Report {
+                case: c.name.clone(),
+                message: e.to_string(),
+            })?;
+        }
+        results.push(r);
     }
     progress("done", 1.0);
     let concealed: Vec<&CaseResult> = results.iter().filter(|r| r.kind == CaseKind::Concealed).collect();
