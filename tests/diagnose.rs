@@ -275,3 +275,77 @@ fn dfki_real_recordings_joint_2_held_out_residual_falls_by_40_percent() {
     // Every estimate is physically plausible and reported with its uncertainty.
     assert!(d.estimates.iter().all(|e| e.std > 0.0 && e.std.is_finite()));
 }
+
+/// The test pendulum built with the multibody API: links along −z at q = 0, joints about +y;
+/// its one perturbable parameter is the mass of link 2.
+fn api_pendulum() -> lash::diagnose::mechanism::MechanismModel {
+    use lash::diagnose::model::{ModelParameter, ParameterFamily};
+    use lash::multibody::{Attach, Mechanism, MotionLaw, RigidBody};
+    use nalgebra::{Matrix3, Vector3};
+    let p = params();
+    lash::diagnose::mechanism::MechanismModel::new(
+        "test pendulum built with the multibody API",
+        vec!["joint 1 (shoulder)".into(), "joint 2 (elbow)".into()],
+        vec![ModelParameter {
+            name: "link 2 mass m2".into(),
+            unit: "kg".into(),
+            nominal: p.m2,
+            scale: p.m2,
+            family: ParameterFamily::MassProperties,
+        }],
+        std::sync::Arc::new(move |theta: &[f64], laws: &[MotionLaw]| {
+            let m2 = theta[0];
+            // I2 about the joint scales with the mass (same shape).
+            let i2 = p.i2 * m2 / p.m2;
+            let about_com = |i_joint: f64, m: f64, r: f64| Matrix3::identity() * (i_joint - m * r * r);
+            let mut mech = Mechanism::new();
+            let l1 = mech.add_body(
+                RigidBody::new("link1", p.m1, about_com(p.i1, p.m1, p.r1)).at(Vector3::new(0.0, 0.0, -p.r1)),
+            );
+            let l2 = mech.add_body(
+                RigidBody::new("link2", m2, about_com(i2, m2, p.r2)).at(Vector3::new(0.0, 0.0, -p.l1 - p.r2)),
+            );
+            let a = mech.revolute_at("shoulder", Attach::Ground, l1, Vector3::zeros(), Vector3::y());
+            let b = mech.revolute_at("elbow", l1, l2, Vector3::new(0.0, 0.0, -p.l1), Vector3::y());
+            mech.drive("q1", a, laws[0].clone(), 0.0)?;
+            mech.drive("q2", b, laws[1].clone(), 0.0)?;
+            Ok(mech)
+        }),
+    )
+}
+
+#[test]
+fn a_mechanism_built_with_the_api_is_a_nominal_model_too() {
+    use lash::diagnose::model::InverseDynamicsModel;
+    let api = api_pendulum();
+    let p = params();
+    // Same torques as the closed-form model.
+    let mut worst = 0.0f64;
+    for k in 0..20 {
+        let t = k as f64 * 0.31;
+        let q = [0.9 * t.sin(), 1.2 * (0.7 * t).cos()];
+        let qd = [0.9 * t.cos(), -0.84 * (0.7 * t).sin()];
+        let qdd = [-0.9 * t.sin(), -0.588 * (0.7 * t).cos()];
+        let mut tau = [0.0; 2];
+        api.torques(&[p.m2], &q, &qd, &qdd, &mut tau);
+        let want = p.torques(q, qd, qdd);
+        worst = worst.max((tau[0] - want[0]).abs()).max((tau[1] - want[1]).abs());
+    }
+    assert!(worst < 1e-8, "largest torque difference {worst:e} N m");
+    // And it diagnoses hidden friction like the closed-form model does.
+    let c = 0.05;
+    let (fit, held) = runs(&|j, qd, _| if j == 1 { c * (qd / 0.05).tanh() } else { 0.0 });
+    let d = diagnose(&api, &fit, &held, &DiagnoseOptions::default(), |_, _| {});
+    assert_eq!(
+        d.selected.first().map(String::as_str),
+        Some("Coulomb friction in joint 2 (elbow)"),
+        "{:?}",
+        d.steps
+    );
+    let est = d
+        .estimates
+        .iter()
+        .find(|e| e.candidate.starts_with("Coulomb"))
+        .unwrap();
+    assert!((est.value / c - 1.0).abs() < 0.25, "{}", est.value);
+}

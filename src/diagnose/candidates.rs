@@ -26,6 +26,7 @@
 //! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) |
 //! | clearance h at a site (e.g. the joints of a leg) | h·∂y/∂s·tanh(F/F_c), F the site's load |
 //! | output-sensor offset | o_k on output k |
+//! | output-sensor delay | −d·dy_k/dt on output k |
 use super::data::{Channel, MotionData};
 use super::model::{InverseDynamicsModel, OutputSensitivities, ParameterFamily};
 use super::signal::derivative;
@@ -84,6 +85,11 @@ pub enum Effect {
     },
     /// Offset of an output sensor (index of the output), in its unit.
     OutputOffset {
+        /// Output index.
+        output: usize,
+    },
+    /// Delay of an output sensor (index of the output), s.
+    OutputDelay {
         /// Output index.
         output: usize,
     },
@@ -217,6 +223,14 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
             parameters: vec![format!("o [{}]", model.output_unit(k))],
             grid_parameters: 0,
             bounds: vec![(-f64::INFINITY, f64::INFINITY)],
+        });
+        out.push(Candidate {
+            name: format!("{} sensor delay", model.output_name(k)),
+            effect: Effect::OutputDelay { output: k },
+            joint: None,
+            parameters: vec!["d [s]".into()],
+            grid_parameters: 0,
+            bounds: vec![(-0.05, 0.05)],
         });
     }
     for (k, p) in model.parameters().iter().enumerate() {
@@ -389,6 +403,16 @@ pub fn columns(
                         .map(|(dy, load)| dy[k] * (load / fc).tanh())
                         .unwrap_or(0.0)
                 })]
+            }
+            (Effect::OutputDelay { output }, _) => {
+                let mut col = vec![0.0; nc * n];
+                if let Some(r) = chans.iter().position(|&c| c == Channel::Output(output)) {
+                    let dy = derivative(&d.t, &y_nom[output], 2);
+                    for i in 0..n {
+                        col[r * n + i] = if dy[i].is_finite() { -dy[i] } else { 0.0 };
+                    }
+                }
+                vec![col]
             }
             (Effect::OutputOffset { output }, _) => {
                 let mut col = vec![0.0; nc * n];

@@ -900,6 +900,7 @@ fn same_family(a: &Candidate, b: &Candidate) -> bool {
         Backlash => 9,
         Clearance { .. } => 10,
         OutputOffset { .. } => 11,
+        OutputDelay { .. } => 12,
     };
     a.joint == b.joint && fam(a.effect) == fam(b.effect) && fam(a.effect) != 7
 }

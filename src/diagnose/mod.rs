@@ -6,6 +6,7 @@
 //! | `recording.rs` | CSV recordings, column mapping, errors with file and line |
 //! | `signal.rs` | noise floor, derivatives on irregular grids, autocorrelation |
 //! | `model.rs` | the nominal model (torques from measured motion, outputs such as a tracked platform position), its perturbable parameters; the DFKI pendulum and the MR2120 |
+//! | `mechanism.rs` | any mechanism built with the multibody API as a nominal model |
 //! | `data.rs` | measured motion and torques of one recording |
 //! | `candidates.rs` | the library of candidate physics and their regressors |
 //! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
@@ -50,6 +51,7 @@ pub mod candidates;
 pub mod data;
 pub mod equation_error;
 pub mod locate;
+pub mod mechanism;
 pub mod model;
 pub mod recording;
 pub mod report;
