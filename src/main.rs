@@ -241,7 +241,7 @@ fn diagnose_cmd(
     json: bool,
 ) -> ExitCode {
     use lash::diagnose::data::roles;
-    use lash::diagnose::equation_error::{diagnose_recordings, DiagnoseOptions};
+    use lash::diagnose::equation_error::{diagnose_recordings, number, DiagnoseOptions};
     use lash::diagnose::model::DoublePendulumModel;
     use lash::diagnose::recording::{parse_mapping, read_csv};
     let fail = |e: &dyn std::fmt::Display| {
@@ -368,18 +368,18 @@ fn diagnose_cmd(
     }
     println!("{}\n", d.verdict);
     println!(
-        "{:<22} {:>10} {:>12} {:>12} {:>14} {:>14} {:>10}",
+        "{:<28} {:>10} {:>12} {:>12} {:>14} {:>14} {:>10}",
         "channel", "noise", "fit before", "fit after", "held-out bef.", "held-out aft.", "reduction"
     );
     for c in &d.channels {
         println!(
-            "{:<22} {:>10.4} {:>12.4} {:>12.4} {:>14.4} {:>14.4} {:>9.1}%",
+            "{:<28} {:>10} {:>12} {:>12} {:>14} {:>14} {:>9.1}%",
             c.channel,
-            c.noise_floor,
-            c.fit_before,
-            c.fit_after,
-            c.holdout_before,
-            c.holdout_after,
+            number(c.noise_floor),
+            number(c.fit_before),
+            number(c.fit_after),
+            number(c.holdout_before),
+            number(c.holdout_after),
             100.0 * c.holdout_reduction
         );
     }

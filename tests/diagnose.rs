@@ -119,7 +119,7 @@ fn hidden_coulomb_friction_in_joint_2_is_named_estimated_and_removed() {
         .find(|c| c.channel.contains("joint 2"))
         .unwrap();
     assert_eq!(
-        top.state, "sign of joint 2 velocity",
+        top.state, "sign of the joint 2 (elbow) velocity",
         "{:?}",
         d.location.correlations
     );

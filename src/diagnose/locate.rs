@@ -175,7 +175,7 @@ pub fn locate(
                 let qd = &d.qd[k][a..b];
                 let moving: Vec<f64> = qd.iter().copied().filter(|v| v.abs() > opts.rest_speed).collect();
                 if moving.windows(2).any(|w| w[0] * w[1] < 0.0) {
-                    tags.push(format!("velocity reversal of joint {}", k + 1));
+                    tags.push(format!("velocity reversal of {}", model.joint_name(k)));
                 }
                 // The measured load if recorded, else the model's.
                 let tau = if d.tau.is_empty() {
@@ -194,16 +194,16 @@ pub fn locate(
                     .filter(|v| v.abs() > 3.0 * load_noise)
                     .collect();
                 if loaded.windows(2).any(|w| w[0] * w[1] < 0.0) {
-                    tags.push(format!("load reversal in joint {}", k + 1));
+                    tags.push(format!("load reversal in {}", model.joint_name(k)));
                 }
                 if d.qdd[k][a..b].iter().any(|v| v.abs() > acc_hi[k]) {
-                    tags.push(format!("acceleration peak of joint {}", k + 1));
+                    tags.push(format!("acceleration peak of {}", model.joint_name(k)));
                 }
                 if qd.iter().map(|v| v.abs()).sum::<f64>() / qd.len() as f64 > spd_hi[k] {
-                    tags.push(format!("high speed of joint {}", k + 1));
+                    tags.push(format!("high speed of {}", model.joint_name(k)));
                 }
                 if qd.iter().all(|v| v.abs() <= opts.rest_speed) {
-                    tags.push(format!("joint {} at rest", k + 1));
+                    tags.push(format!("{} at rest", model.joint_name(k)));
                 }
             }
             for tag in config[a..b].iter().flatten() {
@@ -239,10 +239,10 @@ pub fn locate(
         let mut states: Vec<(String, Vec<f64>)> = (0..nj)
             .flat_map(|k| {
                 [
-                    format!("sign of joint {} velocity", k + 1),
-                    format!("joint {} velocity", k + 1),
-                    format!("joint {} acceleration", k + 1),
-                    format!("joint {} torque", k + 1),
+                    format!("sign of the {} velocity", model.joint_name(k)),
+                    format!("{} velocity", model.joint_name(k)),
+                    format!("{} acceleration", model.joint_name(k)),
+                    format!("{} torque", model.joint_name(k)),
                 ]
             })
             .map(|n| (n, vec![]))
