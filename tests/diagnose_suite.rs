@@ -10,10 +10,10 @@ fn run(name: &str) -> lash::diagnose::suite::CaseResult {
 }
 
 #[test]
-fn the_suite_has_twelve_concealed_cases_a_null_and_a_pair() {
+fn the_suite_has_at_least_twelve_concealed_cases_a_null_and_a_pair() {
     use lash::diagnose::suite::CaseKind::*;
     let all = cases();
-    assert_eq!(all.iter().filter(|c| c.kind == Concealed).count(), 12);
+    assert!(all.iter().filter(|c| c.kind == Concealed).count() >= 12);
     assert_eq!(all.iter().filter(|c| c.kind == Null).count(), 1);
     assert_eq!(all.iter().filter(|c| c.kind == Pair).count(), 1);
 }

@@ -207,7 +207,7 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
     }
     for (site, name) in model.clearance_sites().iter().enumerate() {
         out.push(Candidate {
-            name: format!("clearance in {name}"),
+            name: name.clone(),
             effect: Effect::Clearance { site },
             joint: None,
             parameters: vec!["h [m]".into()],

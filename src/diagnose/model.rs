@@ -221,8 +221,9 @@ impl InverseDynamicsModel for DoublePendulumModel {
 /// the drive encoders through the compliant transmissions and the forward kinematics (the
 /// output-error simulation of a position-driven 3-DOF mechanism). Its parameters: the six
 /// link lengths, the arm and forearm masses, a payload, the base tilt about x and y, and the
-/// three drive compliances. Its clearance sites: the joints of each leg (play along the
-/// forearm, on the side its tension or compression pushes to).
+/// three drive compliances. Its clearance sites: the joints of each leg, radially (play
+/// along the forearm, on the side its tension or compression pushes to) and axially (along
+/// the drive axis, on the side the axial joint load pushes to).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Mr2120Model {
     /// The nominal model.
@@ -396,13 +397,21 @@ impl InverseDynamicsModel for Mr2120Model {
         let m = self.with(theta);
         let s = self.arm_state(&m, q, qd, qdd, y)?;
         // ∂M/∂L2_i = Jx⁻¹ e_i L2_i = (column i of ∂M/∂q) · L2_i / Jq_i, since ∂M/∂q = Jx⁻¹ diag(Jq).
-        let sites = (0..3)
+        // Radial play (along the forearm, side set by its tension), then axial play (the
+        // elbow centre along the drive axis: ∂M/∂δ = Jx⁻¹ e_i (f_i·n_i), side set by the
+        // axial joint load).
+        let mut sites: Vec<(Vec<f64>, f64)> = (0..3)
             .map(|i| {
-                let jqi = s.jq[i];
-                let dy: Vec<f64> = (0..3).map(|k| s.jm[(k, i)] * m.forearm_length[i] / jqi).collect();
+                let dy: Vec<f64> = (0..3)
+                    .map(|k| s.jm[(k, i)] * m.forearm_length[i] / s.jq[i])
+                    .collect();
                 (dy, s.tension[i])
             })
             .collect();
+        sites.extend((0..3).map(|i| {
+            let dy: Vec<f64> = (0..3).map(|k| s.jm[(k, i)] * s.f_dot_axis[i] / s.jq[i]).collect();
+            (dy, s.axial_force[i])
+        }));
         Some(OutputSensitivities {
             dy_dq: (0..3).map(|k| (0..3).map(|j| s.jm[(k, j)]).collect()).collect(),
             compliance: m.compliance.to_vec(),
@@ -414,9 +423,13 @@ impl InverseDynamicsModel for Mr2120Model {
         theta[11 + j]
     }
     fn clearance_sites(&self) -> Vec<String> {
-        ["A", "B", "C"]
-            .iter()
-            .map(|b| format!("the joints of leg {b} (elbow and platform)"))
+        let legs = ["A", "B", "C"];
+        legs.iter()
+            .map(|b| format!("radial clearance in the joints of leg {b} (along the forearm)"))
+            .chain(
+                legs.iter()
+                    .map(|b| format!("axial clearance in the joints of leg {b} (along the drive axis)")),
+            )
             .collect()
     }
     fn clearance_load_scale(&self) -> f64 {

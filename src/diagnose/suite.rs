@@ -180,10 +180,20 @@ pub fn cases() -> Vec<Case> {
         },
         None,
         vec![t(
-            "clearance in the joints of leg C (elbow and platform)",
+            "radial clearance in the joints of leg C (along the forearm)",
             4e-6,
             true,
         )],
+        None,
+        true,
+    );
+    add(
+        "axial-clearance",
+        "4 µm axial play in the joints of leg A: changes side only when the joint load along the drive axis reverses",
+        Concealed,
+        HiddenEffects { axial_clearance: [4e-6, 0.0, 0.0], ..z() },
+        None,
+        vec![t("axial clearance in the joints of leg A (along the drive axis)", 4e-6, true)],
         None,
         true,
     );
@@ -269,7 +279,7 @@ pub fn cases() -> Vec<Case> {
         vec![
             t("error in forearm A length", 3e-5, false),
             t(
-                "clearance in the joints of leg A (elbow and platform)",
+                "radial clearance in the joints of leg A (along the forearm)",
                 4e-6,
                 true,
             ),
@@ -304,7 +314,7 @@ pub fn cases() -> Vec<Case> {
         HiddenEffects { coulomb: [0.0, 0.3, 0.0], ..z() },
         None,
         vec![t("Coulomb friction in drive B", 0.3, true)],
-        Some("clearance in the joints of leg B (elbow and platform)"),
+        Some("radial clearance in the joints of leg B (along the forearm)"),
         false,
     );
     out
@@ -323,6 +333,7 @@ fn combine(a: &HiddenEffects, b: &HiddenEffects) -> HiddenEffects {
         rotor_inertia: add3(a.rotor_inertia, b.rotor_inertia),
         backlash: add3(a.backlash, b.backlash),
         clearance: add3(a.clearance, b.clearance),
+        axial_clearance: add3(a.axial_clearance, b.axial_clearance),
         encoder_offset: add3(a.encoder_offset, b.encoder_offset),
         torque_offset: add3(a.torque_offset, b.torque_offset),
         torque_scale: add3(a.torque_scale, b.torque_scale),

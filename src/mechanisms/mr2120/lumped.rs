@@ -50,6 +50,8 @@ pub struct LumpedModel {
     /// Compliance of each drive's transmission, rad/(N·m): the arm lags the encoder angle
     /// by c_i·τ_i.
     pub compliance: [f64; 3],
+    /// Displacement of each elbow joint centre along its drive axis, m (axial play).
+    pub axial_offset: [f64; 3],
 }
 
 /// Kinematic and dynamic state at one sample.
@@ -69,6 +71,11 @@ pub struct LumpedState {
     pub jm: Matrix3<f64>,
     /// Jq_i = (M + P_i − D_i)·D_i', m².
     pub jq: [f64; 3],
+    /// (M + P_i − D_i)·n_i (n_i the drive axis), m.
+    pub f_dot_axis: [f64; 3],
+    /// Axial load of each forearm's joints: the component along n_i of the force the
+    /// arm exerts on the forearm's ball, reversed (the side axial play opens to), N.
+    pub axial_force: [f64; 3],
     /// |det Jx| / L2³: 0 at a direct-kinematics singularity.
     pub direct_measure: f64,
 }
@@ -98,6 +105,7 @@ impl LumpedModel {
             payload: 0.0,
             gravity: Vector3::new(0.0, 0.0, -STANDARD_GRAVITY),
             compliance: [NOMINAL_COMPLIANCE; 3],
+            axial_offset: [0.0; 3],
         }
     }
 
@@ -105,7 +113,7 @@ impl LumpedModel {
         let (s, c) = (q + self.geometry.q0).sin_cos();
         let a = self.arm_length[i];
         let radial = c * b.arm_dir + s * Vector3::z();
-        let d = b.arm_centre + a * radial;
+        let d = b.arm_centre + a * radial + self.axial_offset[i] * b.axis;
         let d1 = a * (-s * b.arm_dir + c * Vector3::z());
         (d, d1, -a * radial)
     }
@@ -160,6 +168,7 @@ impl LumpedModel {
         let br = self.geometry.branches();
         let mut jx = Matrix3::zeros();
         let mut jq = [0.0; 3];
+        let mut f_dot_axis = [0.0; 3];
         let mut d1s = [Vector3::zeros(); 3];
         let mut d2s = [Vector3::zeros(); 3];
         for i in 0..3 {
@@ -167,6 +176,7 @@ impl LumpedModel {
             let f = m + br[i].platform_joint - d;
             jx.set_row(i, &f.transpose());
             jq[i] = f.dot(&d1);
+            f_dot_axis[i] = f.dot(&br[i].axis);
             d1s[i] = d1;
             d2s[i] = d2;
         }
@@ -193,7 +203,9 @@ impl LumpedModel {
         let mu = jx.transpose().lu().solve(&force).ok_or_else(singular)?;
         let mut torque = [0.0; 3];
         let mut tension = [0.0; 3];
+        let mut axial_force = [0.0; 3];
         for i in 0..3 {
+            axial_force[i] = -mu[i] * f_dot_axis[i];
             let a = self.arm_length[i];
             let inertia = self.arm_mass * a * a / 3.0 + 0.5 * self.forearm_mass * a * a;
             let weight = 0.5 * (self.arm_mass + self.forearm_mass);
@@ -209,6 +221,8 @@ impl LumpedModel {
             tension,
             jm,
             jq,
+            f_dot_axis,
+            axial_force,
             direct_measure: jx.determinant().abs() / l3,
         })
     }

@@ -11,8 +11,9 @@
 //!   latter with [`FRICTION_VELOCITY`]): it loads the transmission like any other torque;
 //! * reflected rotor inertia (motor side: seen by the current, not by the transmission);
 //! * drive backlash: the arm lags the encoder by b·tanh(τ/τ_b) (τ_b = [`BACKLASH_SCALE`]);
-//! * clearance in the joints of a leg: the forearm acts h·tanh(T/T_c) longer under tension T
-//!   (T_c = [`CLEARANCE_SCALE`]), shorter under compression;
+//! * clearance in the joints of a leg: radial, the forearm acts h·tanh(T/T_c) longer under
+//!   tension T (T_c = [`CLEARANCE_SCALE`]), shorter under compression; axial, the elbow
+//!   centre shifts by h·tanh(F/T_c) along the drive axis under the axial joint load F;
 //! * sensor errors: encoder offsets, torque offset and scale, tracker offset.
 //!
 //! The drives follow commanded encoder angles exactly (the inverse kinematics of the nominal
@@ -55,8 +56,10 @@ pub struct HiddenEffects {
     pub rotor_inertia: [f64; 3],
     /// Drive backlash (half the play), rad.
     pub backlash: [f64; 3],
-    /// Clearance in the joints of each leg (play along the forearm), m.
+    /// Radial clearance in the joints of each leg (play along the forearm), m.
     pub clearance: [f64; 3],
+    /// Axial clearance in the joints of each leg (play along the drive axis), m.
+    pub axial_clearance: [f64; 3],
     /// Encoder offsets (measured − true), rad.
     pub encoder_offset: [f64; 3],
     /// Torque-sensor offsets, N·m.
@@ -70,7 +73,7 @@ pub struct HiddenEffects {
 impl HiddenEffects {
     /// Sets one effect by name: `payload`, `tilt_x`, `tilt_y`, or one of `arm_length_error`,
     /// `forearm_length_error`, `compliance_error`, `viscous`, `coulomb`, `rotor_inertia`,
-    /// `backlash`, `clearance`, `encoder_offset`, `torque_offset`, `torque_scale` with the
+    /// `backlash`, `clearance`, `axial_clearance`, `encoder_offset`, `torque_offset`, `torque_scale` with the
     /// suffix `_a`, `_b` or `_c`, or `tracker_offset_x|y|z` (SI units).
     pub fn set(&mut self, key: &str, value: f64) -> Result<(), String> {
         if !value.is_finite() {
@@ -103,6 +106,7 @@ impl HiddenEffects {
                     "rotor_inertia" => &mut self.rotor_inertia,
                     "backlash" => &mut self.backlash,
                     "clearance" => &mut self.clearance,
+                    "axial_clearance" => &mut self.axial_clearance,
                     "encoder_offset" => &mut self.encoder_offset,
                     "torque_offset" => &mut self.torque_offset,
                     "torque_scale" => &mut self.torque_scale,
@@ -361,6 +365,7 @@ fn truth_sample(
     let mut mc = m;
     for i in 0..3 {
         mc.forearm_length[i] += e.clearance[i] * (s.tension[i] / CLEARANCE_SCALE).tanh();
+        mc.axial_offset[i] += e.axial_clearance[i] * (s.axial_force[i] / CLEARANCE_SCALE).tanh();
     }
     let pose = mc.forward(qa, s.m)?;
     let current = std::array::from_fn(|i| gear[i] + e.rotor_inertia[i] * qdd[i]);
