@@ -67,6 +67,16 @@ impl Channel {
     }
 }
 
+/// The channel mapped to `role`, or an error saying how to map it.
+fn mapped(rec: &Recording, role: String) -> Result<Vec<f64>, RecordingError> {
+    rec.channel(&role)
+        .map(<[f64]>::to_vec)
+        .ok_or(RecordingError::Unmapped {
+            hint: format!("--map {role}=<column>"),
+            role,
+        })
+}
+
 impl MotionData {
     /// From a recording with the roles of [`roles`]; accelerations by local least-squares
     /// lines over ±`half_window` samples of the rates.
@@ -75,14 +85,21 @@ impl MotionData {
         joints: usize,
         half_window: usize,
     ) -> Result<Self, RecordingError> {
-        let get = |role: String| {
-            rec.channel(&role)
-                .map(<[f64]>::to_vec)
-                .ok_or(RecordingError::Unmapped {
-                    role: role.clone(),
-                    hint: format!("--map {role}=<column>"),
-                })
-        };
+        let mut d = Self::motion(rec, joints, half_window, derivative)?;
+        for j in 1..=joints {
+            d.tau.push(mapped(rec, format!("tau{j}"))?);
+        }
+        Ok(d)
+    }
+
+    /// Joint positions, rates and their derivative (`diff` over ±`half_window` samples) of
+    /// a recording; no torques or outputs yet.
+    fn motion(
+        rec: &Recording,
+        joints: usize,
+        half_window: usize,
+        diff: fn(&[f64], &[f64], usize) -> Vec<f64>,
+    ) -> Result<Self, RecordingError> {
         let mut d = MotionData {
             name: rec.name(),
             t: rec.time.clone(),
@@ -93,11 +110,10 @@ impl MotionData {
             y: vec![],
         };
         for j in 1..=joints {
-            d.q.push(get(format!("q{j}"))?);
-            let qd = get(format!("qd{j}"))?;
-            d.qdd.push(derivative(&rec.time, &qd, half_window));
+            d.q.push(mapped(rec, format!("q{j}"))?);
+            let qd = mapped(rec, format!("qd{j}"))?;
+            d.qdd.push(diff(&rec.time, &qd, half_window));
             d.qd.push(qd);
-            d.tau.push(get(format!("tau{j}"))?);
         }
         Ok(d)
     }
@@ -112,29 +128,8 @@ impl MotionData {
         half_window: usize,
     ) -> Result<Self, RecordingError> {
         let nj = model.joints();
-        let get = |role: String| {
-            rec.channel(&role)
-                .map(<[f64]>::to_vec)
-                .ok_or(RecordingError::Unmapped {
-                    role: role.clone(),
-                    hint: format!("--map {role}=<column>"),
-                })
-        };
-        let mut d = MotionData {
-            name: rec.name(),
-            t: rec.time.clone(),
-            q: vec![],
-            qd: vec![],
-            qdd: vec![],
-            tau: vec![],
-            y: vec![],
-        };
-        for j in 1..=nj {
-            d.q.push(get(format!("q{j}"))?);
-            let qd = get(format!("qd{j}"))?;
-            d.qdd.push(derivative_cubic(&rec.time, &qd, half_window));
-            d.qd.push(qd);
-        }
+        let get = |role: String| mapped(rec, role);
+        let mut d = Self::motion(rec, nj, half_window, derivative_cubic)?;
         let any_tau = (1..=nj).any(|j| rec.channel(&format!("tau{j}")).is_some());
         let any_y = (0..model.outputs()).any(|k| rec.channel(&model.output_role(k)).is_some());
         if any_tau || !any_y {

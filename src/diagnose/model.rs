@@ -23,20 +23,15 @@ pub enum ParameterFamily {
     DriveCompliance,
 }
 
-/// How the outputs (e.g. a tracked platform position) respond at one sample to the joint
-/// positions, and the signals that set the side of each clearance.
+/// How the outputs (e.g. a tracked platform position) respond at one sample to play at each
+/// clearance site, and the load that sets which side of the play the joint sits on. (Joint
+/// positions, drive wind-up and sensor offsets need no such hook: their columns are
+/// differences of the whole model.)
 #[derive(Debug, Clone, PartialEq)]
 pub struct OutputSensitivities {
-    /// ∂y_k/∂q_j: `dy_dq[k][j]`, output units per rad.
-    pub dy_dq: Vec<Vec<f64>>,
-    /// Joint-side deflection per unit drive torque of each drive, rad/(N·m) (a friction
-    /// torque on the joint side winds up the transmission like any other load).
-    pub compliance: Vec<f64>,
     /// Per clearance site: ∂y/∂(displacement of the site along its load), and that load
     /// (its sign sets which side of the clearance the joint sits on).
     pub sites: Vec<(Vec<f64>, f64)>,
-    /// Each drive's nominal torque at the sample, N·m (its sign sets the side of a backlash).
-    pub drive_torque: Vec<f64>,
 }
 
 /// One perturbable parameter of a nominal model.
@@ -412,12 +407,7 @@ impl InverseDynamicsModel for Mr2120Model {
             let dy: Vec<f64> = (0..3).map(|k| s.jm[(k, i)] * s.f_dot_axis[i] / s.jq[i]).collect();
             (dy, s.axial_force[i])
         }));
-        Some(OutputSensitivities {
-            dy_dq: (0..3).map(|k| (0..3).map(|j| s.jm[(k, j)]).collect()).collect(),
-            compliance: m.compliance.to_vec(),
-            sites,
-            drive_torque: s.torque.to_vec(),
-        })
+        Some(OutputSensitivities { sites })
     }
     fn drive_compliance(&self, theta: &[f64], j: usize) -> f64 {
         theta[11 + j]
