@@ -6,7 +6,7 @@
 //! (P_i − D_i)·v = (P_i − D_i)·(dD_i/dq)·q̇_i, so the rows of Jx are the forearm vectors
 //! P_i − D_i and Jq = diag((P_i − D_i)·dD_i/dq).
 
-use super::geometry::Geometry;
+use super::geometry::{Branch, Geometry};
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use thiserror::Error;
@@ -171,26 +171,37 @@ pub fn jacobians(g: &Geometry, q: [f64; 3], m: Vector3<f64>) -> (Matrix3<f64>, [
 /// Forward kinematics: the platform centre for drive angles `q` (rad), by Newton's method
 /// from `guess` (the assembly mode closest to the guess).
 pub fn forward(g: &Geometry, q: [f64; 3], guess: Vector3<f64>) -> Result<Vector3<f64>, KinematicsError> {
+    if !q.iter().all(|v| v.is_finite()) || !guess.iter().all(|v| v.is_finite()) {
+        return Err(KinematicsError::InvalidInput(
+            "drive angles and guess must be finite".into(),
+        ));
+    }
+    platform_from_elbows(&g.branches(), &elbows(g, q), [g.forearm_length; 3], q, guess)
+}
+
+/// The platform centre M that puts each platform joint P_i at distance `lengths[i]` (m) from
+/// the elbow point `elbows[i]`, by Newton's method from `guess`; `q` (rad) names the
+/// configuration in errors.
+pub(crate) fn platform_from_elbows(
+    br: &[Branch; 3],
+    elbows: &[Vector3<f64>; 3],
+    lengths: [f64; 3],
+    q: [f64; 3],
+    guess: Vector3<f64>,
+) -> Result<Vector3<f64>, KinematicsError> {
     let fail = |reason: String| KinematicsError::ForwardFailed {
         q1: q[0].to_degrees(),
         q2: q[1].to_degrees(),
         q3: q[2].to_degrees(),
         reason,
     };
-    if !q.iter().all(|v| v.is_finite()) || !guess.iter().all(|v| v.is_finite()) {
-        return Err(KinematicsError::InvalidInput(
-            "drive angles and guess must be finite".into(),
-        ));
-    }
-    let br = g.branches();
-    let d = elbows(g, q);
     let mut m = guess;
     for _ in 0..50 {
         let mut r = Vector3::zeros();
         let mut jx = Matrix3::zeros();
         for i in 0..3 {
-            let f = m + br[i].platform_joint - d[i];
-            r[i] = 0.5 * (f.norm_squared() - g.forearm_length.powi(2));
+            let f = m + br[i].platform_joint - elbows[i];
+            r[i] = 0.5 * (f.norm_squared() - lengths[i].powi(2));
             jx.set_row(i, &f.transpose());
         }
         if r.amax() < 1e-15 {
@@ -203,7 +214,7 @@ pub fn forward(g: &Geometry, q: [f64; 3], guess: Vector3<f64>) -> Result<Vector3
             ))
         })?;
         m -= step;
-        if step.norm() < 1e-14 * (1.0 + m.norm()) {
+        if step.norm() < 1e-13 * (1.0 + m.norm()) {
             return Ok(m);
         }
     }

@@ -20,7 +20,7 @@
 //! Lengths in m, angles in rad, masses in kg, torques in N·m, forces in N.
 
 use super::geometry::{Branch, Geometry, MassProperties};
-use super::kinematics::KinematicsError;
+use super::kinematics::{platform_from_elbows, KinematicsError};
 use nalgebra::{Matrix3, Vector3};
 
 /// Standard gravity, m/s² (the same value as the multibody model's gravity).
@@ -127,32 +127,7 @@ impl LumpedModel {
         }
         let br = self.geometry.branches();
         let d: [Vector3<f64>; 3] = std::array::from_fn(|i| self.elbow(&br[i], i, q[i]).0);
-        let mut m = guess;
-        for _ in 0..50 {
-            let mut r = Vector3::zeros();
-            let mut jx = Matrix3::zeros();
-            for i in 0..3 {
-                let f = m + br[i].platform_joint - d[i];
-                r[i] = 0.5 * (f.norm_squared() - self.forearm_length[i].powi(2));
-                jx.set_row(i, &f.transpose());
-            }
-            let step = jx.lu().solve(&r).ok_or_else(|| KinematicsError::ForwardFailed {
-                q1: q[0].to_degrees(),
-                q2: q[1].to_degrees(),
-                q3: q[2].to_degrees(),
-                reason: "the direct Jacobian is singular".into(),
-            })?;
-            m -= step;
-            if step.norm() < 1e-13 * (1.0 + m.norm()) || r.amax() < 1e-15 {
-                return Ok(m);
-            }
-        }
-        Err(KinematicsError::ForwardFailed {
-            q1: q[0].to_degrees(),
-            q2: q[1].to_degrees(),
-            q3: q[2].to_degrees(),
-            reason: "no convergence in 50 Newton iterations".into(),
-        })
+        platform_from_elbows(&br, &d, self.forearm_length, q, guess)
     }
 
     /// Positions, rates, accelerations of the platform and the drive torques for arm angles
