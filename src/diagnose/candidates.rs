@@ -257,13 +257,14 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
 
 /// Regressor columns of every candidate on one recording: `cols[c][k]` is column k of
 /// candidate c, stacked channel by channel in the order of [`MotionData::channels`] (the
-/// first channel's samples, then the second's, ...).
+/// first channel's samples, then the second's, ...). Also returns the nominal model's value
+/// of every channel (as [`MotionData::model_channels`]), which the columns are built around.
 pub fn columns(
     cands: &[Candidate],
     d: &MotionData,
     model: &dyn InverseDynamicsModel,
     opts: &LibraryOptions,
-) -> Vec<Vec<Vec<f64>>> {
+) -> (Vec<Vec<Vec<f64>>>, Vec<Vec<f64>>) {
     let chans = d.channels();
     let nc = chans.len();
     let n = d.len();
@@ -360,7 +361,7 @@ pub fn columns(
         }
         c
     };
-    cands
+    let cols = cands
         .iter()
         .map(|c| match (c.effect, c.joint) {
             (Effect::Parameter { index, .. }, _) => {
@@ -460,7 +461,15 @@ pub fn columns(
             }
             (_, None) => vec![vec![0.0; nc * n]],
         })
-        .collect()
+        .collect();
+    let nominal = chans
+        .iter()
+        .map(|c| match *c {
+            Channel::Torque(j) => tau_nom[j].clone(),
+            Channel::Output(k) => y_nom[k].clone(),
+        })
+        .collect();
+    (cols, nominal)
 }
 
 /// The recording that would separate two candidates the data cannot tell apart.

@@ -222,15 +222,13 @@ fn prepare(
     cands: &[Candidate],
     opts: &DiagnoseOptions,
 ) -> Prepared {
-    let theta0: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
     let mut cols_of = vec![];
     let mut blocks = vec![];
     for d in data {
         let n = d.len();
         let chans = d.channels();
         let nc = chans.len();
-        let mut per = columns(cands, d, model, &opts.library);
-        let nominal = d.model_channels(model, &theta0);
+        let (mut per, nominal) = columns(cands, d, model, &opts.library);
         let mut b = vec![0.0; nc * n];
         for (j, &c) in chans.iter().enumerate() {
             let meas = d.measured(c);
