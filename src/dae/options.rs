@@ -39,6 +39,12 @@ pub struct BdfOptions {
     /// next step re-evaluates it instead of iterating slowly (or diverging when stiff
     /// directions turn).
     pub jacobian_refresh_rate: f64,
+    /// Times the iteration matrix may be rebuilt at the current iterate within one nonlinear
+    /// solve when the iteration converges slower than `jacobian_refresh_rate` (0: IDA's
+    /// modified Newton, the matrix only changes between attempts). Stiff contact forces that
+    /// switch on within a step make modified Newton crawl at rate 0.7–0.9; a rebuilt matrix
+    /// converges in a few iterations, cheaper than failing the step.
+    pub max_jacobian_refreshes_in_solve: usize,
     /// Error-test failures allowed within one step (IDA: 10).
     pub max_error_test_fails: usize,
     /// Nonlinear convergence failures allowed within one step (IDA: 10).
@@ -72,6 +78,7 @@ impl Default for BdfOptions {
             newton_tol: 0.33,
             newton_max_rate: 0.9,
             jacobian_refresh_rate: 0.25,
+            max_jacobian_refreshes_in_solve: 0,
             max_error_test_fails: 10,
             max_newton_fails: 10,
             max_steps_between_jacobians: 50,

@@ -24,7 +24,7 @@ use super::forces::{BodyLoad, BodyState};
 use super::model::{ConstraintBlock, Mechanism};
 use super::rotation::{l_matrix, skew};
 use crate::dae::{DaeSystem, EvalError, JacobianSource, VarKind};
-use crate::sparse::CscPattern;
+use crate::sparse::{CscPattern, SlotIndex};
 use nalgebra::{Matrix3, Matrix3x4, Matrix4, Vector3, Vector4};
 use std::sync::Arc;
 
@@ -175,6 +175,8 @@ pub struct MultibodyDae {
     sides: Vec<(Option<usize>, Option<usize>)>,
     names: Vec<String>,
     pattern: Option<CscPattern>,
+    /// Entry lookup on `pattern` for the analytic Jacobian.
+    slots: Option<SlotIndex>,
     /// Use the analytic Jacobian (default) or lash's coloured finite differences.
     pub analytic_jacobian: bool,
     /// Measure velocity errors as index-2 variables in the error test.
@@ -216,11 +218,13 @@ impl MultibodyDae {
             sides,
             names,
             pattern: None,
+            slots: None,
             analytic_jacobian: true,
             velocities_index2: false,
             force_fd_step: 1e-9,
         };
         s.pattern = Some(s.build_pattern());
+        s.slots = s.pattern.as_ref().map(SlotIndex::new);
         s
     }
 
@@ -363,34 +367,62 @@ impl MultibodyDae {
     fn build_pattern(&self) -> CscPattern {
         let lay = self.ev.layout;
         let nb = lay.nb;
-        // Body coupling: through constraints and force elements.
-        let mut coupled: Vec<Vec<usize>> = (0..nb).map(|b| vec![b]).collect();
-        let mut link = |a: usize, b: usize| {
-            if !coupled[a].contains(&b) {
-                coupled[a].push(b);
+        // Which columns a body's dynamics rows (w rows) depend on, per other body: a constraint
+        // between two bodies couples them through its Hessian (G(q)ᵀλ: positions only); a force
+        // element through its load, which may depend on positions and velocities. A body's
+        // kinematic rows (q' = T(p)·w + G(q)ᵀμ) depend on its own velocities only. Declaring no
+        // more than this
+        // keeps the LU fill down (`tests/multibody_jacobian.rs` checks that the pattern covers
+        // every nonzero derivative).
+        #[derive(Clone, Copy, PartialEq)]
+        enum Coupling {
+            Positions,
+            Full,
+        }
+        let mut coupled: Vec<Vec<(usize, Coupling)>> = (0..nb).map(|b| vec![(b, Coupling::Full)]).collect();
+        let mut link = |a: usize, b: usize, kind: Coupling| match coupled[a].iter_mut().find(|e| e.0 == b) {
+            Some(e) => {
+                if kind == Coupling::Full {
+                    e.1 = Coupling::Full;
+                }
             }
+            None => coupled[a].push((b, kind)),
         };
         for &(si, sj) in &self.sides {
             if let (Some(a), Some(b)) = (si, sj) {
-                link(a, b);
-                link(b, a);
+                link(a, b, Coupling::Positions);
+                link(b, a, Coupling::Positions);
             }
         }
         for f in &self.ev.model.forces {
             let bs = f.bodies();
             for a in &bs {
                 for b in &bs {
-                    link(a.0, b.0);
+                    link(a.0, b.0, Coupling::Full);
                 }
             }
         }
         let mut e = Vec::new();
         let body_cols = |b: usize| (lay.q(b)..lay.q(b) + 7).chain(lay.w(b)..lay.w(b) + 6);
         for b in 0..nb {
-            for &c in &coupled[b] {
-                for col in body_cols(c) {
+            for col in body_cols(b) {
+                for row in lay.q(b)..lay.q(b) + 7 {
+                    e.push((row, col));
+                }
+            }
+            for &(c, kind) in &coupled[b] {
+                // Positions of a coupled body enter the kinematic rows through the stabiliser
+                // term G(q)ᵀμ and the dynamics rows through G(q)ᵀλ and the loads.
+                for col in lay.q(c)..lay.q(c) + 7 {
                     for row in (lay.q(b)..lay.q(b) + 7).chain(lay.w(b)..lay.w(b) + 6) {
                         e.push((row, col));
+                    }
+                }
+                if kind == Coupling::Full {
+                    for col in lay.w(c)..lay.w(c) + 6 {
+                        for row in lay.w(b)..lay.w(b) + 6 {
+                            e.push((row, col));
+                        }
                     }
                 }
             }
@@ -448,11 +480,11 @@ impl MultibodyDae {
         self.ev.set_state(&y[..7 * nb], &y[7 * nb..13 * nb]);
         self.ev.eval_constraints(t);
         values.iter_mut().for_each(|v| *v = 0.0);
-        let pat = self.pattern.as_ref().expect("pattern built at construction");
+        let slots = self.slots.as_ref().expect("pattern built at construction");
         let mut add = |r: usize, c: usize, v: f64| {
             if v != 0.0 {
-                let k = pat
-                    .find(r, c)
+                let k = slots
+                    .get(r, c)
                     .expect("Jacobian entry outside the declared pattern");
                 values[k] += v;
             }

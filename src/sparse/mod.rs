@@ -1,6 +1,7 @@
 //! Sparse-matrix plumbing: every sparse structure and factorisation in lash goes through here.
 //!
 //! * [`CscPattern`] — a validated compressed-sparse-column pattern, declared once per problem.
+//! * [`SlotIndex`] — (row, column) → value position, for assembling values entry by entry.
 //! * [`CscMatrix`] — values on a shared pattern (the pattern is reference-counted, so a
 //!   Jacobian and its copies never duplicate the index arrays).
 //! * [`SparseLu`] — faer's sparse LU with the symbolic analysis done once per pattern and the
@@ -14,4 +15,4 @@ mod pattern;
 
 pub use colouring::column_colouring;
 pub use lu::{LinearSolveError, SparseLu};
-pub use pattern::{CscMatrix, CscPattern, PatternError};
+pub use pattern::{CscMatrix, CscPattern, PatternError, SlotIndex};

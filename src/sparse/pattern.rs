@@ -177,6 +177,57 @@ impl CscPattern {
     }
 }
 
+/// Entry lookup for assembling values on a [`CscPattern`]: (row, column) → position in the
+/// value array.
+///
+/// [`CscPattern::find`] binary-searches the column, which dominated the assembly of the
+/// MR2120 iteration matrix (13 % of a whole simulation, measured with `perf`). For patterns
+/// of at most [`SlotIndex::DENSE_LIMIT`] cells the index is a dense table (one `u32` per
+/// cell, one load per lookup); larger patterns keep the binary search, whose memory stays
+/// proportional to the nonzeros.
+#[derive(Debug, Clone)]
+pub struct SlotIndex {
+    nrows: usize,
+    dense: Option<Vec<u32>>,
+    pattern: CscPattern,
+}
+
+impl SlotIndex {
+    /// Largest nrows × ncols stored as a dense table (4 MB).
+    pub const DENSE_LIMIT: usize = 1 << 20;
+
+    /// The lookup for `pattern`.
+    pub fn new(pattern: &CscPattern) -> Self {
+        let cells = pattern.nrows.saturating_mul(pattern.ncols);
+        let dense = (cells <= Self::DENSE_LIMIT && pattern.nnz() < u32::MAX as usize).then(|| {
+            let mut t = vec![u32::MAX; cells];
+            for c in 0..pattern.ncols {
+                for k in pattern.col_range(c) {
+                    t[c * pattern.nrows + pattern.row_idx[k]] = k as u32;
+                }
+            }
+            t
+        });
+        Self {
+            nrows: pattern.nrows,
+            dense,
+            pattern: pattern.clone(),
+        }
+    }
+
+    /// Position of entry (r, c) in the value array, if it is in the pattern.
+    #[inline]
+    pub fn get(&self, r: usize, c: usize) -> Option<usize> {
+        match &self.dense {
+            Some(t) => {
+                let k = *t.get(c * self.nrows + r)?;
+                (k != u32::MAX && r < self.nrows).then_some(k as usize)
+            }
+            None => self.pattern.find(r, c),
+        }
+    }
+}
+
 /// A sparse matrix: values on a shared [`CscPattern`].
 #[derive(Debug, Clone)]
 pub struct CscMatrix {
@@ -236,6 +287,12 @@ mod tests {
         assert_eq!(p.row_idx(), &[0, 2, 1]);
         assert_eq!(p.find(2, 0), Some(1));
         assert_eq!(p.find(1, 0), None);
+        let idx = SlotIndex::new(&p);
+        for c in 0..p.ncols() {
+            for r in 0..p.nrows() {
+                assert_eq!(idx.get(r, c), p.find(r, c));
+            }
+        }
     }
 
     #[test]

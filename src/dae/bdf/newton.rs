@@ -7,7 +7,11 @@
 //! * the iteration fails to converge with a stale matrix (retried at once, no step reduction);
 //! * the previous step converged slowly (rate above `jacobian_refresh_rate`): stiff directions
 //!   are turning, and a stale matrix would soon diverge;
-//! * `max_steps_between_jacobians` steps have passed.
+//! * `max_steps_between_jacobians` steps have passed;
+//! * within the iteration, when it converges slower than `jacobian_refresh_rate` (at most
+//!   `max_jacobian_refreshes_in_solve` times per solve; IDA never does): the matrix is rebuilt
+//!   at the current iterate, a full Newton step, because stiff forces that switch on within
+//!   the step (contact) otherwise make the iteration crawl and the step fail.
 
 use super::BdfSolver;
 use crate::dae::error::{Culprit, DaeError};
@@ -240,7 +244,11 @@ impl<P: DaeSystem> BdfSolver<P> {
                 1.0
             }
         };
+        let mut scale = scale;
         let mut oldnrm = 0.0;
+        // Iterations since the matrix was last rebuilt (the rate is measured from there).
+        let mut since = 0usize;
+        let mut refreshes = 0usize;
         let maxcor = self.opts.max_newton_iters;
         for m in 0..maxcor {
             self.stats.newton_iters += 1;
@@ -266,13 +274,27 @@ impl<P: DaeSystem> BdfSolver<P> {
                 return Err(NlsFailure::Recoverable(NlsCause::Convergence(c)));
             }
             let mut rate = 0.0;
-            if m == 0 {
+            if since == 0 {
                 oldnrm = delnrm;
                 if delnrm <= 100.0 * f64::EPSILON * Self::wrms(&self.yy, &self.ewt_newton) {
                     return Ok(0.0);
                 }
             } else {
-                rate = (delnrm / oldnrm).powf(1.0 / m as f64);
+                rate = (delnrm / oldnrm).powf(1.0 / since as f64);
+                // Slow or diverging with a matrix from the start of the step: a contact or
+                // other stiff force has changed within the step. Rebuild the matrix at the
+                // current iterate (a full Newton step) instead of failing the step.
+                if rate > self.opts.jacobian_refresh_rate
+                    && refreshes < self.opts.max_jacobian_refreshes_in_solve
+                    && m + 1 < maxcor
+                {
+                    refreshes += 1;
+                    self.eval_residual()?;
+                    self.setup_matrix()?;
+                    scale = 1.0;
+                    since = 0;
+                    continue;
+                }
                 if rate > self.opts.newton_max_rate {
                     let c = self.culprits(&self.delta.clone(), &self.ewt_newton.clone(), 3);
                     return Err(NlsFailure::Recoverable(NlsCause::Convergence(c)));
@@ -282,7 +304,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             // With a matrix from an earlier step, the rate estimate of that step says nothing
             // about this one (stiff directions may have turned): measure it, i.e. do not
             // accept the first iterate.
-            let trust = m > 0 || self.jac_current || !self.opts.measure_rate_with_stale_jacobian;
+            let trust = since > 0 || self.jac_current || !self.opts.measure_rate_with_stale_jacobian;
             if trust && self.ss * delnrm <= self.opts.newton_tol {
                 if rate > self.opts.jacobian_refresh_rate {
                     self.force_setup = true;
@@ -292,6 +314,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             if m + 1 == maxcor {
                 break;
             }
+            since += 1;
             self.eval_residual()?;
         }
         let c = self.culprits(&self.delta.clone(), &self.ewt_newton.clone(), 3);
