@@ -185,44 +185,61 @@ enum BenchWhat {
         json: bool,
     },
     /// The 63-DOF MR2120 clearance model along the 4 s trajectory: lash's BDF against
-    /// Dormand–Prince at equal accuracy (platform centre within --target of a tight reference).
-    Mr2120 {
-        /// Clearance set (L1, L2, L3).
-        #[arg(long, default_value = "L1")]
-        set: String,
-        /// End of the trajectory, s.
-        #[arg(long, default_value_t = 4.0)]
-        t_end: f64,
-        /// Target accuracy of the platform centre, m.
-        #[arg(long, default_value_t = 1e-6)]
-        target: f64,
-        /// Relative tolerance of the reference run (lash BDF).
-        #[arg(long, default_value_t = 1e-8)]
-        reference_rtol: f64,
-        /// Relative tolerances swept for lash's BDF, comma-separated.
-        #[arg(long, default_value = "1e-4,1e-5,1e-6,1e-7")]
-        bdf_rtols: String,
-        /// Relative tolerances swept for Dormand–Prince, comma-separated (empty: none).
-        #[arg(long, default_value = "1e-5")]
-        dopri_rtols: String,
-        /// Hunt–Crossley contact damping α of the bearings, s/m (the studies use 1; see
-        /// lash::bench::mr2120::BENCH_DAMPING for why the benchmark uses 300).
-        #[arg(long, default_value_t = 300.0)]
-        alpha: f64,
-        /// Wall-time budget of each explicit run, s (the time ratio is then a lower bound).
-        #[arg(long, default_value_t = 600.0)]
-        explicit_budget: f64,
-        /// Relative tolerance of an extra Dormand–Prince run that checks the reference (0: skip;
-        /// every Dormand–Prince run of the sweep is already an independent check).
-        #[arg(long, default_value_t = 0.0)]
-        check_rtol: f64,
-        /// Output folder for the work-precision diagram.
-        #[arg(long, default_value = "out/bench-mr2120")]
-        out: std::path::PathBuf,
-        /// Print the result as JSON.
-        #[arg(long)]
-        json: bool,
-    },
+    /// Dormand–Prince, symplectic Euler and diffsol's BDF at equal accuracy (platform centre
+    /// within --target of a tight reference).
+    Mr2120(Mr2120BenchArgs),
+}
+
+/// Options of `lash bench mr2120`.
+#[derive(clap::Args, Debug)]
+struct Mr2120BenchArgs {
+    /// Clearance set (L1, L2, L3).
+    #[arg(long, default_value = "L1")]
+    set: String,
+    /// End of the trajectory, s.
+    #[arg(long, default_value_t = 4.0)]
+    t_end: f64,
+    /// Target accuracy of the platform centre, m.
+    #[arg(long, default_value_t = 1e-6)]
+    target: f64,
+    /// Relative tolerance of the reference run (lash BDF).
+    #[arg(long, default_value_t = 1e-8)]
+    reference_rtol: f64,
+    /// Relative tolerances swept for lash's BDF, comma-separated.
+    #[arg(long, default_value = "1e-4,1e-5,1e-6,1e-7")]
+    bdf_rtols: String,
+    /// Relative tolerances swept for Dormand–Prince, comma-separated (empty: none).
+    #[arg(long, default_value = "1e-5")]
+    dopri_rtols: String,
+    /// Fixed steps swept for symplectic Euler, s, comma-separated (empty: none).
+    #[arg(long, default_value = "5e-7")]
+    symplectic_steps: String,
+    /// Relative tolerances swept for diffsol's BDF on the index-1 ODE, comma-separated
+    /// (empty: none).
+    #[arg(long, default_value = "1e-4")]
+    diffsol_rtols: String,
+    /// Hunt–Crossley contact damping α of the bearings, s/m (the studies use 1; see
+    /// lash::bench::mr2120::BENCH_DAMPING for why the benchmark uses 300).
+    #[arg(long, default_value_t = 300.0)]
+    alpha: f64,
+    /// Wall-time budget of each explicit run, s (the time ratio is then a lower bound).
+    #[arg(long, default_value_t = 600.0)]
+    explicit_budget: f64,
+    /// Relative tolerance of an extra Dormand–Prince run that checks the reference (0: skip;
+    /// every Dormand–Prince run of the sweep is already an independent check).
+    #[arg(long, default_value_t = 0.0)]
+    check_rtol: f64,
+    /// Output folder for the work-precision diagram.
+    #[arg(long, default_value = "out/bench-mr2120")]
+    out: std::path::PathBuf,
+    /// Also write the model (`model.json`, the schema of `benches/exudyn/`) and the
+    /// result with the reference path (`lash.json`) into this folder, for the Exudyn
+    /// comparison (`bash benches/exudyn/run.sh`).
+    #[arg(long)]
+    export: Option<std::path::PathBuf>,
+    /// Print the result as JSON.
+    #[arg(long)]
+    json: bool,
 }
 
 const DFKI_FIT: &str = "../shared/data/dfki-double-pendulum/recordings/trajectory_00.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_01.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_02.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_03.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_04.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_05.csv";
@@ -632,47 +649,66 @@ fn parse_list(s: &str, what: &str) -> Result<Vec<f64>, String> {
         .collect()
 }
 
-#[allow(clippy::too_many_arguments)]
-fn bench_mr2120(
-    set: &str,
-    t_end: f64,
-    target: f64,
-    reference_rtol: f64,
-    bdf_rtols: &str,
-    dopri_rtols: &str,
-    alpha: f64,
-    explicit_budget: f64,
-    check_rtol: f64,
-    out: &std::path::Path,
-    json: bool,
-) -> ExitCode {
+/// Writes the MR2120 clearance model of the benchmark as `dir/model.json` for the Exudyn
+/// comparison.
+fn export_mr2120_model(
+    opts: &lash::bench::mr2120::Mr2120BenchOptions,
+    dir: &std::path::Path,
+) -> Result<(), String> {
+    let model = lash::bench::exudyn::export_mr2120(opts).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let path = dir.join("model.json");
+    let text = serde_json::to_string_pretty(&model).expect("model serialises");
+    std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    eprintln!(
+        "bench mr2120: model for the Exudyn comparison written to {}",
+        path.display()
+    );
+    Ok(())
+}
+
+fn bench_mr2120(a: &Mr2120BenchArgs) -> ExitCode {
     use lash::bench::mr2120::{bench_mr2120, Mr2120BenchOptions};
-    let lists =
-        parse_list(bdf_rtols, "--bdf-rtols").and_then(|b| Ok((b, parse_list(dopri_rtols, "--dopri-rtols")?)));
-    let (bdf_rtols, dopri_rtols) = match lists {
+    let lists = (|| -> Result<_, String> {
+        Ok((
+            parse_list(&a.bdf_rtols, "--bdf-rtols")?,
+            parse_list(&a.dopri_rtols, "--dopri-rtols")?,
+            parse_list(&a.symplectic_steps, "--symplectic-steps")?,
+            parse_list(&a.diffsol_rtols, "--diffsol-rtols")?,
+        ))
+    })();
+    let (bdf_rtols, dopri_rtols, symplectic_steps, diffsol_rtols) = match lists {
         Ok(l) => l,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::FAILURE;
         }
     };
-    let valid = t_end > 0.0 && t_end <= 4.0 && target > 0.0 && reference_rtol > 0.0 && alpha >= 0.0;
+    let valid = a.t_end > 0.0 && a.t_end <= 4.0 && a.target > 0.0 && a.reference_rtol > 0.0 && a.alpha >= 0.0;
     if !valid {
         eprintln!("error: need 0 < --t-end <= 4, --target > 0, --reference-rtol > 0 and --alpha >= 0");
         return ExitCode::FAILURE;
     }
     let opts = Mr2120BenchOptions {
-        set: set.into(),
-        t_end,
-        target,
-        reference_rtol,
+        set: a.set.clone(),
+        t_end: a.t_end,
+        target: a.target,
+        reference_rtol: a.reference_rtol,
         bdf_rtols,
         dopri_rtols,
-        reference_check_rtol: (check_rtol > 0.0).then_some(check_rtol),
-        damping: lash::contact::Damping::HuntCrossley(alpha),
-        explicit_budget_s: explicit_budget,
+        symplectic_steps,
+        diffsol_rtols,
+        reference_check_rtol: (a.check_rtol > 0.0).then_some(a.check_rtol),
+        damping: lash::contact::Damping::HuntCrossley(a.alpha),
+        explicit_budget_s: a.explicit_budget,
         ..Default::default()
     };
+    if let Some(dir) = &a.export {
+        if let Err(e) = export_mr2120_model(&opts, dir) {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
     let mut current = String::new();
     let mut progress = Progress::new("", 1.0);
     let res = bench_mr2120(&opts, |label, frac| {
@@ -691,8 +727,16 @@ fn bench_mr2120(
             return ExitCode::FAILURE;
         }
     };
-    let plot_note = write_work_precision(&b, out);
-    if json {
+    let plot_note = write_work_precision(&b, &a.out);
+    if let Some(dir) = &a.export {
+        let path = dir.join("lash.json");
+        let text = serde_json::to_string_pretty(&b).expect("bench serialises");
+        if let Err(e) = std::fs::write(&path, text) {
+            eprintln!("error: cannot write {}: {e}", path.display());
+            return ExitCode::FAILURE;
+        }
+    }
+    if a.json {
         println!("{}", serde_json::to_string_pretty(&b).expect("bench serialises"));
         return ExitCode::SUCCESS;
     }
@@ -714,9 +758,9 @@ fn bench_mr2120(
         b.target, b.horizon_s
     );
     println!(
-        "\n{:<44} {:>6} {:>10} {:>10} {:>8} {:>8} {:>9} {:>8} {:>7} {:>8} {:>9} {:>6}",
+        "\n{:<44} {:>9} {:>10} {:>10} {:>8} {:>8} {:>9} {:>8} {:>7} {:>8} {:>9} {:>6}",
         "solver",
-        "rtol",
+        "setting",
         "err<=hor.",
         "err 0..end",
         "steps",
@@ -730,9 +774,9 @@ fn bench_mr2120(
     );
     for p in &b.points {
         println!(
-            "{:<44} {:>6.0e} {:>10.2e} {:>10.2e} {:>8} {:>8} {:>9} {:>8} {:>7} {:>8.2} {:>9.2} {:>6.2}{}",
+            "{:<44} {:>9} {:>10.2e} {:>10.2e} {:>8} {:>8} {:>9} {:>8} {:>7} {:>8.2} {:>9.2} {:>6.2}{}",
             p.solver,
-            p.rtol,
+            p.setting(),
             p.error_to_horizon,
             p.error,
             p.steps,
@@ -756,7 +800,7 @@ fn bench_mr2120(
             .iter()
             .map(|(a, c, e)| format!("{a}-{c} s: {e:.1e}"))
             .collect();
-        println!("  {:<44} rtol {:.0e}: {}", p.solver, p.rtol, w.join(", "));
+        println!("  {:<44} {}: {}", p.solver, p.setting(), w.join(", "));
     }
     println!(
         "\nat equal accuracy (platform within {:.0e} m of the reference up to the horizon), cheapest setting per solver:",
@@ -764,10 +808,12 @@ fn bench_mr2120(
     );
     for c in &b.comparison {
         match &c.chosen {
-            Some(p) => println!(
-                "  {:<44} rtol {:.0e}: {:.2} s to the horizon ({:.2} s for the whole run, {} steps); time {:.1}x lash",
-                c.solver, p.rtol, p.wall_to_horizon_s, p.wall_s, p.steps, c.time_ratio
-            ),
+            Some(p) => {
+                println!(
+                "  {:<44} {}: {:.2} s to the horizon ({:.2} s for the whole run, {} steps); time {:.1}x lash",
+                c.solver, p.setting(), p.wall_to_horizon_s, p.wall_s, p.steps, c.time_ratio
+            )
+            }
             None => match c.time_ratio_at_least {
                 Some(r) => println!(
                     "  {:<44} ran out of its wall-time budget before the horizon: time >= {r:.1}x lash",
@@ -1612,33 +1658,8 @@ fn main() -> ExitCode {
                 },
         } => mr2120_trajectory(&clearance, &out, dt, json),
         Command::Bench {
-            what:
-                BenchWhat::Mr2120 {
-                    set,
-                    t_end,
-                    target,
-                    reference_rtol,
-                    bdf_rtols,
-                    dopri_rtols,
-                    alpha,
-                    explicit_budget,
-                    check_rtol,
-                    out,
-                    json,
-                },
-        } => bench_mr2120(
-            &set,
-            t_end,
-            target,
-            reference_rtol,
-            &bdf_rtols,
-            &dopri_rtols,
-            alpha,
-            explicit_budget,
-            check_rtol,
-            &out,
-            json,
-        ),
+            what: BenchWhat::Mr2120(args),
+        } => bench_mr2120(&args),
         Command::Bench {
             what:
                 BenchWhat::Scaling {

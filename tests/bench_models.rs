@@ -29,12 +29,16 @@ fn mr2120_bench_measures_both_integrators_against_one_reference() {
         reference_rtol: 1e-7,
         bdf_rtols: vec![1e-4],
         dopri_rtols: vec![1e-5],
+        symplectic_steps: vec![5e-7],
+        diffsol_rtols: vec![1e-4],
         explicit_budget_s: 60.0,
         ..Default::default()
     };
     let b = bench_mr2120(&opts, |_, _| {}).unwrap();
     assert_eq!(b.reference.error, 0.0);
-    assert_eq!(b.points.len(), 2);
+    assert_eq!(b.points.len(), 4);
+    assert_eq!(b.times.len(), 2);
+    assert_eq!(b.reference_path.len(), 2);
     for p in &b.points {
         assert!(p.failure.is_none(), "{}: {:?}", p.solver, p.failure);
         assert!(
@@ -43,12 +47,59 @@ fn mr2120_bench_measures_both_integrators_against_one_reference() {
             p.solver,
             p.error
         );
-        assert!(p.steps > 0 && p.rhs_evals > p.steps);
+        // Symplectic Euler takes one right-hand side per step, the others more.
+        assert!(p.steps > 0 && p.rhs_evals >= p.steps);
         assert!((p.reached_t - 0.02).abs() < 1e-12);
     }
+    let se = b
+        .points
+        .iter()
+        .find(|p| p.solver.starts_with("symplectic"))
+        .unwrap();
+    assert_eq!(se.steps, 40_000);
+    assert_eq!(se.setting(), "h 5e-7");
     // The explicit run is an independent formulation and integrator: it agrees with the
     // BDF reference far below the 1 µm target.
     let dp = b.points.iter().find(|p| p.solver.starts_with("Dormand")).unwrap();
     assert!(dp.error < 1e-7, "Dormand-Prince vs reference {}", dp.error);
-    assert_eq!(b.comparison.len(), 2);
+    assert_eq!(b.comparison.len(), 4);
+}
+
+/// The model exported for the Exudyn comparison carries everything the Python side needs,
+/// and its closed-form drive law reproduces lash's own drive angles.
+#[test]
+fn exported_mr2120_model_is_complete_and_its_drive_law_matches() {
+    let opts = Mr2120BenchOptions::default();
+    let m = lash::bench::exudyn::export_mr2120(&opts).unwrap();
+    assert_eq!(m.bodies.len(), 13);
+    assert_eq!(m.bearings.len(), 24);
+    assert_eq!(m.drives.len(), 3);
+    assert_eq!(m.bodies[m.platform_body].name, "platform");
+    for d in &m.drives {
+        assert_eq!(d.angle_table.t.len(), 401);
+        for (k, &t) in d.angle_table.t.iter().enumerate() {
+            let s = |tau: f64| {
+                let tau = tau.clamp(0.0, 1.0);
+                tau.powi(3) * (10.0 - 15.0 * tau + 6.0 * tau * tau)
+            };
+            let (zt, zz) = (m.z_law.t, m.z_law.z);
+            let z = if t <= zt[1] {
+                zz[0] + (zz[1] - zz[0]) * s((t - zt[0]) / (zt[1] - zt[0]))
+            } else {
+                zz[1] + (zz[2] - zz[1]) * s((t - zt[1]) / (zt[2] - zt[1]))
+            };
+            let w = [d.w0[0], d.w0[1], d.w0[2] + z];
+            let a = w[0] * d.arm_dir[0] + w[1] * d.arm_dir[1] + w[2] * d.arm_dir[2];
+            let b = w[2];
+            let w2 = w.iter().map(|x| x * x).sum::<f64>();
+            let kk = (w2 + d.arm_length.powi(2) - d.forearm_length.powi(2)) / (2.0 * d.arm_length);
+            let q = b.atan2(a) - (kk / (a * a + b * b).sqrt()).acos() - d.q0;
+            assert!((q - d.angle_table.q[k]).abs() < 1e-12, "{} at t = {t}", d.name);
+        }
+        assert!((d.angle_table.q[0] - d.q_initial).abs() < 1e-12);
+    }
+    for b in &m.bearings {
+        assert!(b.k > 1e9 && b.k_axial > 1e9 && b.n == 1.5 && b.alpha == 300.0);
+        assert!(b.radial_clearance > 0.0 && b.axial_stop > 0.0);
+    }
 }

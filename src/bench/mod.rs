@@ -1,6 +1,7 @@
 //! Side-by-side benchmarks: every number a performance claim quotes comes from here
 //! (`lash bench dae`), measured in one run with ratios to lash.
 
+pub mod exudyn;
 pub mod mr2120;
 pub mod scaling;
 

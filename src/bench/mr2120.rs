@@ -10,7 +10,7 @@
 //! same consistent initial state.
 
 use crate::contact::Damping;
-use crate::dae::explicit::{Dopri5, Dopri5Options};
+use crate::dae::explicit::{Dopri5, Dopri5Options, ExplicitStats, SymplecticEuler};
 use crate::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clearance_set};
 use crate::mechanisms::mr2120::paper::TABLE2;
 use crate::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
@@ -49,6 +49,10 @@ pub struct Mr2120BenchOptions {
     pub bdf_rtols: Vec<f64>,
     /// Relative tolerances swept for Dormand–Prince (atol = rtol/100).
     pub dopri_rtols: Vec<f64>,
+    /// Fixed steps swept for symplectic Euler, s.
+    pub symplectic_steps: Vec<f64>,
+    /// Relative tolerances swept for diffsol's BDF on the index-1 ODE (atol = rtol/100).
+    pub diffsol_rtols: Vec<f64>,
     /// Also check the reference with Dormand–Prince at this tolerance (None: skip).
     pub reference_check_rtol: Option<f64>,
     /// Contact damping of the bearings (see [`BENCH_DAMPING`]).
@@ -77,6 +81,8 @@ impl Default for Mr2120BenchOptions {
             reference_rtol: 1e-8,
             bdf_rtols: vec![1e-4, 1e-5, 1e-6, 1e-7],
             dopri_rtols: vec![1e-5],
+            symplectic_steps: vec![5e-7],
+            diffsol_rtols: vec![1e-4],
             reference_check_rtol: None,
             damping: BENCH_DAMPING,
             explicit_budget_s: 600.0,
@@ -89,8 +95,10 @@ impl Default for Mr2120BenchOptions {
 pub struct WorkPoint {
     /// Solver name.
     pub solver: String,
-    /// Relative tolerance (atol = rtol/100).
+    /// Relative tolerance (atol = rtol/100); NaN for a fixed-step method.
     pub rtol: f64,
+    /// Fixed step size of a fixed-step method, s.
+    pub step_size: Option<f64>,
     /// Largest platform-centre distance from the reference over the samples, m.
     pub error: f64,
     /// Accepted steps.
@@ -120,6 +128,16 @@ pub struct WorkPoint {
     pub wall_to_horizon_s: f64,
 }
 
+impl WorkPoint {
+    /// The setting in a few characters: the tolerance, or the fixed step ("h 2e-6").
+    pub fn setting(&self) -> String {
+        match self.step_size {
+            Some(h) => format!("h {h:.0e}"),
+            None => format!("{:.0e}", self.rtol),
+        }
+    }
+}
+
 /// The comparison at equal accuracy.
 #[derive(Debug, Clone, Serialize)]
 pub struct Comparison {
@@ -147,6 +165,10 @@ pub struct Mr2120Bench {
     pub target: f64,
     /// The reference run (its error field is 0 by definition).
     pub reference: WorkPoint,
+    /// Output times, s.
+    pub times: Vec<f64>,
+    /// Platform centre of the reference run at the output times, m.
+    pub reference_path: Vec<[f64; 3]>,
     /// Time up to which the reference and an independent run (the tightest Dormand–Prince
     /// of the sweep: another formulation and integrator) agree within the target, s. Past it
     /// the motion near the direct-kinematics singularity is too sensitive for any solver to be
@@ -160,13 +182,13 @@ pub struct Mr2120Bench {
     pub comparison: Vec<Comparison>,
 }
 
-struct Model {
-    mech: Arc<Mechanism>,
-    platform: usize,
-    times: Vec<f64>,
+pub(crate) struct Model {
+    pub(crate) mech: Arc<Mechanism>,
+    pub(crate) platform: usize,
+    pub(crate) times: Vec<f64>,
 }
 
-fn build(opts: &Mr2120BenchOptions) -> Result<Model, Mr2120Error> {
+pub(crate) fn build(opts: &Mr2120BenchOptions) -> Result<Model, Mr2120Error> {
     let g = Geometry::default();
     let mp = MassProperties::default();
     let set = clearance_set(&opts.set)?;
@@ -188,6 +210,12 @@ fn build(opts: &Mr2120BenchOptions) -> Result<Model, Mr2120Error> {
 
 type Path = Vec<[f64; 3]>;
 
+/// Solver names as they appear in the tables and the JSON.
+const LASH_BDF: &str = "lash BDF (GGL index 2)";
+const DOPRI: &str = "Dormand-Prince 5(4) (index 1 + Baumgarte)";
+const SYMPLECTIC: &str = "symplectic Euler (index 1 + Baumgarte)";
+const DIFFSOL: &str = "diffsol BDF 0.18 (index 1 + Baumgarte)";
+
 /// A run's platform path and the wall time at each sample.
 struct Traced {
     path: Path,
@@ -198,6 +226,7 @@ fn point(solver: &str, rtol: f64) -> WorkPoint {
     WorkPoint {
         solver: solver.into(),
         rtol,
+        step_size: None,
         error: f64::NAN,
         steps: 0,
         rejected: 0,
@@ -215,7 +244,7 @@ fn point(solver: &str, rtol: f64) -> WorkPoint {
 }
 
 fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, Option<Traced>) {
-    let mut wp = point("lash BDF (GGL index 2)", rtol);
+    let mut wp = point(LASH_BDF, rtol);
     let start = Instant::now();
     let opts = SimulationOptions {
         rtol,
@@ -264,35 +293,69 @@ fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, O
     }
 }
 
-fn run_dopri(
+/// An explicit integrator of the index-1 ODE, advanced from sample to sample.
+trait Stepper {
+    /// Advances to `t` and returns the platform centre there.
+    fn advance(&mut self, t: f64) -> Result<[f64; 3], String>;
+    /// Work counters so far.
+    fn stats(&self) -> ExplicitStats;
+}
+
+struct DopriStepper(Dopri5<MultibodyOde>, usize);
+
+impl Stepper for DopriStepper {
+    fn advance(&mut self, t: f64) -> Result<[f64; 3], String> {
+        self.0.solve_to(t).map_err(|e| e.to_string())?;
+        let (y, p) = (self.0.y(), self.1);
+        Ok([y[7 * p], y[7 * p + 1], y[7 * p + 2]])
+    }
+    fn stats(&self) -> ExplicitStats {
+        *self.0.stats()
+    }
+}
+
+struct SymplecticStepper(SymplecticEuler<MultibodyOde>, usize);
+
+impl Stepper for SymplecticStepper {
+    fn advance(&mut self, t: f64) -> Result<[f64; 3], String> {
+        self.0.solve_to(t).map_err(|e| e.to_string())?;
+        let (q, p) = (self.0.q(), self.1);
+        Ok([q[7 * p], q[7 * p + 1], q[7 * p + 2]])
+    }
+    fn stats(&self) -> ExplicitStats {
+        *self.0.stats()
+    }
+}
+
+/// The index-1 ODE of the model and its consistent initial state (q, w).
+fn ode_start(m: &Model) -> Result<(MultibodyOde, Vec<f64>, Vec<f64>), String> {
+    let s0 = Analysis::new(m.mech.clone())
+        .and_then(|mut a| a.initial_state(0.0))
+        .map_err(|e| e.to_string())?;
+    let ode = MultibodyOde::new(m.mech.clone()).map_err(|e| e.to_string())?;
+    Ok((ode, s0.q, s0.w))
+}
+
+/// Runs an explicit integrator sample by sample within the wall-time budget `budget` (s).
+fn run_explicit(
     m: &Model,
-    rtol: f64,
+    mut wp: WorkPoint,
     budget: f64,
     progress: &mut dyn FnMut(f64),
+    make: impl FnOnce(MultibodyOde, Vec<f64>, Vec<f64>) -> Result<Box<dyn Stepper>, String>,
 ) -> (WorkPoint, Option<Traced>) {
-    let mut wp = point("Dormand-Prince 5(4) (index 1 + Baumgarte)", rtol);
     let start = Instant::now();
     let mut over = false;
     let mut wall_at = Vec::with_capacity(m.times.len());
-    let res = (|| -> Result<(Path, crate::dae::explicit::ExplicitStats), String> {
-        let s0 = Analysis::new(m.mech.clone())
-            .and_then(|mut a| a.initial_state(0.0))
-            .map_err(|e| e.to_string())?;
-        let ode = MultibodyOde::new(m.mech.clone()).map_err(|e| e.to_string())?;
-        let y0: Vec<f64> = s0.q.iter().chain(&s0.w).copied().collect();
-        let o = Dopri5Options {
-            rtol,
-            atol: rtol / 100.0,
-            max_steps: 50_000_000,
-            ..Default::default()
-        };
-        let mut dp = Dopri5::new(ode, 0.0, &y0, &[], o).map_err(|e| e.to_string())?;
-        let p = m.platform;
-        let mut path = Vec::with_capacity(m.times.len());
+    let mut path = Vec::with_capacity(m.times.len());
+    let res: Result<ExplicitStats, (String, Option<ExplicitStats>)> = (|| {
+        let (ode, q, w) = ode_start(m).map_err(|e| (e, None))?;
+        let mut st = make(ode, q, w).map_err(|e| (e, None))?;
         for &t in &m.times {
-            dp.solve_to(t).map_err(|e| e.to_string())?;
-            let y = dp.y();
-            path.push([y[7 * p], y[7 * p + 1], y[7 * p + 2]]);
+            match st.advance(t) {
+                Ok(x) => path.push(x),
+                Err(e) => return Err((e, Some(st.stats()))),
+            }
             wall_at.push(start.elapsed().as_secs_f64());
             progress(t);
             if start.elapsed().as_secs_f64() > budget && t < m.times[m.times.len() - 1] {
@@ -300,15 +363,25 @@ fn run_dopri(
                 break;
             }
         }
-        Ok((path, *dp.stats()))
+        Ok(st.stats())
     })();
     wp.wall_s = start.elapsed().as_secs_f64();
+    wp.reached_t = if path.is_empty() {
+        0.0
+    } else {
+        m.times[path.len() - 1]
+    };
+    let stats = match &res {
+        Ok(st) => Some(*st),
+        Err((_, st)) => *st,
+    };
+    if let Some(st) = stats {
+        wp.steps = st.steps;
+        wp.rejected = st.rejected;
+        wp.rhs_evals = st.rhs_evals;
+    }
     match res {
-        Ok((path, st)) => {
-            wp.steps = st.steps;
-            wp.rejected = st.rejected;
-            wp.rhs_evals = st.rhs_evals;
-            wp.reached_t = m.times[path.len().saturating_sub(1).min(m.times.len() - 1)];
+        Ok(_) => {
             if over {
                 wp.out_of_budget = true;
                 wp.failure = Some(format!(
@@ -318,11 +391,125 @@ fn run_dopri(
             }
             (wp, Some(Traced { path, wall_at }))
         }
-        Err(e) => {
-            wp.failure = Some(e);
-            (wp, None)
+        Err((e, _)) => {
+            wp.failure = Some(format!(
+                "failed after the sample at t = {:.3} s: {e}",
+                wp.reached_t
+            ));
+            (wp, (!path.is_empty()).then_some(Traced { path, wall_at }))
         }
     }
+}
+
+fn run_dopri(
+    m: &Model,
+    rtol: f64,
+    budget: f64,
+    progress: &mut dyn FnMut(f64),
+) -> (WorkPoint, Option<Traced>) {
+    let wp = point(DOPRI, rtol);
+    run_explicit(m, wp, budget, progress, |ode, q, w| {
+        let y0: Vec<f64> = q.iter().chain(&w).copied().collect();
+        let o = Dopri5Options {
+            rtol,
+            atol: rtol / 100.0,
+            max_steps: 50_000_000,
+            ..Default::default()
+        };
+        let dp = Dopri5::new(ode, 0.0, &y0, &[], o).map_err(|e| e.to_string())?;
+        Ok(Box::new(DopriStepper(dp, m.platform)) as Box<dyn Stepper>)
+    })
+}
+
+fn run_symplectic(
+    m: &Model,
+    h: f64,
+    budget: f64,
+    progress: &mut dyn FnMut(f64),
+) -> (WorkPoint, Option<Traced>) {
+    let mut wp = point(SYMPLECTIC, f64::NAN);
+    wp.step_size = Some(h);
+    run_explicit(m, wp, budget, progress, |ode, q, w| {
+        let se = SymplecticEuler::new(ode, 0.0, &q, &w, &[], h).map_err(|e| e.to_string())?;
+        Ok(Box::new(SymplecticStepper(se, m.platform)) as Box<dyn Stepper>)
+    })
+}
+
+/// diffsol's BDF on the index-1 ODE (its formulation: y' = f(t, y), dense LU, Jacobian by
+/// differences of f), sample by sample within the wall-time budget.
+#[cfg(feature = "peers")]
+fn run_diffsol(
+    m: &Model,
+    rtol: f64,
+    budget: f64,
+    progress: &mut dyn FnMut(f64),
+) -> (WorkPoint, Option<Traced>) {
+    use crate::dae::explicit::OdeSystem;
+    let mut wp = point(DIFFSOL, rtol);
+    let start = Instant::now();
+    let (ode, q, w) = match ode_start(m) {
+        Ok(x) => x,
+        Err(e) => {
+            wp.failure = Some(e);
+            return (wp, None);
+        }
+    };
+    let y0: Vec<f64> = q.iter().chain(&w).copied().collect();
+    let n = y0.len();
+    let ode = std::cell::RefCell::new(ode);
+    let failed = std::cell::Cell::new(None::<String>);
+    let f = |t: f64, y: &[f64], dy: &mut [f64]| {
+        if let Err(e) = ode.borrow_mut().rhs(t, y, &[], dy) {
+            failed.set(Some(format!("{e:?}")));
+            dy.iter_mut().for_each(|v| *v = f64::NAN);
+        }
+    };
+    let (mut path, mut wall_at) = (vec![], vec![]);
+    let mut over = false;
+    let p = m.platform;
+    let res = crate::peers::diffsol_bdf_sampled(
+        f,
+        &vec![1.0; n],
+        &y0,
+        rtol,
+        &vec![rtol / 100.0; n],
+        &m.times,
+        |k, y| {
+            path.push([y[7 * p], y[7 * p + 1], y[7 * p + 2]]);
+            wall_at.push(start.elapsed().as_secs_f64());
+            progress(m.times[k]);
+            over = start.elapsed().as_secs_f64() > budget && k + 1 < m.times.len();
+            !over
+        },
+    );
+    wp.wall_s = start.elapsed().as_secs_f64();
+    wp.reached_t = if path.is_empty() {
+        0.0
+    } else {
+        m.times[path.len() - 1]
+    };
+    match res {
+        Ok(run) => {
+            wp.steps = run.steps;
+            wp.rejected = run.error_test_failures;
+            wp.rhs_evals = run.rhs_evals;
+            wp.newton_iters = run.newton_iters;
+            wp.factorisations = run.jacobian_evals;
+            if over {
+                wp.out_of_budget = true;
+                wp.failure = Some(format!(
+                    "wall-time budget of {budget:.0} s exhausted at t = {:.3} s",
+                    wp.reached_t
+                ));
+            }
+        }
+        Err(e) => {
+            let cause = failed.take().map(|c| format!(" ({c})")).unwrap_or_default();
+            wp.failure = Some(format!("failed after t = {:.3} s: {e}{cause}", wp.reached_t));
+        }
+    }
+    let traced = (!path.is_empty()).then_some(Traced { path, wall_at });
+    (wp, traced)
 }
 
 /// Largest distance over the samples both paths have.
@@ -371,12 +558,29 @@ pub fn bench_mr2120(
         points.push(wp);
         traces.push(path);
     }
+    for &h in &opts.symplectic_steps {
+        let label = format!("symplectic Euler h {h:.0e} s");
+        let (wp, path) = run_symplectic(&m, h, opts.explicit_budget_s, &mut |t| {
+            progress(&label, t / t_end)
+        });
+        points.push(wp);
+        traces.push(path);
+    }
+    #[cfg(feature = "peers")]
+    for &rtol in &opts.diffsol_rtols {
+        let label = format!("diffsol BDF rtol {rtol:.0e}");
+        let (wp, path) = run_diffsol(&m, rtol, opts.explicit_budget_s, &mut |t| {
+            progress(&label, t / t_end)
+        });
+        points.push(wp);
+        traces.push(path);
+    }
     // The agreement horizon: as long as an independent run stays within the target.
     let independent = check.as_ref().or_else(|| {
         points
             .iter()
             .zip(&traces)
-            .filter(|(p, t)| p.solver.starts_with("Dormand") && t.is_some())
+            .filter(|(p, t)| p.solver == DOPRI && t.is_some())
             .min_by(|a, b| a.0.rtol.total_cmp(&b.0.rtol))
             .and_then(|(_, t)| t.as_ref())
     });
@@ -414,6 +618,8 @@ pub fn bench_mr2120(
         t_end,
         target: opts.target,
         reference,
+        times: m.times.clone(),
+        reference_path: ref_path.path.clone(),
         horizon_s,
         reference_check,
         points,

@@ -21,7 +21,7 @@ use super::error::ModelError;
 use super::formulation::{Evaluator, Layout};
 use super::model::Mechanism;
 use super::rotation::l_matrix;
-use crate::dae::explicit::OdeSystem;
+use crate::dae::explicit::{OdeSystem, SecondOrderSystem};
 use crate::dae::EvalError;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 use std::sync::Arc;
@@ -55,6 +55,9 @@ pub struct MultibodyOde {
     ev: Evaluator,
     sides: Vec<(Option<usize>, Option<usize>)>,
     inv_inertia: Vec<Matrix3<f64>>,
+    /// Scratch state and derivative for the second-order interface.
+    y_work: Vec<f64>,
+    dy_work: Vec<f64>,
     /// Stabilisation gains.
     pub gains: BaumgarteGains,
 }
@@ -71,10 +74,13 @@ impl MultibodyOde {
             .iter()
             .map(|b| b.inertia.try_inverse().unwrap_or_else(Matrix3::zeros))
             .collect();
+        let n = 13 * ev.layout.nb;
         Ok(Self {
             ev,
             sides,
             inv_inertia,
+            y_work: vec![0.0; n],
+            dy_work: vec![0.0; n],
             gains: BaumgarteGains::default(),
         })
     }
@@ -227,6 +233,39 @@ impl OdeSystem for MultibodyOde {
             }
         }
         check_finite(t, dy)
+    }
+}
+
+/// The same equations in velocity form for fixed-step symplectic Euler: positions q (7 per
+/// body), velocities w (6 per body), q' = H(q)·w.
+impl SecondOrderSystem for MultibodyOde {
+    fn npos(&self) -> usize {
+        7 * self.ev.layout.nb
+    }
+    fn nvel(&self) -> usize {
+        6 * self.ev.layout.nb
+    }
+    fn position_rate(&mut self, _t: f64, q: &[f64], v: &[f64], qdot: &mut [f64]) {
+        self.qdot(q, v, qdot);
+    }
+    fn acceleration(
+        &mut self,
+        t: f64,
+        q: &[f64],
+        v: &[f64],
+        p: &[f64],
+        a: &mut [f64],
+    ) -> Result<(), EvalError> {
+        let nq = q.len();
+        let mut y = std::mem::take(&mut self.y_work);
+        let mut dy = std::mem::take(&mut self.dy_work);
+        y[..nq].copy_from_slice(q);
+        y[nq..].copy_from_slice(v);
+        let r = self.rhs(t, &y, p, &mut dy);
+        a.copy_from_slice(&dy[nq..]);
+        self.y_work = y;
+        self.dy_work = dy;
+        r
     }
 }
 

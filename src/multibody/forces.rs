@@ -64,7 +64,7 @@ impl BodyLoad {
 ///
 /// `bodies` lists every body whose state the element reads or loads: it declares the
 /// coupling for the sparse Jacobian pattern.
-pub trait ForceElement: Debug + Send + Sync {
+pub trait ForceElement: std::any::Any + Debug + Send + Sync {
     /// Name, used in reports.
     fn name(&self) -> &str;
     /// Bodies read or loaded.

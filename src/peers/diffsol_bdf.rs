@@ -48,6 +48,29 @@ pub fn diffsol_bdf<F>(
 where
     F: Fn(f64, &[f64], &mut [f64]),
 {
+    let mut y_end = vec![];
+    let mut run = diffsol_bdf_sampled(f, mass_diag, y0, rtol, atol, &[t_end], |_, y| {
+        y_end = y.to_vec();
+        true
+    })?;
+    run.y_end = y_end;
+    Ok(run)
+}
+
+/// As [`diffsol_bdf`], reporting the solution (interpolated by diffsol) at each of `times`
+/// (increasing, > 0) to `on_sample(k, y)`; the run stops early when `on_sample` returns false.
+pub fn diffsol_bdf_sampled<F>(
+    f: F,
+    mass_diag: &[f64],
+    y0: &[f64],
+    rtol: f64,
+    atol: &[f64],
+    times: &[f64],
+    mut on_sample: impl FnMut(usize, &[f64]) -> bool,
+) -> Result<PeerRun, String>
+where
+    F: Fn(f64, &[f64], &mut [f64]),
+{
     let n = y0.len();
     if mass_diag.len() != n {
         return Err(format!(
@@ -91,7 +114,7 @@ where
         .atol(atol.iter().copied())
         .rhs_implicit(rhs, jvp)
         .init(init, n);
-    let (y_end, st) = if has_mass {
+    let (st, ops) = if has_mass {
         let mass = move |v: &[f64], _p: &[f64], _t: f64, beta: f64, y: &mut [f64]| {
             for i in 0..v.len() {
                 y[i] = md[i] * v[i] + beta * y[i];
@@ -100,29 +123,48 @@ where
         let mut problem = builder.mass(mass).build().map_err(|e| e.to_string())?;
         relax_limits(&mut problem.ode_options);
         let mut solver = problem.bdf::<NalgebraLU<f64>>().map_err(|e| e.to_string())?;
-        solver.solve(t_end).map_err(|e| e.to_string())?;
+        sample(&mut solver, times, &mut on_sample)?;
         let st = solver.get_statistics().clone();
-        let ops = problem.eqn.rhs().statistics();
-        (solver.state().y.clone_as_vec(), (st, ops))
+        (st, problem.eqn.rhs().statistics())
     } else {
         let mut problem = builder.build().map_err(|e| e.to_string())?;
         relax_limits(&mut problem.ode_options);
         let mut solver = problem.bdf::<NalgebraLU<f64>>().map_err(|e| e.to_string())?;
-        solver.solve(t_end).map_err(|e| e.to_string())?;
+        sample(&mut solver, times, &mut on_sample)?;
         let st = solver.get_statistics().clone();
-        let ops = problem.eqn.rhs().statistics();
-        (solver.state().y.clone_as_vec(), (st, ops))
+        (st, problem.eqn.rhs().statistics())
     };
-    let (stats, ops) = st;
     Ok(PeerRun {
-        y_end,
-        steps: stats.number_of_steps,
-        error_test_failures: stats.number_of_error_test_failures,
-        newton_iters: stats.number_of_nonlinear_solver_iterations,
+        y_end: vec![],
+        steps: st.number_of_steps,
+        error_test_failures: st.number_of_error_test_failures,
+        newton_iters: st.number_of_nonlinear_solver_iterations,
         rhs_evals: calls.get(),
         jacobian_evals: ops.number_of_matrix_evals,
         wall_s: start.elapsed().as_secs_f64(),
     })
+}
+
+/// Steps `solver` past each of `times` and hands the interpolated solution to `on_sample`.
+fn sample<'a, Eqn, S>(
+    solver: &mut S,
+    times: &[f64],
+    on_sample: &mut impl FnMut(usize, &[f64]) -> bool,
+) -> Result<(), String>
+where
+    Eqn: OdeEquations<T = f64> + 'a,
+    S: OdeSolverMethod<'a, Eqn>,
+{
+    for (k, &t) in times.iter().enumerate() {
+        while solver.state().t < t {
+            solver.step().map_err(|e| e.to_string())?;
+        }
+        let y = solver.interpolate(t).map_err(|e| e.to_string())?;
+        if !on_sample(k, &y.clone_as_vec()) {
+            break;
+        }
+    }
+    Ok(())
 }
 
 /// Runs a [`DaeSystem`](crate::dae::DaeSystem) whose residual is F = D·y' − f(t, y) with a

@@ -7,4 +7,4 @@
 #[cfg(feature = "peers")]
 mod diffsol_bdf;
 #[cfg(feature = "peers")]
-pub use diffsol_bdf::{diffsol_bdf, diffsol_dae, PeerRun};
+pub use diffsol_bdf::{diffsol_bdf, diffsol_bdf_sampled, diffsol_dae, PeerRun};

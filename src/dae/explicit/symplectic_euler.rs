@@ -1,13 +1,27 @@
 //! Fixed-step semi-implicit (symplectic) Euler for second-order systems, as used by
-//! game-style contact engines: v_{n+1} = v_n + h·a(t_n, q_n, v_n), q_{n+1} = q_n + h·v_{n+1}.
+//! game-style contact engines: v_{n+1} = v_n + h·a(t_n, q_n, v_n),
+//! q_{n+1} = q_n + h·H(q_n)·v_{n+1} (H = I for q'' = a).
 
 use super::{ExplicitError, ExplicitStats};
 use crate::dae::problem::EvalError;
 
-/// A second-order system q'' = a(t, q, q', p).
+/// A second-order system in velocity form: q' = H(q)·v, v' = a(t, q, v, p).
+///
+/// The default is the plain q'' = a(t, q, q', p) (H = I, as many velocities as positions);
+/// systems whose positions are not the integrals of their velocities (rigid bodies with Euler
+/// parameters: q' = ½L(p)ᵀω') override [`nvel`](Self::nvel) and
+/// [`position_rate`](Self::position_rate).
 pub trait SecondOrderSystem {
-    /// Number of positions (= number of velocities).
+    /// Number of positions.
     fn npos(&self) -> usize;
+    /// Number of velocities (default: [`npos`](Self::npos)).
+    fn nvel(&self) -> usize {
+        self.npos()
+    }
+    /// q' at positions `q` and velocities `v` (default: q' = v).
+    fn position_rate(&mut self, _t: f64, _q: &[f64], v: &[f64], qdot: &mut [f64]) {
+        qdot.copy_from_slice(v);
+    }
     /// Evaluates the accelerations.
     fn acceleration(
         &mut self,
@@ -29,16 +43,17 @@ pub struct SymplecticEuler<S: SecondOrderSystem> {
     q: Vec<f64>,
     v: Vec<f64>,
     a: Vec<f64>,
+    qdot: Vec<f64>,
     stats: ExplicitStats,
 }
 
 impl<S: SecondOrderSystem> SymplecticEuler<S> {
     /// Creates the integrator with the fixed step `h` (> 0).
     pub fn new(sys: S, t0: f64, q0: &[f64], v0: &[f64], p: &[f64], h: f64) -> Result<Self, ExplicitError> {
-        let n = sys.npos();
-        if q0.len() != n || v0.len() != n {
+        let (n, nv) = (sys.npos(), sys.nvel());
+        if q0.len() != n || v0.len() != nv {
             return Err(ExplicitError::InvalidInput(format!(
-                "q0 and v0 have lengths {} and {}, expected {n}",
+                "q0 and v0 have lengths {} and {}, expected {n} and {nv}",
                 q0.len(),
                 v0.len()
             )));
@@ -55,7 +70,8 @@ impl<S: SecondOrderSystem> SymplecticEuler<S> {
             t: t0,
             q: q0.to_vec(),
             v: v0.to_vec(),
-            a: vec![0.0; n],
+            a: vec![0.0; nv],
+            qdot: vec![0.0; n],
             stats: ExplicitStats::default(),
         })
     }
@@ -79,6 +95,11 @@ impl<S: SecondOrderSystem> SymplecticEuler<S> {
     /// Steps to `t_end`; the last step is shortened to land on it.
     pub fn solve_to(&mut self, t_end: f64) -> Result<(), ExplicitError> {
         while self.t < t_end {
+            // Round-off of the accumulated time, not a step to take.
+            if t_end - self.t <= 1e-9 * self.h {
+                self.t = t_end;
+                break;
+            }
             let h = self.h.min(t_end - self.t);
             self.sys
                 .acceleration(self.t, &self.q, &self.v, &self.p, &mut self.a)
@@ -89,9 +110,12 @@ impl<S: SecondOrderSystem> SymplecticEuler<S> {
                     },
                 })?;
             self.stats.rhs_evals += 1;
-            for i in 0..self.q.len() {
+            for i in 0..self.v.len() {
                 self.v[i] += h * self.a[i];
-                self.q[i] += h * self.v[i];
+            }
+            self.sys.position_rate(self.t, &self.q, &self.v, &mut self.qdot);
+            for i in 0..self.q.len() {
+                self.q[i] += h * self.qdot[i];
             }
             self.t = if t_end - self.t <= self.h {
                 t_end
@@ -100,10 +124,7 @@ impl<S: SecondOrderSystem> SymplecticEuler<S> {
             };
             self.stats.steps += 1;
             if let Some(i) = self.q.iter().chain(&self.v).position(|x| !x.is_finite()) {
-                return Err(ExplicitError::NonFinite {
-                    t: self.t,
-                    index: i % self.q.len(),
-                });
+                return Err(ExplicitError::NonFinite { t: self.t, index: i });
             }
         }
         Ok(())
