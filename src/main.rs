@@ -793,6 +793,22 @@ fn bench_mr2120(a: &Mr2120BenchArgs) -> ExitCode {
                 .unwrap_or_default()
         );
     }
+    println!("\nwhere lash's BDF spends its time (its own timers; the rest is step logic and output):");
+    for p in b.points.iter().chain([&b.reference]) {
+        if let Some(t) = p.phase_times {
+            let share = |x: f64| 100.0 * x / p.wall_s;
+            println!(
+                "  rtol {:.0e}: {:.2} s = residuals {:.0} %, Jacobians {:.0} %, LU factorisations {:.0} %, triangular solves {:.0} %, other {:.0} %",
+                p.rtol,
+                p.wall_s,
+                share(t.residual_s),
+                share(t.jacobian_s),
+                share(t.factorisation_s),
+                share(t.solve_s),
+                share(p.wall_s - t.residual_s - t.jacobian_s - t.factorisation_s - t.solve_s)
+            );
+        }
+    }
     println!("\nlargest platform error [m] by time window:");
     for p in &b.points {
         let w: Vec<String> = p

@@ -111,6 +111,8 @@ pub struct WorkPoint {
     pub newton_iters: usize,
     /// LU factorisations (0 for explicit methods).
     pub factorisations: usize,
+    /// Where lash's BDF spent its time (its own timers; None for the other solvers).
+    pub phase_times: Option<crate::dae::PhaseTimes>,
     /// Wall time including set-up, s.
     pub wall_s: f64,
     /// Simulated time reached, s (the trajectory end unless the run failed or ran out of
@@ -233,6 +235,7 @@ fn point(solver: &str, rtol: f64) -> WorkPoint {
         rhs_evals: 0,
         newton_iters: 0,
         factorisations: 0,
+        phase_times: None,
         wall_s: f64::NAN,
         reached_t: 0.0,
         failure: None,
@@ -270,6 +273,7 @@ fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, O
             wp.rhs_evals = st.residual_evals;
             wp.newton_iters = st.newton_iters;
             wp.factorisations = st.lu_factorisations;
+            wp.phase_times = Some(st.time);
             let p = m.platform;
             let path = tr
                 .samples

@@ -16,5 +16,5 @@ mod problem;
 
 pub use bdf::{BdfSolver, Outcome, MAX_ORDER};
 pub use error::{Culprit, DaeError};
-pub use options::{AbsTol, BdfOptions, Statistics};
+pub use options::{AbsTol, BdfOptions, PhaseTimes, Statistics};
 pub use problem::{DaeSystem, EvalError, JacobianSource, VarKind};

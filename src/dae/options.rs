@@ -123,4 +123,29 @@ pub struct Statistics {
     pub last_order: usize,
     /// Size of the last step.
     pub last_step: f64,
+    /// Wall time spent in each phase, s.
+    pub time: PhaseTimes,
+}
+
+/// Cumulative wall time of the solver's phases, s: where a run's time goes, without a
+/// profiler. The remainder of a run's wall time is the step logic (predictor, error test,
+/// history updates) and output interpolation.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct PhaseTimes {
+    /// Residual evaluations of the Newton iteration and the error-estimate filter.
+    pub residual_s: f64,
+    /// Jacobian evaluations (analytic, or finite differences including their residuals).
+    pub jacobian_s: f64,
+    /// Numeric LU factorisations.
+    pub factorisation_s: f64,
+    /// Triangular solves with the factors.
+    pub solve_s: f64,
+}
+
+/// Runs `f` and adds its wall time to `acc` (s).
+pub(crate) fn timed<T>(acc: &mut f64, f: impl FnOnce() -> T) -> T {
+    let start = std::time::Instant::now();
+    let r = f();
+    *acc += start.elapsed().as_secs_f64();
+    r
 }

@@ -15,6 +15,7 @@
 //! Turn it off with [`BdfOptions::filter_error_estimate`](crate::dae::BdfOptions).
 
 use super::BdfSolver;
+use crate::dae::options::timed;
 use crate::dae::problem::DaeSystem;
 
 impl<P: DaeSystem> BdfSolver<P> {
@@ -56,7 +57,10 @@ impl<P: DaeSystem> BdfSolver<P> {
         for i in 0..self.n {
             self.res_work[i] = (self.res_work[i] - self.res_base[i]) * scale;
         }
-        if self.mat.solve(&mut self.res_work).is_ok() && self.res_work.iter().all(|v| v.is_finite()) {
+        let solved = timed(&mut self.stats.time.solve_s, || {
+            self.mat.solve(&mut self.res_work)
+        });
+        if solved.is_ok() && self.res_work.iter().all(|v| v.is_finite()) {
             x.copy_from_slice(&self.res_work);
         }
     }

@@ -88,6 +88,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             &r0,
             &self.ewt,
             self.hh,
+            &mut self.stats.time,
         );
         self.stats.lu_factorisations += 1;
         match res {

@@ -1,6 +1,7 @@
 //! The linear-solver interface: the iteration matrix J = dF/dy + α·dF/dy', evaluated
 //! analytically or by coloured finite differences, and factorised with the sparse LU.
 
+use crate::dae::options::{timed, PhaseTimes};
 use crate::dae::problem::{DaeSystem, EvalError, JacobianSource};
 use crate::sparse::{column_colouring, CscPattern, LinearSolveError, SparseLu};
 
@@ -119,7 +120,7 @@ impl IterationMatrix {
         self.lu.factor(&self.values)
     }
 
-    /// Evaluates and factorises: one Newton-matrix set-up.
+    /// Evaluates and factorises: one Newton-matrix set-up (timed into `times`).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn setup<P: DaeSystem>(
         &mut self,
@@ -132,10 +133,13 @@ impl IterationMatrix {
         r0: &[f64],
         ewt: &[f64],
         h: f64,
+        times: &mut PhaseTimes,
     ) -> Result<(), SetupError> {
-        self.evaluate(sys, t, y, yp, p, alpha, r0, ewt, h)
-            .map_err(SetupError::Eval)?;
-        self.factor().map_err(SetupError::Linear)
+        timed(&mut times.jacobian_s, || {
+            self.evaluate(sys, t, y, yp, p, alpha, r0, ewt, h)
+        })
+        .map_err(SetupError::Eval)?;
+        timed(&mut times.factorisation_s, || self.factor()).map_err(SetupError::Linear)
     }
 
     /// Solves J·x = b in place.

@@ -15,6 +15,7 @@
 
 use super::BdfSolver;
 use crate::dae::error::{Culprit, DaeError};
+use crate::dae::options::timed;
 use crate::dae::problem::{DaeSystem, EvalError};
 use crate::sparse::LinearSolveError;
 
@@ -51,10 +52,11 @@ impl<P: DaeSystem> BdfSolver<P> {
     /// Evaluates F(tn, yy, yp) into `delta`, counting it and checking it is finite.
     fn eval_residual(&mut self) -> Result<(), NlsFailure> {
         self.stats.residual_evals += 1;
-        match self
-            .sys
-            .residual(self.tn, &self.yy, &self.yp, &self.p, &mut self.delta)
-        {
+        let res = timed(&mut self.stats.time.residual_s, || {
+            self.sys
+                .residual(self.tn, &self.yy, &self.yp, &self.p, &mut self.delta)
+        });
+        match res {
             Ok(()) => {}
             Err(EvalError::Recoverable(m)) => return Err(NlsFailure::Recoverable(NlsCause::Eval(m))),
             Err(EvalError::Fatal(m)) => {
@@ -97,6 +99,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             &r0,
             &self.ewt,
             self.hh,
+            &mut self.stats.time,
         );
         self.tmp = r0;
         match res {
@@ -253,7 +256,7 @@ impl<P: DaeSystem> BdfSolver<P> {
         for m in 0..maxcor {
             self.stats.newton_iters += 1;
             // delta ← J⁻¹ F
-            if let Err(e) = self.mat.solve(&mut self.delta) {
+            if let Err(e) = timed(&mut self.stats.time.solve_s, || self.mat.solve(&mut self.delta)) {
                 return Err(NlsFailure::Recoverable(NlsCause::Linear(
                     e,
                     self.singular_culprits(),
