@@ -95,14 +95,15 @@ impl ValidationRow {
         }
     }
 
-    fn finish(mut self, result: Result<(f64, Statistics), (String, Statistics)>, start: Instant) -> Self {
+    fn finish(mut self, result: Result<(f64, Statistics), Failure>, start: Instant) -> Self {
         self.wall_s = start.elapsed().as_secs_f64();
         let stats = match result {
             Ok((err, s)) => {
                 self.error = err;
                 s
             }
-            Err((e, s)) => {
+            Err(f) => {
+                let (e, s) = *f;
                 self.note = format!("solver error: {e}");
                 s
             }
@@ -121,11 +122,14 @@ impl ValidationRow {
     }
 }
 
+/// A failed run: the message and the statistics reached.
+type Failure = Box<(String, Statistics)>;
+
 /// Runs a solver to `t_end` and maps the error together with the statistics reached.
-fn run_to<P: crate::dae::DaeSystem>(s: &mut BdfSolver<P>, t_end: f64) -> Result<(), (String, Statistics)> {
+fn run_to<P: crate::dae::DaeSystem>(s: &mut BdfSolver<P>, t_end: f64) -> Result<(), Failure> {
     s.solve_to(t_end)
         .map(|_| ())
-        .map_err(|e| (e.to_string(), *s.stats()))
+        .map_err(|e| Box::new((e.to_string(), *s.stats())))
 }
 
 /// Andrews' squeezer at rtol = atol = `tol` in one of three formulations:
@@ -164,7 +168,7 @@ pub fn andrews(index: andrews::AndrewsIndex, tol: f64) -> ValidationRow {
     };
     let sys = andrews::Andrews { index, project };
     let res = BdfSolver::new(sys, 0.0, &y0, &yp0, &[], opts)
-        .map_err(|e| (e.to_string(), Statistics::default()))
+        .map_err(|e| Box::new((e.to_string(), Statistics::default())))
         .and_then(|mut s| {
             run_to(&mut s, reference::ANDREWS_T_END)?;
             Ok((andrews::angle_error(s.y()), *s.stats()))
@@ -200,7 +204,7 @@ pub fn stiff_spring(damped: bool, rtol: f64) -> ValidationRow {
     let sys = stiff_spring::StiffSpring::validation(damped);
     let (y0, yp0) = sys.initial_values();
     let res = BdfSolver::new(sys, 0.0, &y0, &yp0, &[], BdfOptions::with_tolerances(rtol, rtol))
-        .map_err(|e| (e.to_string(), Statistics::default()))
+        .map_err(|e| Box::new((e.to_string(), Statistics::default())))
         .and_then(|mut s| {
             run_to(&mut s, 10.0)?;
             let th = stiff_spring::StiffSpring::angle(s.y());
@@ -239,7 +243,7 @@ pub fn robertson(rtol: f64) -> ValidationRow {
         ..BdfOptions::with_tolerances(rtol, 1.0)
     };
     let res = BdfSolver::new(robertson::Robertson, 0.0, &y0, &yp0, &[], opts)
-        .map_err(|e| (e.to_string(), Statistics::default()))
+        .map_err(|e| Box::new((e.to_string(), Statistics::default())))
         .and_then(|mut s| {
             run_to(&mut s, reference::ROBERTSON_T_END)?;
             Ok((robertson::Robertson::relative_error(s.y()), *s.stats()))
@@ -271,7 +275,7 @@ pub fn ggl_pendulum(rtol: f64) -> ValidationRow {
     let mut theta_end = f64::NAN;
     let e0 = sys.energy(&y0);
     let res = BdfSolver::new(sys, 0.0, &y0, &yp0, &[], opts)
-        .map_err(|e| (e.to_string(), Statistics::default()))
+        .map_err(|e| Box::new((e.to_string(), Statistics::default())))
         .and_then(|mut s| {
             let mut drift = 0.0f64;
             for k in 1..=1000 {
