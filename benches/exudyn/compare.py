@@ -31,7 +31,7 @@ ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
 ap.add_argument("--dir", default=os.path.join(root, "out", "bench-exudyn"), help="output folder")
 ap.add_argument("--reuse-lash", action="store_true",
                 help="reuse DIR/model.json and DIR/lash.json from an earlier run instead of running lash")
-ap.add_argument("--lash-args", default="--symplectic-steps= --diffsol-rtols= --explicit-budget 400",
+ap.add_argument("--lash-args", default="--symplectic-steps= --diffsol-rtols= --explicit-budget 250",
                 help="extra arguments of `lash bench mr2120` (default: lash's BDF sweep and the Dormand-Prince "
                      "horizon check only; the other peers are compared by `lash bench mr2120` itself)")
 ap.add_argument("--steps", default="1e-4,5e-5,2.5e-5,1.25e-5",

@@ -82,7 +82,7 @@ impl Default for Mr2120BenchOptions {
             bdf_rtols: vec![1e-4, 1e-5, 1e-6, 1e-7],
             dopri_rtols: vec![1e-5],
             symplectic_steps: vec![5e-7],
-            diffsol_rtols: vec![1e-4],
+            diffsol_rtols: vec![1e-4, 1e-6],
             reference_check_rtol: None,
             damping: BENCH_DAMPING,
             explicit_budget_s: 600.0,
@@ -154,6 +154,29 @@ pub struct Comparison {
     pub time_ratio_at_least: Option<f64>,
     /// Steps / lash's steps (whole runs).
     pub steps_ratio: f64,
+    /// The comparison at this solver's own best accuracy up to the horizon, for a solver that
+    /// did not reach the target (equal accuracy at a looser level), if lash reached it too.
+    pub at_own_accuracy: Option<OwnAccuracy>,
+}
+
+/// Equal accuracy at the level a peer reached: its most accurate run against lash's cheapest
+/// run at least as accurate.
+#[derive(Debug, Clone, Serialize)]
+pub struct OwnAccuracy {
+    /// The peer's best error up to the horizon, m.
+    pub accuracy_m: f64,
+    /// The peer's setting that reached it.
+    pub setting: String,
+    /// The peer's wall time to the horizon, s.
+    pub wall_to_horizon_s: f64,
+    /// lash's cheapest setting within that accuracy.
+    pub lash_setting: String,
+    /// lash's error up to the horizon, m.
+    pub lash_error_m: f64,
+    /// lash's wall time to the horizon, s.
+    pub lash_wall_to_horizon_s: f64,
+    /// Peer time / lash time.
+    pub time_ratio: f64,
 }
 
 /// Result of the MR2120 benchmark.
@@ -679,13 +702,80 @@ pub fn compare(points: &[WorkPoint], target: f64) -> Vec<Comparison> {
                     .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.min(v)))),
                 _ => None,
             };
+            let at_own_accuracy = if c.is_none() {
+                own_accuracy(points, s, &solvers[0])
+            } else {
+                None
+            };
             Comparison {
                 solver: s.to_string(),
                 chosen: c,
                 time_ratio: tr,
                 steps_ratio: sr,
                 time_ratio_at_least: at_least,
+                at_own_accuracy,
             }
         })
         .collect()
+}
+
+/// `solver`'s most accurate run up to the horizon against `base`'s cheapest run at least as
+/// accurate.
+fn own_accuracy(points: &[WorkPoint], solver: &str, base: &str) -> Option<OwnAccuracy> {
+    let finite = |p: &&WorkPoint| p.error_to_horizon.is_finite() && p.wall_to_horizon_s.is_finite();
+    let best = points
+        .iter()
+        .filter(|p| p.solver == solver)
+        .filter(finite)
+        .min_by(|a, b| a.error_to_horizon.total_cmp(&b.error_to_horizon))?;
+    let lash = points
+        .iter()
+        .filter(|p| p.solver == base && p.error_to_horizon <= best.error_to_horizon)
+        .filter(finite)
+        .min_by(|a, b| a.wall_to_horizon_s.total_cmp(&b.wall_to_horizon_s))?;
+    Some(OwnAccuracy {
+        accuracy_m: best.error_to_horizon,
+        setting: best.setting(),
+        wall_to_horizon_s: best.wall_to_horizon_s,
+        lash_setting: lash.setting(),
+        lash_error_m: lash.error_to_horizon,
+        lash_wall_to_horizon_s: lash.wall_to_horizon_s,
+        time_ratio: best.wall_to_horizon_s / lash.wall_to_horizon_s,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wp(solver: &str, rtol: f64, err: f64, wall: f64) -> WorkPoint {
+        WorkPoint {
+            error_to_horizon: err,
+            wall_to_horizon_s: wall,
+            wall_s: wall,
+            steps: 10,
+            ..point(solver, rtol)
+        }
+    }
+
+    #[test]
+    fn a_peer_short_of_the_target_is_compared_at_its_own_accuracy() {
+        let points = [
+            wp(LASH_BDF, 1e-4, 5e-5, 0.7),
+            wp(LASH_BDF, 1e-7, 1e-7, 3.7),
+            wp(DOPRI, 1e-5, 9e-7, 150.0),
+            wp(DIFFSOL, 1e-4, 6e-5, 20.0),
+            wp(DIFFSOL, 1e-6, 2e-6, 40.0),
+        ];
+        let c = compare(&points, 1e-6);
+        assert_eq!(c.len(), 3);
+        assert!((c[1].time_ratio - 150.0 / 3.7).abs() < 1e-12);
+        assert!(c[1].at_own_accuracy.is_none());
+        assert!(c[2].chosen.is_none());
+        let o = c[2].at_own_accuracy.as_ref().unwrap();
+        // diffsol's best is 2 µm at 40 s; the cheapest lash run within 2 µm is rtol 1e-7.
+        assert_eq!(o.setting, "1e-6");
+        assert_eq!(o.lash_setting, "1e-7");
+        assert!((o.time_ratio - 40.0 / 3.7).abs() < 1e-12);
+    }
 }
