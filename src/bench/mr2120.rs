@@ -703,7 +703,7 @@ pub fn compare(points: &[WorkPoint], target: f64) -> Vec<Comparison> {
                 _ => None,
             };
             let at_own_accuracy = if c.is_none() {
-                own_accuracy(points, s, &solvers[0])
+                own_accuracy(points, s, solvers[0])
             } else {
                 None
             };
