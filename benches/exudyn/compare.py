@@ -136,6 +136,12 @@ agreement = {
 say("platform deviation from the ideal (kinematic) path over the run -- the clearance error:")
 say("  lash reference: RMS %.2f um, max %.2f um" % (1e6 * rms(dev_lash), 1e6 * max(dev_lash)))
 say("  Exudyn:         RMS %.2f um, max %.2f um" % (1e6 * rms(dev_exu), 1e6 * max(dev_exu)))
+agreement["clearance_error_max_by_window_m"] = [
+    (a, b, max([dev_lash[i] for i, k in enumerate(all_k) if a < times[k] <= b + 1e-9] or [float("nan")]),
+     max([dev_exu[i] for i, k in enumerate(all_k) if a < times[k] <= b + 1e-9] or [float("nan")]))
+    for a, b in windows]
+say("  largest by window, lash / Exudyn: " + ", ".join(
+    "%g-%g s: %.0f / %.0f um" % (a, b, 1e6 * x, 1e6 * y) for a, b, x, y in agreement["clearance_error_max_by_window_m"]))
 say("largest distance Exudyn - lash reference by window: " + ", ".join(
     "%g-%g s: %.2g um" % (a, b, 1e6 * d) for a, b, d in agreement["difference_by_window_m"]))
 ratio = rms(dev_exu) / rms(dev_lash)
