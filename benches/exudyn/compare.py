@@ -122,7 +122,8 @@ all_k = sorted(chk["path"])
 dev_lash = [math.dist(ref[k], ideal(times[k])) for k in all_k]
 dev_exu = [math.dist(chk["path"][k], ideal(times[k])) for k in all_k]
 rms = lambda v: math.sqrt(sum(x * x for x in v) / len(v))  # noqa: E731
-windows = [(0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 3.5), (3.5, 4.0)]
+windows = [(a, min(b, model["t_end"])) for a, b in [(0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 3.5), (3.5, 4.0)]
+           if a < model["t_end"]]
 agreement = {
     "exudyn_step_s": args.check_step,
     "exudyn_reached_t": chk["reached_t"],
