@@ -6,18 +6,16 @@
 //!
 //! Units are SI throughout; vectors are base-frame unless a field says otherwise.
 
-use super::mr2120::{BenchError, Mr2120BenchOptions};
+use super::mr2120::{build, BenchError, Mr2120BenchOptions};
 use crate::contact::{ClearanceBearing, NormalLaw};
-use crate::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clearance_set};
 use crate::mechanisms::mr2120::kinematics::inverse;
 use crate::mechanisms::mr2120::paper::{TABLE2, TRAJECTORY_T_M2, TRAJECTORY_T_M3};
 use crate::mechanisms::mr2120::trajectory::drive_laws;
-use crate::mechanisms::mr2120::{Geometry, MassProperties};
+use crate::mechanisms::mr2120::Geometry;
 use crate::multibody::rotation::rotation;
 use crate::multibody::{Analysis, Attach};
 use nalgebra::{Matrix3, Vector3, Vector4};
 use serde::Serialize;
-use std::sync::Arc;
 
 /// The exported model (the schema `benches/exudyn/mr2120_exudyn.py` reads).
 #[derive(Debug, Clone, Serialize)]
@@ -163,17 +161,9 @@ fn law_parameters(law: &NormalLaw, name: &str) -> Result<(f64, f64, f64), BenchE
 /// Builds the exported model of the benchmark's clearance set and damping.
 pub fn export_mr2120(opts: &Mr2120BenchOptions) -> Result<ExportedModel, BenchError> {
     let g = Geometry::default();
-    let mp = MassProperties::default();
-    let set = clearance_set(&opts.set)?;
     let m1 = Vector3::from(TABLE2[0].m);
-    let model = clearance_model(
-        &g,
-        &mp,
-        m1,
-        Some(drive_laws(&g)),
-        &bearing_design(&set, opts.damping),
-    )?;
-    let mech = Arc::new(model.mechanism);
+    let model = build(opts)?;
+    let mech = model.mech.clone();
     let s0 = Analysis::new(mech.clone())
         .and_then(|mut a| a.initial_state(0.0))
         .map_err(|e| BenchError::Reference(format!("initial state: {e}")))?;
@@ -207,7 +197,7 @@ pub fn export_mr2120(opts: &Mr2120BenchOptions) -> Result<ExportedModel, BenchEr
         .enumerate()
         .map(|(i, b)| ExportedDrive {
             name: format!("q{}", i + 1),
-            body: model.arms[i].index(),
+            body: model.arms[i],
             point: arr(&b.arm_centre),
             axis: arr(&(-b.axis)),
             q_initial: q_build[i],
@@ -266,7 +256,7 @@ pub fn export_mr2120(opts: &Mr2120BenchOptions) -> Result<ExportedModel, BenchEr
         gravity: arr(&mech.gravity),
         t_end: opts.t_end,
         dt_output: opts.dt,
-        platform_body: model.platform.index(),
+        platform_body: model.platform,
         bodies,
         drives,
         z_law: ZLaw {

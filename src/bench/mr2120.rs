@@ -210,6 +210,8 @@ pub struct Mr2120Bench {
 pub(crate) struct Model {
     pub(crate) mech: Arc<Mechanism>,
     pub(crate) platform: usize,
+    /// Body indices of the three driven arms.
+    pub(crate) arms: [usize; 3],
     pub(crate) times: Vec<f64>,
 }
 
@@ -228,6 +230,7 @@ pub(crate) fn build(opts: &Mr2120BenchOptions) -> Result<Model, Mr2120Error> {
     let n = (opts.t_end / opts.dt).round() as usize;
     Ok(Model {
         platform: model.platform.index(),
+        arms: model.arms.map(|a| a.index()),
         mech: Arc::new(model.mechanism),
         times: (1..=n).map(|k| k as f64 * opts.dt).collect(),
     })
