@@ -550,7 +550,11 @@ impl DaeSystem for JacobianFails {
         _values: &mut [f64],
     ) -> Result<(), EvalError> {
         let m = "Jacobian table missing".to_string();
-        Err(if self.fatal { EvalError::Fatal(m) } else { EvalError::Recoverable(m) })
+        Err(if self.fatal {
+            EvalError::Fatal(m)
+        } else {
+            EvalError::Recoverable(m)
+        })
     }
 }
 
@@ -588,7 +592,10 @@ fn dense_and_sparse_lu_give_the_same_solution_of_a_small_dae() {
     let (y_sparse, st_sparse) = run(LinearSolverKind::SparseLu);
     let (y_dense, st_dense) = run(LinearSolverKind::DenseLu);
     for i in 0..2 {
-        assert!((y_sparse[i] - y_dense[i]).abs() < 1e-12, "{y_sparse:?} vs {y_dense:?}");
+        assert!(
+            (y_sparse[i] - y_dense[i]).abs() < 1e-12,
+            "{y_sparse:?} vs {y_dense:?}"
+        );
     }
     assert_eq!(st_sparse.steps, st_dense.steps);
     assert!(st_dense.lu_factorisations > 0);
@@ -670,7 +677,15 @@ fn oscillator_error(integ: &mut dyn Integrator) -> f64 {
 fn every_integrator_runs_the_same_ode_through_the_trait_and_agrees() {
     let y0 = [1.0, 0.0];
     let tol = 1e-8;
-    let mut bdf = BdfSolver::new(Harmonic, 0.0, &y0, &[0.0, -1.0], &[], BdfOptions::with_tolerances(tol, tol)).unwrap();
+    let mut bdf = BdfSolver::new(
+        Harmonic,
+        0.0,
+        &y0,
+        &[0.0, -1.0],
+        &[],
+        BdfOptions::with_tolerances(tol, tol),
+    )
+    .unwrap();
     let dopri_opts = Dopri5Options {
         rtol: tol,
         atol: tol,
@@ -704,11 +719,10 @@ fn every_integrator_runs_the_same_ode_through_the_trait_and_agrees() {
             dy[0] = y[1];
             dy[1] = -y[0];
         };
-        let (err, work) =
-            lash::peers::with_diffsol_bdf(f, &[1.0, 1.0], &y0, tol, &[tol], |integ| {
-                (oscillator_error(integ), integ.work())
-            })
-            .unwrap();
+        let (err, work) = lash::peers::with_diffsol_bdf(f, &[1.0, 1.0], &y0, tol, &[tol], |integ| {
+            (oscillator_error(integ), integ.work())
+        })
+        .unwrap();
         assert!(err < 1e-5, "diffsol BDF: error {err:e}");
         assert!(work.factorisations > 0 && work.newton_iters > 0, "{work:?}");
     }

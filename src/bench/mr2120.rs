@@ -526,18 +526,11 @@ fn run_diffsol(
             dy.iter_mut().for_each(|v| *v = f64::NAN);
         }
     };
-    let res = crate::peers::with_diffsol_bdf(
-        f,
-        &vec![1.0; n],
-        &y0,
-        rtol,
-        &vec![rtol / 100.0; n],
-        |integ| {
-            let run = run_sampled(m, integ, start, budget, progress);
-            let work = integ.work();
-            (run, work)
-        },
-    );
+    let res = crate::peers::with_diffsol_bdf(f, &vec![1.0; n], &y0, rtol, &vec![rtol / 100.0; n], |integ| {
+        let run = run_sampled(m, integ, start, budget, progress);
+        let work = integ.work();
+        (run, work)
+    });
     let cause = || failed.take().map(|c| format!(" ({c})")).unwrap_or_default();
     match res {
         Ok((run, work)) => {

@@ -226,7 +226,13 @@ where
     }
     fn work(&self) -> WorkStats {
         let st = self.solver.get_statistics();
-        let matrix_evals = self.solver.problem().eqn.rhs().statistics().number_of_matrix_evals;
+        let matrix_evals = self
+            .solver
+            .problem()
+            .eqn
+            .rhs()
+            .statistics()
+            .number_of_matrix_evals;
         WorkStats {
             steps: st.number_of_steps,
             rejected: st.number_of_error_test_failures,

@@ -16,7 +16,9 @@ impl<P: DaeSystem> BdfSolver<P> {
         match self.sys.residual(t, &self.yy, &self.yp, &self.p, r) {
             Ok(()) => {}
             Err(EvalError::Recoverable(m)) => return Err(NlsFailure::Recoverable(NlsCause::Eval(m))),
-            Err(EvalError::Fatal(m)) => return Err(NlsFailure::Fatal(DaeError::Evaluation { t, message: m })),
+            Err(EvalError::Fatal(m)) => {
+                return Err(NlsFailure::Fatal(DaeError::Evaluation { t, message: m }))
+            }
         }
         if r.iter().any(|v| !v.is_finite()) {
             let bad: Vec<f64> = r.iter().map(|v| if v.is_finite() { 0.0 } else { 1.0 }).collect();
