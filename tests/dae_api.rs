@@ -1,8 +1,10 @@
 //! The public DAE API: results, events, restarts, dense output, initial conditions, and
 //! clear errors (never panics) on bad input or solver failure.
 
+use lash::dae::explicit::{Dopri5, Dopri5Options, OdeSystem, SecondOrderSystem, SymplecticEuler};
 use lash::dae::{
-    AbsTol, BdfOptions, BdfSolver, DaeError, DaeSystem, EvalError, JacobianSource, Outcome, VarKind,
+    AbsTol, BdfOptions, BdfSolver, DaeError, DaeSystem, EvalError, Integrator, JacobianSource,
+    LinearSolverKind, Outcome, VarKind,
 };
 use lash::sparse::CscPattern;
 
@@ -453,4 +455,275 @@ fn stiff_problem_takes_few_steps() {
     s.solve_to(10.0).unwrap();
     assert!(s.stats().steps < 1000, "{}", s.stats().steps);
     assert!((s.y()[0] - 10f64.cos()).abs() < 1e-5);
+}
+
+/// Index-1, with a model domain: x' = -x, 0 = z - 2x, where the residual fails fatally for
+/// z > 1.5 (a sensor model that is undefined there).
+struct SaturatingSensor;
+
+impl DaeSystem for SaturatingSensor {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(
+        &mut self,
+        _t: f64,
+        y: &[f64],
+        yp: &[f64],
+        _p: &[f64],
+        r: &mut [f64],
+    ) -> Result<(), EvalError> {
+        if y[1] > 1.5 {
+            return Err(EvalError::Fatal(format!("sensor saturated at z = {}", y[1])));
+        }
+        r[0] = yp[0] + y[0];
+        r[1] = y[1] - 2.0 * y[0];
+        Ok(())
+    }
+    fn jacobian_pattern(&self) -> CscPattern {
+        CscPattern::from_entries(2, 2, [(0, 0), (1, 0), (1, 1)]).unwrap()
+    }
+    // Analytic, so no finite-difference probe comes near the saturation.
+    fn jacobian_source(&self) -> JacobianSource {
+        JacobianSource::Analytic
+    }
+    fn jacobian(
+        &mut self,
+        _t: f64,
+        _y: &[f64],
+        _yp: &[f64],
+        _p: &[f64],
+        alpha: f64,
+        values: &mut [f64],
+    ) -> Result<(), EvalError> {
+        values.copy_from_slice(&[1.0 + alpha, -2.0, 1.0]);
+        Ok(())
+    }
+    fn var_kinds(&self) -> Vec<VarKind> {
+        vec![VarKind::Differential, VarKind::Algebraic]
+    }
+}
+
+#[test]
+fn fatal_evaluation_error_in_the_initial_condition_solve_is_fatal() {
+    // The first Newton update of calc_ic moves z from 0 to 2, where the residual fails
+    // fatally: the solve must stop with that error, not shorten the update and go on.
+    let mut s = BdfSolver::new(SaturatingSensor, 0.0, &[1.0, 0.0], &[0.0, 0.0], &[], tight()).unwrap();
+    let e = s.calc_ic(1e-3).unwrap_err();
+    assert!(matches!(e, DaeError::Evaluation { .. }), "{e:?}");
+    assert!(e.to_string().contains("sensor saturated at z = 2"), "{e}");
+}
+
+/// x' = -x, with an analytic Jacobian that fails fatally or recoverably.
+struct JacobianFails {
+    fatal: bool,
+}
+
+impl DaeSystem for JacobianFails {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn residual(
+        &mut self,
+        _t: f64,
+        y: &[f64],
+        yp: &[f64],
+        _p: &[f64],
+        r: &mut [f64],
+    ) -> Result<(), EvalError> {
+        r[0] = yp[0] + y[0];
+        Ok(())
+    }
+    fn jacobian_pattern(&self) -> CscPattern {
+        CscPattern::dense(1, 1)
+    }
+    fn jacobian_source(&self) -> JacobianSource {
+        JacobianSource::Analytic
+    }
+    fn jacobian(
+        &mut self,
+        _t: f64,
+        _y: &[f64],
+        _yp: &[f64],
+        _p: &[f64],
+        _alpha: f64,
+        _values: &mut [f64],
+    ) -> Result<(), EvalError> {
+        let m = "Jacobian table missing".to_string();
+        Err(if self.fatal {
+            EvalError::Fatal(m)
+        } else {
+            EvalError::Recoverable(m)
+        })
+    }
+}
+
+#[test]
+fn a_failing_jacobian_ends_the_initial_condition_solve_and_check_with_its_message() {
+    for fatal in [true, false] {
+        // calc_ic and the consistency check at the start build their matrices through the
+        // same set-up path; neither counts a factorisation that did not happen.
+        let mut s = BdfSolver::new(JacobianFails { fatal }, 0.0, &[1.0], &[-1.0], &[], tight()).unwrap();
+        let e = s.calc_ic(1e-3).unwrap_err();
+        assert!(matches!(e, DaeError::Evaluation { .. }), "{e:?}");
+        assert!(e.to_string().contains("Jacobian table missing"), "{e}");
+        let mut s = BdfSolver::new(JacobianFails { fatal }, 0.0, &[1.0], &[-1.0], &[], tight()).unwrap();
+        let e = s.solve_to(1.0).unwrap_err();
+        assert!(matches!(e, DaeError::Evaluation { .. }), "{e:?}");
+        assert!(e.to_string().contains("Jacobian table missing"), "{e}");
+        assert_eq!(s.stats().lu_factorisations, 0);
+        assert_eq!(s.stats().jacobian_evals, 1);
+    }
+}
+
+#[test]
+fn dense_and_sparse_lu_give_the_same_solution_of_a_small_dae() {
+    // The index-1 problem with an initial-condition solve, through each linear solver.
+    let run = |kind: LinearSolverKind| {
+        let opts = BdfOptions {
+            linear_solver: kind,
+            ..tight()
+        };
+        let mut s = BdfSolver::new(SemiExplicit, 1.0, &[2.0, 0.0], &[0.0, 0.0], &[], opts).unwrap();
+        s.calc_ic(1e-3).unwrap();
+        s.solve_to(2.0).unwrap();
+        (s.y().to_vec(), *s.stats())
+    };
+    let (y_sparse, st_sparse) = run(LinearSolverKind::SparseLu);
+    let (y_dense, st_dense) = run(LinearSolverKind::DenseLu);
+    for i in 0..2 {
+        assert!(
+            (y_sparse[i] - y_dense[i]).abs() < 1e-12,
+            "{y_sparse:?} vs {y_dense:?}"
+        );
+    }
+    assert_eq!(st_sparse.steps, st_dense.steps);
+    assert!(st_dense.lu_factorisations > 0);
+}
+
+/// The harmonic oscillator q'' = -q in every form the integrators take.
+#[derive(Clone, Copy)]
+struct Harmonic;
+
+impl DaeSystem for Harmonic {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(
+        &mut self,
+        _t: f64,
+        y: &[f64],
+        yp: &[f64],
+        _p: &[f64],
+        r: &mut [f64],
+    ) -> Result<(), EvalError> {
+        r[0] = yp[0] - y[1];
+        r[1] = yp[1] + y[0];
+        Ok(())
+    }
+    fn jacobian_pattern(&self) -> CscPattern {
+        CscPattern::dense(2, 2)
+    }
+}
+
+impl OdeSystem for Harmonic {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&mut self, _t: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) -> Result<(), EvalError> {
+        dy[0] = y[1];
+        dy[1] = -y[0];
+        Ok(())
+    }
+}
+
+impl SecondOrderSystem for Harmonic {
+    fn npos(&self) -> usize {
+        1
+    }
+    fn acceleration(
+        &mut self,
+        _t: f64,
+        q: &[f64],
+        _v: &[f64],
+        _p: &[f64],
+        a: &mut [f64],
+    ) -> Result<(), EvalError> {
+        a[0] = -q[0];
+        Ok(())
+    }
+}
+
+/// Samples `integ` at t = 0.5, 1, …, 3 and returns the largest distance of (q, v) from
+/// (cos t, −sin t), checking the time and work counters on the way.
+fn oscillator_error(integ: &mut dyn Integrator) -> f64 {
+    let mut err: f64 = 0.0;
+    let mut steps = 0;
+    for k in 1..=6 {
+        let t = 0.5 * k as f64;
+        integ.advance_to(t).unwrap();
+        assert_eq!(integ.t(), t);
+        let y = integ.y();
+        assert_eq!(y.len(), 2);
+        err = err.max((y[0] - t.cos()).abs()).max((y[1] + t.sin()).abs());
+        let work = integ.work();
+        assert!(work.steps > steps && work.rhs_evals >= work.steps, "{work:?}");
+        steps = work.steps;
+    }
+    err
+}
+
+#[test]
+fn every_integrator_runs_the_same_ode_through_the_trait_and_agrees() {
+    let y0 = [1.0, 0.0];
+    let tol = 1e-8;
+    let mut bdf = BdfSolver::new(
+        Harmonic,
+        0.0,
+        &y0,
+        &[0.0, -1.0],
+        &[],
+        BdfOptions::with_tolerances(tol, tol),
+    )
+    .unwrap();
+    let dopri_opts = Dopri5Options {
+        rtol: tol,
+        atol: tol,
+        ..Default::default()
+    };
+    let mut dopri = Dopri5::new(Harmonic, 0.0, &y0, &[], dopri_opts).unwrap();
+    let h = 1e-4;
+    let mut euler = SymplecticEuler::new(Harmonic, 0.0, &y0[..1], &y0[1..], &[], h).unwrap();
+    // (integrator, what its tolerance or step promises on this problem)
+    let mut runs: Vec<(&str, &mut dyn Integrator, f64)> = vec![
+        ("lash BDF", &mut bdf, 1e-5),
+        ("Dormand-Prince", &mut dopri, 1e-6),
+        // First order: the error is O(h) over a few periods.
+        ("symplectic Euler", &mut euler, 10.0 * h),
+    ];
+    for (name, integ, bound) in runs.iter_mut() {
+        let err = oscillator_error(*integ);
+        assert!(err < *bound, "{name}: error {err:e} above {bound:e}");
+    }
+    // Implicit work is counted, explicit has none.
+    let bdf_work = Integrator::work(&bdf);
+    assert!(bdf_work.factorisations > 0 && bdf_work.jacobian_evals > 0 && bdf_work.newton_iters > 0);
+    assert_eq!(bdf_work.factorisations, bdf.stats().lu_factorisations);
+    let explicit_work = Integrator::work(&dopri);
+    assert_eq!((explicit_work.factorisations, explicit_work.newton_iters), (0, 0));
+    // The trait's state is the integrator's own: symplectic Euler's is q then v.
+    assert_eq!(Integrator::y(&euler), &[euler.q()[0], euler.v()[0]]);
+    #[cfg(feature = "peers")]
+    {
+        let f = |_t: f64, y: &[f64], dy: &mut [f64]| {
+            dy[0] = y[1];
+            dy[1] = -y[0];
+        };
+        let (err, work) = lash::peers::with_diffsol_bdf(f, &[1.0, 1.0], &y0, tol, &[tol], |integ| {
+            (oscillator_error(integ), integ.work())
+        })
+        .unwrap();
+        assert!(err < 1e-5, "diffsol BDF: error {err:e}");
+        assert!(work.factorisations > 0 && work.newton_iters > 0, "{work:?}");
+    }
 }

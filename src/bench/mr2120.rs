@@ -10,12 +10,13 @@
 //! same consistent initial state.
 
 use crate::contact::Damping;
-use crate::dae::explicit::{Dopri5, Dopri5Options, ExplicitStats, SymplecticEuler};
+use crate::dae::explicit::{Dopri5, Dopri5Options, SymplecticEuler};
+use crate::dae::{Integrator, IntegratorError, WorkStats};
 use crate::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clearance_set};
 use crate::mechanisms::mr2120::paper::TABLE2;
 use crate::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
 use crate::mechanisms::mr2120::{Geometry, MassProperties, Mr2120Error};
-use crate::multibody::{Analysis, Mechanism, MultibodyOde, Simulation, SimulationOptions};
+use crate::multibody::{Analysis, Mechanism, MultibodyOde, RunEnd, Simulation, SimulationOptions};
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::sync::Arc;
@@ -242,6 +243,7 @@ type Path = Vec<[f64; 3]>;
 const LASH_BDF: &str = "lash BDF (GGL index 2)";
 const DOPRI: &str = "Dormand-Prince 5(4) (index 1 + Baumgarte)";
 const SYMPLECTIC: &str = "symplectic Euler (index 1 + Baumgarte)";
+#[cfg_attr(not(feature = "peers"), allow(dead_code))]
 const DIFFSOL: &str = "diffsol BDF 0.18 (index 1 + Baumgarte)";
 
 /// A run's platform path and the wall time at each sample.
@@ -272,6 +274,118 @@ fn point(solver: &str, rtol: f64) -> WorkPoint {
     }
 }
 
+/// The platform centre in a state whose first entries are the bodies' positions
+/// (x, y, z, Euler parameters per body).
+fn platform_centre(y: &[f64], platform: usize) -> [f64; 3] {
+    [y[7 * platform], y[7 * platform + 1], y[7 * platform + 2]]
+}
+
+/// What [`run_sampled`] saw: the samples reached, and why it stopped early, if it did.
+struct Sampled {
+    traced: Traced,
+    error: Option<IntegratorError>,
+    over_budget: bool,
+}
+
+/// The one driver of every solver: advances `integ` through the sample times, recording the
+/// platform centre and the wall time (since `start`) at each, until the last sample, a
+/// failure, or — past a sample before the last — the wall-time budget `budget` (s).
+fn run_sampled(
+    m: &Model,
+    integ: &mut dyn Integrator,
+    start: Instant,
+    budget: f64,
+    progress: &mut dyn FnMut(f64),
+) -> Sampled {
+    let mut traced = Traced {
+        path: Vec::with_capacity(m.times.len()),
+        wall_at: Vec::with_capacity(m.times.len()),
+    };
+    let last = m.times[m.times.len() - 1];
+    for &t in &m.times {
+        if let Err(e) = integ.advance_to(t) {
+            return Sampled {
+                traced,
+                error: Some(e),
+                over_budget: false,
+            };
+        }
+        traced.path.push(platform_centre(integ.y(), m.platform));
+        traced.wall_at.push(start.elapsed().as_secs_f64());
+        progress(t);
+        if start.elapsed().as_secs_f64() > budget && t < last {
+            return Sampled {
+                traced,
+                error: None,
+                over_budget: true,
+            };
+        }
+    }
+    Sampled {
+        traced,
+        error: None,
+        over_budget: false,
+    }
+}
+
+/// Fills the work point's counters, wall time and reached time after a sampled run.
+fn record(m: &Model, wp: &mut WorkPoint, run: &Sampled, work: WorkStats, start: Instant, budget: f64) {
+    wp.wall_s = start.elapsed().as_secs_f64();
+    let reached = run.traced.path.len();
+    wp.reached_t = if reached == 0 { 0.0 } else { m.times[reached - 1] };
+    wp.steps = work.steps;
+    wp.rejected = work.rejected;
+    wp.rhs_evals = work.rhs_evals;
+    wp.newton_iters = work.newton_iters;
+    wp.factorisations = work.factorisations;
+    if run.over_budget {
+        wp.out_of_budget = true;
+        wp.failure = Some(format!(
+            "wall-time budget of {budget:.0} s exhausted at t = {:.3} s",
+            wp.reached_t
+        ));
+    }
+}
+
+/// lash's BDF on the GGL index-2 DAE through [`Simulation`], as an [`Integrator`]: each
+/// `advance_to` is a one-sample [`Simulation::run`], so a sampled run does the same work as
+/// a whole-trajectory one (including the singularity measure at each sample).
+struct SimulationStepper {
+    sim: Simulation,
+    t: f64,
+    /// Positions, velocities and multipliers of the last sample.
+    y: Vec<f64>,
+}
+
+impl Integrator for SimulationStepper {
+    fn advance_to(&mut self, t: f64) -> Result<(), IntegratorError> {
+        let mut tr = self
+            .sim
+            .run(&[t], |_| {})
+            .map_err(|e| IntegratorError::Other(e.to_string()))?;
+        match (tr.end, tr.samples.pop()) {
+            (RunEnd::Completed, Some(s)) => {
+                self.t = s.t;
+                self.y = [s.q, s.w, s.lambda].concat();
+                Ok(())
+            }
+            (end, _) => Err(IntegratorError::Other(format!(
+                "stopped at t = {:.3} s: {end:?}",
+                self.t
+            ))),
+        }
+    }
+    fn t(&self) -> f64 {
+        self.t
+    }
+    fn y(&self) -> &[f64] {
+        &self.y
+    }
+    fn work(&self) -> WorkStats {
+        self.sim.stats().into()
+    }
+}
+
 fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, Option<Traced>) {
     let mut wp = point(LASH_BDF, rtol);
     let start = Instant::now();
@@ -282,78 +396,29 @@ fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, O
         singularity_warning: 0.0,
         ..clearance_options()
     };
-    let res = Simulation::new(m.mech.clone(), 0.0, opts).and_then(|mut sim| {
-        let mut walls = Vec::with_capacity(m.times.len());
-        let tr = sim.run(&m.times, |t| {
-            walls.push(start.elapsed().as_secs_f64());
-            progress(t)
-        })?;
-        Ok((tr, *sim.stats(), walls))
-    });
-    wp.wall_s = start.elapsed().as_secs_f64();
-    match res {
-        Ok((tr, st, wall_at)) if tr.samples.len() == m.times.len() => {
-            wp.reached_t = tr.samples.last().map_or(0.0, |s| s.t);
-            wp.steps = st.steps;
-            wp.rejected = st.error_test_failures + st.newton_failures;
-            wp.rhs_evals = st.residual_evals;
-            wp.newton_iters = st.newton_iters;
-            wp.factorisations = st.lu_factorisations;
-            wp.phase_times = Some(st.time);
-            let p = m.platform;
-            let path = tr
-                .samples
-                .iter()
-                .map(|s| [s.q[7 * p], s.q[7 * p + 1], s.q[7 * p + 2]])
-                .collect();
-            (wp, Some(Traced { path, wall_at }))
-        }
-        Ok((tr, _, _)) => {
-            wp.failure = Some(format!(
-                "stopped at t = {:.3} s: {:?}",
-                tr.samples.last().map_or(0.0, |s| s.t),
-                tr.end
-            ));
-            (wp, None)
-        }
+    let sim = match Simulation::new(m.mech.clone(), 0.0, opts) {
+        Ok(sim) => sim,
         Err(e) => {
+            wp.wall_s = start.elapsed().as_secs_f64();
+            wp.failure = Some(e.to_string());
+            return (wp, None);
+        }
+    };
+    let mut st = SimulationStepper {
+        sim,
+        t: 0.0,
+        y: vec![],
+    };
+    let run = run_sampled(m, &mut st, start, f64::INFINITY, progress);
+    record(m, &mut wp, &run, st.work(), start, f64::INFINITY);
+    wp.phase_times = Some(st.sim.stats().time);
+    match run.error {
+        None => (wp, Some(run.traced)),
+        // The reference must be complete: a failed BDF run has no trace.
+        Some(e) => {
             wp.failure = Some(e.to_string());
             (wp, None)
         }
-    }
-}
-
-/// An explicit integrator of the index-1 ODE, advanced from sample to sample.
-trait Stepper {
-    /// Advances to `t` and returns the platform centre there.
-    fn advance(&mut self, t: f64) -> Result<[f64; 3], String>;
-    /// Work counters so far.
-    fn stats(&self) -> ExplicitStats;
-}
-
-struct DopriStepper(Dopri5<MultibodyOde>, usize);
-
-impl Stepper for DopriStepper {
-    fn advance(&mut self, t: f64) -> Result<[f64; 3], String> {
-        self.0.solve_to(t).map_err(|e| e.to_string())?;
-        let (y, p) = (self.0.y(), self.1);
-        Ok([y[7 * p], y[7 * p + 1], y[7 * p + 2]])
-    }
-    fn stats(&self) -> ExplicitStats {
-        *self.0.stats()
-    }
-}
-
-struct SymplecticStepper(SymplecticEuler<MultibodyOde>, usize);
-
-impl Stepper for SymplecticStepper {
-    fn advance(&mut self, t: f64) -> Result<[f64; 3], String> {
-        self.0.solve_to(t).map_err(|e| e.to_string())?;
-        let (q, p) = (self.0.q(), self.1);
-        Ok([q[7 * p], q[7 * p + 1], q[7 * p + 2]])
-    }
-    fn stats(&self) -> ExplicitStats {
-        *self.0.stats()
     }
 }
 
@@ -366,69 +431,35 @@ fn ode_start(m: &Model) -> Result<(MultibodyOde, Vec<f64>, Vec<f64>), String> {
     Ok((ode, s0.q, s0.w))
 }
 
-/// Runs an explicit integrator sample by sample within the wall-time budget `budget` (s).
+/// Runs an explicit integrator, built by `make` from the ODE and its initial (q, w), sample
+/// by sample within the wall-time budget `budget` (s).
 fn run_explicit(
     m: &Model,
     mut wp: WorkPoint,
     budget: f64,
     progress: &mut dyn FnMut(f64),
-    make: impl FnOnce(MultibodyOde, Vec<f64>, Vec<f64>) -> Result<Box<dyn Stepper>, String>,
+    make: impl FnOnce(MultibodyOde, Vec<f64>, Vec<f64>) -> Result<Box<dyn Integrator>, String>,
 ) -> (WorkPoint, Option<Traced>) {
     let start = Instant::now();
-    let mut over = false;
-    let mut wall_at = Vec::with_capacity(m.times.len());
-    let mut path = Vec::with_capacity(m.times.len());
-    let res: Result<ExplicitStats, (String, Option<ExplicitStats>)> = (|| {
-        let (ode, q, w) = ode_start(m).map_err(|e| (e, None))?;
-        let mut st = make(ode, q, w).map_err(|e| (e, None))?;
-        for &t in &m.times {
-            match st.advance(t) {
-                Ok(x) => path.push(x),
-                Err(e) => return Err((e, Some(st.stats()))),
-            }
-            wall_at.push(start.elapsed().as_secs_f64());
-            progress(t);
-            if start.elapsed().as_secs_f64() > budget && t < m.times[m.times.len() - 1] {
-                over = true;
-                break;
-            }
+    let built = ode_start(m).and_then(|(ode, q, w)| make(ode, q, w));
+    let mut integ = match built {
+        Ok(i) => i,
+        Err(e) => {
+            wp.wall_s = start.elapsed().as_secs_f64();
+            wp.failure = Some(format!("failed after the sample at t = 0.000 s: {e}"));
+            return (wp, None);
         }
-        Ok(st.stats())
-    })();
-    wp.wall_s = start.elapsed().as_secs_f64();
-    wp.reached_t = if path.is_empty() {
-        0.0
-    } else {
-        m.times[path.len() - 1]
     };
-    let stats = match &res {
-        Ok(st) => Some(*st),
-        Err((_, st)) => *st,
-    };
-    if let Some(st) = stats {
-        wp.steps = st.steps;
-        wp.rejected = st.rejected;
-        wp.rhs_evals = st.rhs_evals;
+    let run = run_sampled(m, integ.as_mut(), start, budget, progress);
+    record(m, &mut wp, &run, integ.work(), start, budget);
+    if let Some(e) = &run.error {
+        wp.failure = Some(format!(
+            "failed after the sample at t = {:.3} s: {e}",
+            wp.reached_t
+        ));
     }
-    match res {
-        Ok(_) => {
-            if over {
-                wp.out_of_budget = true;
-                wp.failure = Some(format!(
-                    "wall-time budget of {budget:.0} s exhausted at t = {:.3} s",
-                    wp.reached_t
-                ));
-            }
-            (wp, Some(Traced { path, wall_at }))
-        }
-        Err((e, _)) => {
-            wp.failure = Some(format!(
-                "failed after the sample at t = {:.3} s: {e}",
-                wp.reached_t
-            ));
-            (wp, (!path.is_empty()).then_some(Traced { path, wall_at }))
-        }
-    }
+    let traced = (!run.traced.path.is_empty()).then_some(run.traced);
+    (wp, traced)
 }
 
 fn run_dopri(
@@ -447,7 +478,7 @@ fn run_dopri(
             ..Default::default()
         };
         let dp = Dopri5::new(ode, 0.0, &y0, &[], o).map_err(|e| e.to_string())?;
-        Ok(Box::new(DopriStepper(dp, m.platform)) as Box<dyn Stepper>)
+        Ok(Box::new(dp) as Box<dyn Integrator>)
     })
 }
 
@@ -457,11 +488,13 @@ fn run_symplectic(
     budget: f64,
     progress: &mut dyn FnMut(f64),
 ) -> (WorkPoint, Option<Traced>) {
-    let mut wp = point(SYMPLECTIC, f64::NAN);
-    wp.step_size = Some(h);
+    let wp = WorkPoint {
+        step_size: Some(h),
+        ..point(SYMPLECTIC, f64::NAN)
+    };
     run_explicit(m, wp, budget, progress, |ode, q, w| {
         let se = SymplecticEuler::new(ode, 0.0, &q, &w, &[], h).map_err(|e| e.to_string())?;
-        Ok(Box::new(SymplecticStepper(se, m.platform)) as Box<dyn Stepper>)
+        Ok(Box::new(se) as Box<dyn Integrator>)
     })
 }
 
@@ -494,52 +527,27 @@ fn run_diffsol(
             dy.iter_mut().for_each(|v| *v = f64::NAN);
         }
     };
-    let (mut path, mut wall_at) = (vec![], vec![]);
-    let mut over = false;
-    let p = m.platform;
-    let res = crate::peers::diffsol_bdf_sampled(
-        f,
-        &vec![1.0; n],
-        &y0,
-        rtol,
-        &vec![rtol / 100.0; n],
-        &m.times,
-        |k, y| {
-            path.push([y[7 * p], y[7 * p + 1], y[7 * p + 2]]);
-            wall_at.push(start.elapsed().as_secs_f64());
-            progress(m.times[k]);
-            over = start.elapsed().as_secs_f64() > budget && k + 1 < m.times.len();
-            !over
-        },
-    );
-    wp.wall_s = start.elapsed().as_secs_f64();
-    wp.reached_t = if path.is_empty() {
-        0.0
-    } else {
-        m.times[path.len() - 1]
-    };
+    let res = crate::peers::with_diffsol_bdf(f, &vec![1.0; n], &y0, rtol, &vec![rtol / 100.0; n], |integ| {
+        let run = run_sampled(m, integ, start, budget, progress);
+        let work = integ.work();
+        (run, work)
+    });
+    let cause = || failed.take().map(|c| format!(" ({c})")).unwrap_or_default();
     match res {
-        Ok(run) => {
-            wp.steps = run.steps;
-            wp.rejected = run.error_test_failures;
-            wp.rhs_evals = run.rhs_evals;
-            wp.newton_iters = run.newton_iters;
-            wp.factorisations = run.jacobian_evals;
-            if over {
-                wp.out_of_budget = true;
-                wp.failure = Some(format!(
-                    "wall-time budget of {budget:.0} s exhausted at t = {:.3} s",
-                    wp.reached_t
-                ));
+        Ok((run, work)) => {
+            record(m, &mut wp, &run, work, start, budget);
+            if let Some(e) = &run.error {
+                wp.failure = Some(format!("failed after t = {:.3} s: {e}{}", wp.reached_t, cause()));
             }
+            let traced = (!run.traced.path.is_empty()).then_some(run.traced);
+            (wp, traced)
         }
         Err(e) => {
-            let cause = failed.take().map(|c| format!(" ({c})")).unwrap_or_default();
-            wp.failure = Some(format!("failed after t = {:.3} s: {e}{cause}", wp.reached_t));
+            wp.wall_s = start.elapsed().as_secs_f64();
+            wp.failure = Some(format!("failed after t = 0.000 s: {e}{}", cause()));
+            (wp, None)
         }
     }
-    let traced = (!path.is_empty()).then_some(Traced { path, wall_at });
-    (wp, traced)
 }
 
 /// Largest distance over the samples both paths have.

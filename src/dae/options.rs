@@ -1,5 +1,7 @@
 //! Solver options (every tunable in one place) and run statistics.
 
+use super::linear_solver::LinearSolverKind;
+
 /// Absolute tolerance: one value for all components, or one per component.
 #[derive(Debug, Clone, PartialEq)]
 pub enum AbsTol {
@@ -61,6 +63,8 @@ pub struct BdfOptions {
     /// so the convergence rate of this step is measured (and a slow rate refreshes the
     /// matrix) instead of trusting the previous step's rate.
     pub measure_rate_with_stale_jacobian: bool,
+    /// Linear solver of the iteration matrices (default: faer's sparse LU).
+    pub linear_solver: LinearSolverKind,
 }
 
 impl Default for BdfOptions {
@@ -85,6 +89,7 @@ impl Default for BdfOptions {
             stop_time: None,
             filter_error_estimate: false,
             measure_rate_with_stale_jacobian: true,
+            linear_solver: LinearSolverKind::SparseLu,
         }
     }
 }

@@ -1,6 +1,8 @@
 //! diffsol's BDF on M·y' = f(t, y).
 
+use crate::dae::{Integrator, IntegratorError, WorkStats};
 use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeEquations, OdeSolverMethod, Op, Vector};
+use std::marker::PhantomData;
 use std::time::Instant;
 
 /// Result of a peer run.
@@ -71,6 +73,47 @@ pub fn diffsol_bdf_sampled<F>(
 where
     F: Fn(f64, &[f64], &mut [f64]),
 {
+    let start = Instant::now();
+    let work = with_diffsol_bdf(f, mass_diag, y0, rtol, atol, |integ| {
+        for (k, &t) in times.iter().enumerate() {
+            integ.advance_to(t).map_err(|e| e.to_string())?;
+            if !on_sample(k, integ.y()) {
+                break;
+            }
+        }
+        Ok::<_, String>(integ.work())
+    })??;
+    Ok(PeerRun {
+        y_end: vec![],
+        steps: work.steps,
+        error_test_failures: work.rejected,
+        newton_iters: work.newton_iters,
+        rhs_evals: work.rhs_evals,
+        jacobian_evals: work.jacobian_evals,
+        wall_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Sets up diffsol's BDF on M·y' = f(t, y) from (0, y0) (as [`diffsol_bdf`]) and hands it to
+/// `body` as a stepping [`Integrator`]: `advance_to(t)` steps diffsol past `t` and
+/// interpolates there. diffsol's solver borrows its problem, so the integrator lives for the
+/// call of `body` only.
+///
+/// Work counters: `rejected` are diffsol's error-test failures, `rhs_evals` every call of
+/// `f` (Jacobian–vector products included), `jacobian_evals` and `factorisations` both its
+/// matrix evaluations (diffsol factorises after each and does not report the
+/// refactorisations after step-size changes separately).
+pub fn with_diffsol_bdf<F, R>(
+    f: F,
+    mass_diag: &[f64],
+    y0: &[f64],
+    rtol: f64,
+    atol: &[f64],
+    body: impl FnOnce(&mut dyn Integrator) -> R,
+) -> Result<R, String>
+where
+    F: Fn(f64, &[f64], &mut [f64]),
+{
     let n = y0.len();
     if mass_diag.len() != n {
         return Err(format!(
@@ -84,7 +127,6 @@ where
     let y0v = y0.to_vec();
     let md = mass_diag.to_vec();
     let has_mass = md.iter().any(|&m| m != 1.0);
-    let start = Instant::now();
     let rhs = move |x: &[f64], _p: &[f64], t: f64, y: &mut [f64]| {
         calls.set(calls.get() + 1);
         f(t, x, y)
@@ -114,7 +156,7 @@ where
         .atol(atol.iter().copied())
         .rhs_implicit(rhs, jvp)
         .init(init, n);
-    let (st, ops) = if has_mass {
+    if has_mass {
         let mass = move |v: &[f64], _p: &[f64], _t: f64, beta: f64, y: &mut [f64]| {
             for i in 0..v.len() {
                 y[i] = md[i] * v[i] + beta * y[i];
@@ -122,49 +164,84 @@ where
         };
         let mut problem = builder.mass(mass).build().map_err(|e| e.to_string())?;
         relax_limits(&mut problem.ode_options);
-        let mut solver = problem.bdf::<NalgebraLU<f64>>().map_err(|e| e.to_string())?;
-        sample(&mut solver, times, &mut on_sample)?;
-        let st = solver.get_statistics().clone();
-        (st, problem.eqn.rhs().statistics())
+        let solver = problem.bdf::<NalgebraLU<f64>>().map_err(|e| e.to_string())?;
+        let mut stepper = DiffsolStepper::new(solver, calls, y0);
+        let out = body(&mut stepper);
+        Ok(out)
     } else {
         let mut problem = builder.build().map_err(|e| e.to_string())?;
         relax_limits(&mut problem.ode_options);
-        let mut solver = problem.bdf::<NalgebraLU<f64>>().map_err(|e| e.to_string())?;
-        sample(&mut solver, times, &mut on_sample)?;
-        let st = solver.get_statistics().clone();
-        (st, problem.eqn.rhs().statistics())
-    };
-    Ok(PeerRun {
-        y_end: vec![],
-        steps: st.number_of_steps,
-        error_test_failures: st.number_of_error_test_failures,
-        newton_iters: st.number_of_nonlinear_solver_iterations,
-        rhs_evals: calls.get(),
-        jacobian_evals: ops.number_of_matrix_evals,
-        wall_s: start.elapsed().as_secs_f64(),
-    })
+        let solver = problem.bdf::<NalgebraLU<f64>>().map_err(|e| e.to_string())?;
+        let mut stepper = DiffsolStepper::new(solver, calls, y0);
+        let out = body(&mut stepper);
+        Ok(out)
+    }
 }
 
-/// Steps `solver` past each of `times` and hands the interpolated solution to `on_sample`.
-fn sample<'a, Eqn, S>(
-    solver: &mut S,
-    times: &[f64],
-    on_sample: &mut impl FnMut(usize, &[f64]) -> bool,
-) -> Result<(), String>
+/// A diffsol solver advanced from output time to output time.
+struct DiffsolStepper<'a, 'c, Eqn, S> {
+    solver: S,
+    /// Calls of f so far (shared with the closures diffsol holds).
+    calls: &'c std::cell::Cell<usize>,
+    t: f64,
+    y: Vec<f64>,
+    _eqn: PhantomData<&'a Eqn>,
+}
+
+impl<'a, 'c, Eqn, S> DiffsolStepper<'a, 'c, Eqn, S>
 where
     Eqn: OdeEquations<T = f64> + 'a,
     S: OdeSolverMethod<'a, Eqn>,
 {
-    for (k, &t) in times.iter().enumerate() {
-        while solver.state().t < t {
-            solver.step().map_err(|e| e.to_string())?;
-        }
-        let y = solver.interpolate(t).map_err(|e| e.to_string())?;
-        if !on_sample(k, &y.clone_as_vec()) {
-            break;
+    fn new(solver: S, calls: &'c std::cell::Cell<usize>, y0: &[f64]) -> Self {
+        Self {
+            t: solver.state().t,
+            solver,
+            calls,
+            y: y0.to_vec(),
+            _eqn: PhantomData,
         }
     }
-    Ok(())
+}
+
+impl<'a, Eqn, S> Integrator for DiffsolStepper<'a, '_, Eqn, S>
+where
+    Eqn: OdeEquations<T = f64> + 'a,
+    S: OdeSolverMethod<'a, Eqn>,
+{
+    fn advance_to(&mut self, t: f64) -> Result<(), IntegratorError> {
+        let err = |e: diffsol::DiffsolError| IntegratorError::Other(e.to_string());
+        while self.solver.state().t < t {
+            self.solver.step().map_err(err)?;
+        }
+        self.y = self.solver.interpolate(t).map_err(err)?.clone_as_vec();
+        self.t = t;
+        Ok(())
+    }
+    fn t(&self) -> f64 {
+        self.t
+    }
+    fn y(&self) -> &[f64] {
+        &self.y
+    }
+    fn work(&self) -> WorkStats {
+        let st = self.solver.get_statistics();
+        let matrix_evals = self
+            .solver
+            .problem()
+            .eqn
+            .rhs()
+            .statistics()
+            .number_of_matrix_evals;
+        WorkStats {
+            steps: st.number_of_steps,
+            rejected: st.number_of_error_test_failures,
+            rhs_evals: self.calls.get(),
+            jacobian_evals: matrix_evals,
+            factorisations: matrix_evals,
+            newton_iters: st.number_of_nonlinear_solver_iterations,
+        }
+    }
 }
 
 /// Runs a [`DaeSystem`](crate::dae::DaeSystem) whose residual is F = D·y' − f(t, y) with a

@@ -2,41 +2,38 @@
 //! computation of consistent algebraic components and derivatives of an index-1 problem
 //! (IDA's IDACalcIC with IDA_YA_YDP_INIT).
 
-use super::newton::NlsCause;
+use super::linsys::MatrixKind;
+use super::newton::{NlsCause, NlsFailure};
 use super::BdfSolver;
 use crate::dae::error::DaeError;
 use crate::dae::problem::{DaeSystem, EvalError, VarKind};
 
 impl<P: DaeSystem> BdfSolver<P> {
-    fn ic_residual(&mut self, t: f64, r: &mut [f64]) -> Result<(), DaeError> {
+    /// Evaluates F(t, yy, yp) into `r`, counting it and checking it is finite. A recoverable
+    /// callback failure and a non-finite residual are recoverable, a fatal one is fatal.
+    fn ic_residual(&mut self, t: f64, r: &mut [f64]) -> Result<(), NlsFailure> {
         self.stats.residual_evals += 1;
-        self.sys
-            .residual(t, &self.yy, &self.yp, &self.p, r)
-            .map_err(|e| match e {
-                EvalError::Recoverable(m) | EvalError::Fatal(m) => DaeError::Evaluation { t, message: m },
-            })?;
+        match self.sys.residual(t, &self.yy, &self.yp, &self.p, r) {
+            Ok(()) => {}
+            Err(EvalError::Recoverable(m)) => return Err(NlsFailure::Recoverable(NlsCause::Eval(m))),
+            Err(EvalError::Fatal(m)) => {
+                return Err(NlsFailure::Fatal(DaeError::Evaluation { t, message: m }))
+            }
+        }
         if r.iter().any(|v| !v.is_finite()) {
             let bad: Vec<f64> = r.iter().map(|v| if v.is_finite() { 0.0 } else { 1.0 }).collect();
-            return Err(DaeError::NonFiniteResidual {
-                t,
-                culprits: self.culprits(&bad, &vec![1.0; self.n], 5),
-            });
+            let culprits = self.culprits(&bad, &vec![1.0; self.n], 5);
+            return Err(NlsFailure::Recoverable(NlsCause::NonFinite(culprits)));
         }
         Ok(())
     }
 
-    /// Checks F(t0, y0, y'0) ≈ 0 at the start: the first Newton correction
-    /// δ = J⁻¹F(t0, y0, y'0), with J the iteration matrix for the initial step, must be within
-    /// the tolerances (weighted RMS norm ≤ 1, with the Newton iteration's weights). The factorisation is reused by the first step.
-    pub(crate) fn check_consistency(&mut self) -> Result<(), DaeError> {
-        let t0 = self.tn;
-        let mut r = vec![0.0; self.n];
-        self.ic_residual(t0, &mut r)?;
-        self.delta.copy_from_slice(&r);
-        self.cj = 1.0 / self.hh;
-        let res = self.setup_for_ic_check();
-        if let Err(cause) = res {
-            return Err(match cause {
+    /// The error that ends an initial-value computation or check at `t0` after `failure`
+    /// (nothing is retried there): fatal errors unchanged, recoverable ones by their cause.
+    fn ic_error(&self, t0: f64, failure: NlsFailure) -> DaeError {
+        match failure {
+            NlsFailure::Fatal(e) => e,
+            NlsFailure::Recoverable(cause) => match cause {
                 NlsCause::Linear(source, culprits) => DaeError::LinearSolve {
                     t: t0,
                     h: self.hh,
@@ -50,7 +47,24 @@ impl<P: DaeSystem> BdfSolver<P> {
                     reason: "iteration matrix".into(),
                     culprits,
                 },
-            });
+            },
+        }
+    }
+
+    /// Checks F(t0, y0, y'0) ≈ 0 at the start: the first Newton correction
+    /// δ = J⁻¹F(t0, y0, y'0), with J the iteration matrix for the initial step, must be within
+    /// the tolerances (weighted RMS norm ≤ 1, with the Newton iteration's weights). The
+    /// factorisation is reused by the first step.
+    pub(crate) fn check_consistency(&mut self) -> Result<(), DaeError> {
+        let t0 = self.tn;
+        let mut r = vec![0.0; self.n];
+        if let Err(f) = self.ic_residual(t0, &mut r) {
+            return Err(self.ic_error(t0, f));
+        }
+        self.delta.copy_from_slice(&r);
+        self.cj = 1.0 / self.hh;
+        if let Err(f) = self.setup_matrix_kind(MatrixKind::Iteration { alpha: self.cj }, self.hh) {
+            return Err(self.ic_error(t0, f));
         }
         let mut d = r.clone();
         if let Err(e) = self.mat.solve(&mut d) {
@@ -72,36 +86,6 @@ impl<P: DaeSystem> BdfSolver<P> {
             });
         }
         Ok(())
-    }
-
-    fn setup_for_ic_check(&mut self) -> Result<(), NlsCause> {
-        self.stats.jacobian_evals += 1;
-        self.stats.residual_evals += self.mat.fd_cost();
-        let r0 = self.delta.clone();
-        let res = self.mat.setup(
-            &mut self.sys,
-            self.tn,
-            &self.yy,
-            &self.yp,
-            &self.p,
-            self.cj,
-            &r0,
-            &self.ewt,
-            self.hh,
-            &mut self.stats.time,
-        );
-        self.stats.lu_factorisations += 1;
-        match res {
-            Ok(()) => {
-                self.force_setup = false;
-                self.steps_since_jac = 0;
-                Ok(())
-            }
-            Err(super::linsys::SetupError::Eval(EvalError::Recoverable(m) | EvalError::Fatal(m))) => {
-                Err(NlsCause::Eval(m))
-            }
-            Err(super::linsys::SetupError::Linear(e)) => Err(NlsCause::Linear(e, self.singular_culprits())),
-        }
     }
 
     /// Computes consistent initial values of an index-1 problem: keeps the differential
@@ -134,40 +118,20 @@ impl<P: DaeSystem> BdfSolver<P> {
         let y0 = self.yy.clone();
         self.update_weights_from(&y0);
         let mut r = vec![0.0; n];
-        let mut j0 = vec![0.0; self.mat.pattern.nnz()];
         let mut iters = 0;
         let max_iters = 30;
         loop {
-            self.ic_residual(t0, &mut r)?;
-            // dF/dy (α = 0), then dF/dy + dF/dy' (α = 1).
-            let (yy, yp, p) = (self.yy.clone(), self.yp.clone(), self.p.clone());
-            let eval_err = |e: EvalError| match e {
-                EvalError::Recoverable(m) | EvalError::Fatal(m) => DaeError::Evaluation { t: t0, message: m },
-            };
-            self.stats.jacobian_evals += 2;
-            self.stats.residual_evals += 2 * self.mat.fd_cost();
-            self.mat
-                .evaluate(&mut self.sys, t0, &yy, &yp, &p, 0.0, &r, &self.ewt, h_scale)
-                .map_err(eval_err)?;
-            j0.copy_from_slice(&self.mat.values);
-            self.mat
-                .evaluate(&mut self.sys, t0, &yy, &yp, &p, 1.0, &r, &self.ewt, h_scale)
-                .map_err(eval_err)?;
-            for c in 0..n {
-                let differential = self.kinds[c] == VarKind::Differential;
-                for k in self.mat.pattern.col_range(c) {
-                    self.mat.values[k] = if differential {
-                        self.mat.values[k] - j0[k]
-                    } else {
-                        j0[k]
-                    };
-                }
+            if let Err(f) = self.ic_residual(t0, &mut r) {
+                return Err(self.ic_error(t0, f));
             }
-            self.mat.alpha = f64::NAN; // this factorisation is not an iteration matrix
-            self.force_setup = true;
-            self.stats.lu_factorisations += 1;
+            self.delta.copy_from_slice(&r);
             let mut d = r.clone();
-            if let Err(e) = self.mat.factor().and_then(|_| self.mat.solve(&mut d)) {
+            let solved = match self.setup_matrix_kind(MatrixKind::InitialCondition, h_scale) {
+                Ok(()) => self.mat.solve(&mut d),
+                Err(NlsFailure::Recoverable(NlsCause::Linear(e, _))) => Err(e),
+                Err(f) => return Err(self.ic_error(t0, f)),
+            };
+            if let Err(e) = solved {
                 return Err(DaeError::InitialConditions {
                     t: t0,
                     reason: format!("the matrix [dF/dy' (differential) | dF/dy (algebraic)] is singular: {e}; is the problem index 1?"),
@@ -188,12 +152,17 @@ impl<P: DaeSystem> BdfSolver<P> {
                     }
                 }
                 let mut r_try = vec![0.0; n];
-                if self.ic_residual(t0, &mut r_try).is_ok() {
-                    let rn = r_try.iter().map(|v| v * v).sum::<f64>().sqrt();
-                    if rn <= rnorm0 * (1.0 - 1e-4 * lambda) || rn <= 1e-14 || lambda < 0.01 {
-                        accepted = true;
-                        break;
+                match self.ic_residual(t0, &mut r_try) {
+                    Ok(()) => {
+                        let rn = r_try.iter().map(|v| v * v).sum::<f64>().sqrt();
+                        if rn <= rnorm0 * (1.0 - 1e-4 * lambda) || rn <= 1e-14 || lambda < 0.01 {
+                            accepted = true;
+                            break;
+                        }
                     }
+                    // Outside the model's domain: shorten the update.
+                    Err(NlsFailure::Recoverable(_)) => {}
+                    Err(f @ NlsFailure::Fatal(_)) => return Err(self.ic_error(t0, f)),
                 }
                 lambda *= 0.5;
             }

@@ -239,12 +239,13 @@ impl<P: DaeSystem> BdfSolver<P> {
             )));
         }
         let source = sys.jacobian_source();
-        let mat = IterationMatrix::new(pattern, source).map_err(|e| DaeError::LinearSolve {
-            t: t0,
-            h: 0.0,
-            source: e,
-            culprits: vec![],
-        })?;
+        let mat =
+            IterationMatrix::new(pattern, source, opts.linear_solver).map_err(|e| DaeError::LinearSolve {
+                t: t0,
+                h: 0.0,
+                source: e,
+                culprits: vec![],
+            })?;
         let ne = sys.num_events();
         let mut phi = vec![vec![0.0; n]; MAX_ORDER + 2];
         phi[0].copy_from_slice(y0);

@@ -19,7 +19,7 @@ use crate::dae::options::timed;
 use crate::dae::problem::{DaeSystem, EvalError};
 use crate::sparse::LinearSolveError;
 
-use super::linsys::SetupError;
+use super::linsys::MatrixKind;
 
 /// What made a nonlinear solve fail.
 #[derive(Debug, Clone)]
@@ -82,50 +82,13 @@ impl<P: DaeSystem> BdfSolver<P> {
         Ok(())
     }
 
-    /// Builds and factorises the iteration matrix at the predictor.
+    /// Builds and factorises the iteration matrix at the current iterate (through the one
+    /// set-up path, [`setup_matrix_kind`](Self::setup_matrix_kind)).
     fn setup_matrix(&mut self) -> Result<(), NlsFailure> {
-        self.stats.jacobian_evals += 1;
-        self.stats.residual_evals += self.mat.fd_cost();
-        let r0 = std::mem::take(&mut self.tmp);
-        let mut r0 = r0;
-        r0.copy_from_slice(&self.delta);
-        let res = self.mat.setup(
-            &mut self.sys,
-            self.tn,
-            &self.yy,
-            &self.yp,
-            &self.p,
-            self.cj,
-            &r0,
-            &self.ewt,
-            self.hh,
-            &mut self.stats.time,
-        );
-        self.tmp = r0;
-        match res {
-            Ok(()) => {
-                self.stats.lu_factorisations += 1;
-                self.jac_current = true;
-                self.force_setup = false;
-                self.steps_since_jac = 0;
-                self.ss = 20.0;
-                Ok(())
-            }
-            Err(SetupError::Eval(EvalError::Recoverable(m))) => {
-                Err(NlsFailure::Recoverable(NlsCause::Eval(m)))
-            }
-            Err(SetupError::Eval(EvalError::Fatal(m))) => Err(NlsFailure::Fatal(DaeError::Evaluation {
-                t: self.tn,
-                message: m,
-            })),
-            Err(SetupError::Linear(e)) => {
-                self.stats.lu_factorisations += 1;
-                Err(NlsFailure::Recoverable(NlsCause::Linear(
-                    e,
-                    self.singular_culprits(),
-                )))
-            }
-        }
+        self.setup_matrix_kind(MatrixKind::Iteration { alpha: self.cj }, self.hh)?;
+        self.jac_current = true;
+        self.ss = 20.0;
+        Ok(())
     }
 
     /// Names the equations and unknowns whose rows or columns of J are entirely zero.
@@ -158,7 +121,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             0.0
         };
         let mut call_setup = self.force_setup
-            || self.stats.lu_factorisations == 0
+            || !self.mat.is_factored()
             || !(0.6..=1.0 / 0.6).contains(&cjratio)
             || self.steps_since_jac >= self.jac_age_limit;
         if self.cj != self.cjlast {

@@ -40,8 +40,8 @@ pub struct SymplecticEuler<S: SecondOrderSystem> {
     p: Vec<f64>,
     h: f64,
     t: f64,
-    q: Vec<f64>,
-    v: Vec<f64>,
+    /// Positions followed by velocities.
+    y: Vec<f64>,
     a: Vec<f64>,
     qdot: Vec<f64>,
     stats: ExplicitStats,
@@ -68,8 +68,7 @@ impl<S: SecondOrderSystem> SymplecticEuler<S> {
             p: p.to_vec(),
             h,
             t: t0,
-            q: q0.to_vec(),
-            v: v0.to_vec(),
+            y: q0.iter().chain(v0).copied().collect(),
             a: vec![0.0; nv],
             qdot: vec![0.0; n],
             stats: ExplicitStats::default(),
@@ -81,11 +80,15 @@ impl<S: SecondOrderSystem> SymplecticEuler<S> {
     }
     /// Positions.
     pub fn q(&self) -> &[f64] {
-        &self.q
+        &self.y[..self.qdot.len()]
     }
     /// Velocities.
     pub fn v(&self) -> &[f64] {
-        &self.v
+        &self.y[self.qdot.len()..]
+    }
+    /// Positions followed by velocities.
+    pub fn state(&self) -> &[f64] {
+        &self.y
     }
     /// Work counters.
     pub fn stats(&self) -> &ExplicitStats {
@@ -101,8 +104,9 @@ impl<S: SecondOrderSystem> SymplecticEuler<S> {
                 break;
             }
             let h = self.h.min(t_end - self.t);
+            let (q, v) = self.y.split_at_mut(self.qdot.len());
             self.sys
-                .acceleration(self.t, &self.q, &self.v, &self.p, &mut self.a)
+                .acceleration(self.t, q, v, &self.p, &mut self.a)
                 .map_err(|e| match e {
                     EvalError::Recoverable(m) | EvalError::Fatal(m) => ExplicitError::Evaluation {
                         t: self.t,
@@ -110,12 +114,12 @@ impl<S: SecondOrderSystem> SymplecticEuler<S> {
                     },
                 })?;
             self.stats.rhs_evals += 1;
-            for i in 0..self.v.len() {
-                self.v[i] += h * self.a[i];
+            for i in 0..v.len() {
+                v[i] += h * self.a[i];
             }
-            self.sys.position_rate(self.t, &self.q, &self.v, &mut self.qdot);
-            for i in 0..self.q.len() {
-                self.q[i] += h * self.qdot[i];
+            self.sys.position_rate(self.t, q, v, &mut self.qdot);
+            for i in 0..q.len() {
+                q[i] += h * self.qdot[i];
             }
             self.t = if t_end - self.t <= self.h {
                 t_end
@@ -123,7 +127,7 @@ impl<S: SecondOrderSystem> SymplecticEuler<S> {
                 self.t + h
             };
             self.stats.steps += 1;
-            if let Some(i) = self.q.iter().chain(&self.v).position(|x| !x.is_finite()) {
+            if let Some(i) = self.y.iter().position(|x| !x.is_finite()) {
                 return Err(ExplicitError::NonFinite { t: self.t, index: i });
             }
         }
