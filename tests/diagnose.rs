@@ -2,9 +2,9 @@
 //! and bad recordings.
 
 use lash::diagnose::data::MotionData;
-use lash::diagnose::equation_error::{diagnose, DiagnoseOptions};
 use lash::diagnose::model::DoublePendulumModel;
 use lash::diagnose::recording::{read_csv, RecordingError};
+use lash::diagnose::{diagnose, DiagnoseOptions};
 use lash::mechanisms::double_pendulum::DoublePendulumParams;
 
 fn params() -> DoublePendulumParams {
@@ -90,9 +90,7 @@ fn coulomb_runs(c: f64) -> (Vec<MotionData>, Vec<MotionData>) {
 }
 
 /// Checks that Coulomb friction in joint 2 was selected first; returns its estimate.
-fn first_is_coulomb_in_joint_2(
-    d: &lash::diagnose::equation_error::Diagnosis,
-) -> &lash::diagnose::equation_error::Estimate {
+fn first_is_coulomb_in_joint_2(d: &lash::diagnose::Diagnosis) -> &lash::diagnose::Estimate {
     assert_eq!(
         d.selected.first().map(String::as_str),
         Some("Coulomb friction in joint 2 (elbow)"),
@@ -238,7 +236,7 @@ fn bad_recordings_name_file_and_line() {
 #[test]
 fn dfki_real_recordings_joint_2_held_out_residual_falls_by_40_percent() {
     use lash::diagnose::data::roles;
-    use lash::diagnose::equation_error::diagnose_recordings;
+    use lash::diagnose::diagnose_recordings;
     use lash::diagnose::recording::parse_mapping;
     use lash::mechanisms::double_pendulum::DFKI_README;
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));

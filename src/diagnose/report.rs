@@ -1,7 +1,8 @@
 //! The report folder: `report.md` (for people), `report.json` (for scripts), and residual
 //! plots before/after the fit for every held-out recording and channel (PNG and SVG).
 
-use super::equation_error::{number, Diagnosis};
+use super::format::number;
+use super::Diagnosis;
 use crate::plot::{LineChart, Series};
 use std::fmt::Write as _;
 use std::path::Path;

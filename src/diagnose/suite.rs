@@ -20,9 +20,9 @@
 //!   separating experiment named.
 
 use super::data::MotionData;
-use super::equation_error::{diagnose, DiagnoseOptions, Diagnosis};
 use super::model::Mr2120Model;
 use super::signal::derivative_cubic;
+use super::{diagnose, DiagnoseOptions, Diagnosis};
 use crate::mechanisms::mr2120::record::{
     nominal_model, record, Excitation, HiddenEffects, RecordError, RecordOptions, Recorded, SensorNoise,
 };
