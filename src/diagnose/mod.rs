@@ -50,7 +50,7 @@
 //! let dir = "../shared/data/dfki-double-pendulum/recordings";
 //! let fit = vec![load(&format!("{dir}/trajectory_00.csv"))?, load(&format!("{dir}/trajectory_01.csv"))?];
 //! let held = vec![load(&format!("{dir}/trajectory_12.csv"))?];
-//! let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {});
+//! let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {})?;
 //! println!("{}", d.verdict);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

@@ -69,11 +69,8 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<std::path::PathBuf, Rep
         plots.push((tr.recording.clone(), tr.channel.clone(), stem));
     }
     let json = dir.join("report.json");
-    std::fs::write(
-        &json,
-        serde_json::to_string_pretty(d).expect("diagnosis serialises"),
-    )
-    .map_err(|e| io(&json, e))?;
+    let text = serde_json::to_string_pretty(d).map_err(|e| io(&json, e))?;
+    std::fs::write(&json, text).map_err(|e| io(&json, e))?;
     let mut m = String::new();
     let _ = writeln!(m, "# lash diagnose: {}\n", d.model);
     let _ = writeln!(m, "## Verdict\n\n{}\n", d.verdict);

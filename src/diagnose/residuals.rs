@@ -9,6 +9,7 @@
 
 use super::candidates::{columns, Candidate};
 use super::data::MotionData;
+use super::error::DiagnoseError;
 use super::model::InverseDynamicsModel;
 use super::options::DiagnoseOptions;
 use super::stats::Gram;
@@ -23,16 +24,19 @@ pub(super) struct Prepared {
     pub blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)>,
     /// Per recording: the Gram matrices of the columns and residual.
     pub grams: Vec<Gram>,
+    /// Their sum.
+    total: Gram,
 }
 
-/// Weighted residuals (channel j divided by `sigma[j]`) and columns of `cands` on `data`.
+/// Weighted residuals (channel j divided by `sigma[j]`) and columns of `cands` on `data`
+/// (at least one recording, all with the channels of the first).
 pub(super) fn prepare(
     model: &dyn InverseDynamicsModel,
     data: &[MotionData],
     sigma: &[f64],
     cands: &[Candidate],
     opts: &DiagnoseOptions,
-) -> Prepared {
+) -> Result<Prepared, DiagnoseError> {
     let mut cols_of = vec![];
     let mut blocks = vec![];
     for d in data {
@@ -89,19 +93,29 @@ pub(super) fn prepare(
         cols_of = idx;
         blocks.push((flat, b));
     }
-    let grams = blocks.iter().map(|(c, b)| Gram::new(c, b)).collect();
-    Prepared {
-        cands: cands.to_vec(),
-        cols_of,
-        blocks,
-        grams,
-    }
+    Prepared::new(cands.to_vec(), cols_of, blocks)
 }
 
 impl Prepared {
+    /// Accumulates the Gram matrices of `blocks` (one per recording; none is an error).
+    fn new(
+        cands: Vec<Candidate>,
+        cols_of: Vec<Vec<usize>>,
+        blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)>,
+    ) -> Result<Prepared, DiagnoseError> {
+        let grams: Vec<Gram> = blocks.iter().map(|(c, b)| Gram::new(c, b)).collect();
+        let total = Gram::sum(&grams).ok_or(DiagnoseError::NoFitRecordings)?;
+        Ok(Prepared {
+            cands,
+            cols_of,
+            blocks,
+            grams,
+            total,
+        })
+    }
     /// The same columns and residual with channel j divided by `w[j]` (recording r has
     /// `lens[r]` samples per channel).
-    pub(super) fn reweighed(&self, w: &[f64], lens: &[usize]) -> Prepared {
+    pub(super) fn reweighed(&self, w: &[f64], lens: &[usize]) -> Result<Prepared, DiagnoseError> {
         let blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)> = self
             .blocks
             .iter()
@@ -112,21 +126,15 @@ impl Prepared {
                 (cols.iter().map(|c| scale(c)).collect(), scale(b))
             })
             .collect();
-        let grams = blocks.iter().map(|(c, b)| Gram::new(c, b)).collect();
-        Prepared {
-            cands: self.cands.clone(),
-            cols_of: self.cols_of.clone(),
-            blocks,
-            grams,
-        }
+        Prepared::new(self.cands.clone(), self.cols_of.clone(), blocks)
     }
     /// Global column indices of the candidates in `set`.
     pub(super) fn idx(&self, set: &[usize]) -> Vec<usize> {
         set.iter().flat_map(|&c| self.cols_of[c].clone()).collect()
     }
     /// The Gram matrices of all recordings summed.
-    pub(super) fn total(&self) -> Gram {
-        Gram::sum(&self.grams).expect("at least one recording")
+    pub(super) fn total(&self) -> &Gram {
+        &self.total
     }
     /// Residual sum of squares of a fit of `set` on all recordings.
     pub(super) fn rss(&self, set: &[usize]) -> f64 {

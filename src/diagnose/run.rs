@@ -3,12 +3,13 @@
 //! [`diagnose_recordings`] on recordings, which first chooses the differentiation window.
 
 use super::candidates::library;
-use super::data::MotionData;
+use super::data::{Channel, MotionData};
+use super::error::DiagnoseError;
 use super::locate::locate;
 use super::model::InverseDynamicsModel;
 use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, ResidualTrace};
-use super::recording::{Recording, RecordingError};
+use super::recording::Recording;
 use super::relinearize;
 use super::residuals::{prepare, Prepared};
 use super::selection::{confounded, estimate, select, Estimates, Selection};
@@ -18,41 +19,91 @@ use super::verdict::verdict;
 /// Runs the diagnosis of `model` on the `fit` recordings, checked on `holdout` (equation
 /// error on torque channels, output error on output channels). `progress` receives (stage,
 /// fraction done).
+///
+/// Errors: an empty fit set, a recording that does not fit the model
+/// ([`MotionData::check`]), or one whose channels differ from the first fit recording's.
 pub fn diagnose(
     model: &dyn InverseDynamicsModel,
     fit: &[MotionData],
     holdout: &[MotionData],
     opts: &DiagnoseOptions,
     mut progress: impl FnMut(&str, f64),
-) -> Diagnosis {
-    let first = diagnose_once(model, fit, holdout, opts, |s, f| progress(s, 0.5 * f));
+) -> Result<Diagnosis, DiagnoseError> {
+    check_recordings(model, fit, holdout)?;
+    let first = diagnose_once(model, fit, holdout, opts, |s, f| progress(s, 0.5 * f))?;
     if !opts.relinearize {
         progress("done", 1.0);
-        return first;
+        return Ok(first);
     }
     // Shift the model by the selected parameter and sensor-offset estimates.
     let cands = library(model, &opts.library);
     let Some((shifted, moved)) = relinearize::shift(model, &first, &cands) else {
         progress("done", 1.0);
-        return first;
+        return Ok(first);
     };
     let mut o2 = opts.clone();
     o2.relinearize = false;
     o2.shift = moved;
-    let second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.5 * f));
+    let second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.5 * f))?;
     let d = relinearize::against_nominal(model, first, second, &cands);
     progress("done", 1.0);
-    d
+    Ok(d)
 }
 
-/// One pass of the diagnosis at the model's nominal parameters.
+/// Checks every recording against the model and the channels of every fit and held-out
+/// recording against those of the first fit recording.
+fn check_recordings(
+    model: &dyn InverseDynamicsModel,
+    fit: &[MotionData],
+    holdout: &[MotionData],
+) -> Result<(), DiagnoseError> {
+    let first = fit.first().ok_or(DiagnoseError::NoFitRecordings)?;
+    first.check(model)?;
+    let expected = first.channels();
+    // Channel names without asking the model about joints or outputs it does not have.
+    let names = |chans: &[Channel]| {
+        if chans.is_empty() {
+            return "none".to_string();
+        }
+        chans
+            .iter()
+            .map(|c| match *c {
+                Channel::Torque(j) if j >= model.joints() => format!("torque of joint {}", j + 1),
+                Channel::Output(k) if k >= model.outputs() => format!("output {}", k + 1),
+                c => c.name(model),
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let others = fit[1..]
+        .iter()
+        .map(|d| ("fit", d))
+        .chain(holdout.iter().map(|d| ("held-out", d)));
+    for (role, d) in others {
+        let chans = d.channels();
+        if chans != expected {
+            return Err(DiagnoseError::ChannelMismatch {
+                role,
+                recording: d.name.clone(),
+                channels: names(&chans),
+                reference: first.name.clone(),
+                expected: names(&expected),
+            });
+        }
+        d.check(model)?;
+    }
+    Ok(())
+}
+
+/// One pass of the diagnosis at the model's nominal parameters (recordings checked by
+/// [`check_recordings`]).
 fn diagnose_once(
     model: &dyn InverseDynamicsModel,
     fit: &[MotionData],
     holdout: &[MotionData],
     opts: &DiagnoseOptions,
     mut progress: impl FnMut(&str, f64),
-) -> Diagnosis {
+) -> Result<Diagnosis, DiagnoseError> {
     let chans = fit.first().map(MotionData::channels).unwrap_or_default();
     let nj = chans.len();
     progress("noise floor", 0.0);
@@ -71,8 +122,8 @@ fn diagnose_once(
     let cands = library(model, &opts.library);
     progress("candidate regressors", 0.2);
     let lens: Vec<usize> = fit.iter().map(MotionData::len).collect();
-    let raw = prepare(model, fit, &vec![1.0; nj], &cands, opts);
-    let sel = select(&raw, &cands, &lens, &sigma, opts, &mut progress);
+    let raw = prepare(model, fit, &vec![1.0; nj], &cands, opts)?;
+    let sel = select(&raw, &cands, &lens, &sigma, opts, &mut progress)?;
     progress("estimates", 0.85);
     let Estimates {
         x,
@@ -91,7 +142,7 @@ fn diagnose_once(
         ..
     } = sel;
     progress("held-out check", 0.9);
-    let (channels, traces) = channel_fits(model, fit, holdout, &prep, &set, &x, &weight_scale, &sigma, opts);
+    let (channels, traces) = channel_fits(model, fit, holdout, &prep, &set, &x, &weight_scale, &sigma, opts)?;
     let factor: Vec<f64> = (0..nj).map(|j| weight_scale[j] / sigma[j]).collect();
     let cv_rms_noise_units = prep.cv_rms_rescaled(&set, &factor, &lens);
     let no_mismatch = set.is_empty();
@@ -105,7 +156,7 @@ fn diagnose_once(
         &location,
     );
     progress("done", 1.0);
-    Diagnosis {
+    Ok(Diagnosis {
         model: model.name(),
         fit_recordings: fit.iter().map(|d| d.name.clone()).collect(),
         holdout_recordings: holdout.iter().map(|d| d.name.clone()).collect(),
@@ -124,7 +175,7 @@ fn diagnose_once(
         cv_rms_noise_units,
         derivative_window: (0, vec![]),
         traces,
-    }
+    })
 }
 
 /// Chooses the half-width of the rate differentiation by leave-one-recording-out
@@ -139,7 +190,7 @@ pub fn diagnose_recordings(
     windows: &[usize],
     opts: &DiagnoseOptions,
     mut progress: impl FnMut(&str, f64),
-) -> Result<Diagnosis, RecordingError> {
+) -> Result<Diagnosis, DiagnoseError> {
     let nj = model.joints();
     let load = |recs: &[Recording], w: usize| -> Result<Vec<MotionData>, _> {
         recs.iter()
@@ -159,7 +210,7 @@ pub fn diagnose_recordings(
                 "choosing the differentiation window",
                 k as f64 / windows.len() as f64 * 0.5,
             );
-            let d = diagnose(model, &load(fit, w)?, &[], opts, |_, _| {});
+            let d = diagnose(model, &load(fit, w)?, &[], opts, |_, _| {})?;
             scores.push((w, d.cv_rms_noise_units));
         }
     }
@@ -170,7 +221,7 @@ pub fn diagnose_recordings(
         .unwrap_or(windows.first().copied().unwrap_or(5));
     let mut d = diagnose(model, &load(fit, w)?, &load(holdout, w)?, opts, |s, f| {
         progress(s, 0.5 + 0.5 * f)
-    });
+    })?;
     d.derivative_window = (w, scores);
     Ok(d)
 }
@@ -186,7 +237,7 @@ fn channel_fits(
     sigma: &[f64],
     noise: &[f64],
     opts: &DiagnoseOptions,
-) -> (Vec<ChannelFit>, Vec<ResidualTrace>) {
+) -> Result<(Vec<ChannelFit>, Vec<ResidualTrace>), DiagnoseError> {
     let chans = fit.first().map(MotionData::channels).unwrap_or_default();
     let nj = chans.len();
     let mut fit_b = vec![vec![]; nj];
@@ -204,7 +255,7 @@ fn channel_fits(
     let mut ho_a = vec![vec![]; nj];
     let mut traces = vec![];
     if !holdout.is_empty() {
-        let hp = prepare(model, holdout, sigma, &prep.cands, opts);
+        let hp = prepare(model, holdout, sigma, &prep.cands, opts)?;
         for r in 0..holdout.len() {
             let n = holdout[r].len();
             let before = &hp.blocks[r].1;
@@ -240,5 +291,5 @@ fn channel_fits(
             }
         })
         .collect();
-    (channels, traces)
+    Ok((channels, traces))
 }

@@ -14,6 +14,7 @@
 //! and (3) the effective BIC falls.
 
 use super::candidates::{separating_experiment, Candidate, Effect};
+use super::error::DiagnoseError;
 use super::options::DiagnoseOptions;
 use super::outcome::{Confound, Estimate, Ranked, Step};
 use super::residuals::Prepared;
@@ -51,7 +52,7 @@ pub(super) fn select(
     sigma: &[f64],
     opts: &DiagnoseOptions,
     progress: &mut dyn FnMut(&str, f64),
-) -> Selection {
+) -> Result<Selection, DiagnoseError> {
     let nj = sigma.len();
     // Channel weights: the larger of the noise floor and the nominal misfit of the channel,
     // so a channel whose misfit dwarfs its noise does not drown the others (one step of
@@ -73,11 +74,11 @@ pub(super) fn select(
         .collect();
     let mut pass = 0;
     let (prep, set, steps, cv_cur, ranking, n, n_eff, total) = loop {
-        let prep = raw.reweighed(&weight_scale, lens);
+        let prep = raw.reweighed(&weight_scale, lens)?;
         let n: usize = prep.grams.iter().map(|g| g.n).sum();
         // Effective samples from the residual left by the whole library.
         let all: Vec<usize> = (0..cands.len()).collect();
-        let total = prep.total();
+        let total = prep.total().clone();
         let x_all = total.solve(&prep.idx(&all));
         let rhos: Vec<f64> = (0..lens.len())
             .flat_map(|r| {
@@ -230,7 +231,7 @@ pub(super) fn select(
         }
         break (prep, set, steps, cv_cur, ranking, n, n_eff, total);
     };
-    Selection {
+    Ok(Selection {
         prep,
         set,
         steps,
@@ -240,7 +241,7 @@ pub(super) fn select(
         n_eff,
         total,
         weight_scale,
-    }
+    })
 }
 
 /// Estimates of the selected parameters and their strongly correlated pairs.
