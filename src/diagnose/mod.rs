@@ -7,7 +7,7 @@
 //! | `signal.rs` | noise floor, derivatives on irregular grids, autocorrelation |
 //! | `model.rs` | the nominal model (torques from measured motion, outputs such as a tracked platform position), its perturbable parameters; the DFKI pendulum and the MR2120 |
 //! | `mechanism.rs` | any mechanism built with the multibody API as a nominal model |
-//! | `data.rs` | measured motion and torques of one recording |
+//! | `data.rs` | measured motion and torques of one recording, checked against the model |
 //! | `candidates.rs` | the library of candidate physics and their regressors |
 //! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
 //! | `locate.rs` | significant residual windows tied to the mechanism's state |
@@ -16,7 +16,7 @@
 //! | `outcome.rs` | [`Diagnosis`] and its parts (ranking, steps, estimates, confounded pairs, channel fits) |
 //! | `error.rs` | [`DiagnoseError`]: why a diagnosis cannot run |
 //! | `residuals.rs` | residual assembly for both residual modes: weighted residuals, candidate columns, Gram matrices |
-//! | `selection.rs` | ranking, greedy selection by cross-validation and BIC (Occam tie-break), estimates, confounding |
+//! | `selection.rs` | ranking, greedy selection by cross-validation and BIC (Occam tie-break), estimates, confounding; its module doc states the statistics (effective samples, tests, the rules for joining) |
 //! | `relinearize.rs` | the Gauss–Newton re-linearisation around the first estimates |
 //! | `verdict.rs` | the one-paragraph verdict in prose |
 //! | `format.rs` | number formatting shared by the verdict, the findings and the reports |
