@@ -258,9 +258,9 @@ fn diagnose_cmd(
     json: bool,
 ) -> ExitCode {
     use lash::diagnose::data::roles;
-    use lash::diagnose::equation_error::{diagnose_recordings, number, DiagnoseOptions};
     use lash::diagnose::model::DoublePendulumModel;
     use lash::diagnose::recording::{parse_mapping, read_csv};
+    use lash::diagnose::{diagnose_recordings, format::number, DiagnoseOptions};
     let fail = |e: &dyn std::fmt::Display| {
         eprintln!("error: {e}");
         ExitCode::FAILURE

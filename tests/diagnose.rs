@@ -2,9 +2,9 @@
 //! and bad recordings.
 
 use lash::diagnose::data::MotionData;
-use lash::diagnose::equation_error::{diagnose, DiagnoseOptions};
 use lash::diagnose::model::DoublePendulumModel;
 use lash::diagnose::recording::{read_csv, RecordingError};
+use lash::diagnose::{diagnose, DiagnoseError, DiagnoseOptions};
 use lash::mechanisms::double_pendulum::DoublePendulumParams;
 
 fn params() -> DoublePendulumParams {
@@ -90,9 +90,7 @@ fn coulomb_runs(c: f64) -> (Vec<MotionData>, Vec<MotionData>) {
 }
 
 /// Checks that Coulomb friction in joint 2 was selected first; returns its estimate.
-fn first_is_coulomb_in_joint_2(
-    d: &lash::diagnose::equation_error::Diagnosis,
-) -> &lash::diagnose::equation_error::Estimate {
+fn first_is_coulomb_in_joint_2(d: &lash::diagnose::Diagnosis) -> &lash::diagnose::Estimate {
     assert_eq!(
         d.selected.first().map(String::as_str),
         Some("Coulomb friction in joint 2 (elbow)"),
@@ -110,7 +108,7 @@ fn hidden_coulomb_friction_in_joint_2_is_named_estimated_and_removed() {
     let c = 0.05;
     let (fit, held) = coulomb_runs(c);
     let model = DoublePendulumModel { params: params() };
-    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {});
+    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap();
     let est = first_is_coulomb_in_joint_2(&d);
     assert!(
         (est.value / c - 1.0).abs() < 0.1,
@@ -141,7 +139,7 @@ fn hidden_coulomb_friction_in_joint_2_is_named_estimated_and_removed() {
 fn null_case_reports_no_significant_mismatch() {
     let (fit, held) = runs(&|_, _, _| 0.0);
     let model = DoublePendulumModel { params: params() };
-    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {});
+    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap();
     assert!(d.no_significant_mismatch, "selected {:?}", d.steps);
     assert!(d.verdict.starts_with("No significant mismatch"), "{}", d.verdict);
 }
@@ -150,7 +148,7 @@ fn null_case_reports_no_significant_mismatch() {
 fn hidden_rotor_inertia_and_viscous_friction_are_both_found() {
     let (fit, held) = runs(&|j, qd, qdd| if j == 1 { 0.004 * qdd + 0.03 * qd } else { 0.0 });
     let model = DoublePendulumModel { params: params() };
-    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {});
+    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap();
     for name in [
         "reflected rotor inertia in joint 2",
         "viscous friction in joint 2",
@@ -180,7 +178,7 @@ fn rotor_inertia_of_joint_1_and_link_1_inertia_are_flagged_as_confounded() {
     // J·q̈1 and ΔI1·q̈1 are the same torque: equation error cannot separate them.
     let (fit, held) = runs(&|j, _, qdd| if j == 0 { 0.004 * qdd } else { 0.0 });
     let model = DoublePendulumModel { params: params() };
-    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {});
+    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap();
     let names = ["reflected rotor inertia in joint 1", "error in link 1 inertia I1"];
     let first = d.selected.first().expect("something is missing");
     assert!(names.iter().any(|n| first.starts_with(n)), "{first}");
@@ -236,9 +234,136 @@ fn bad_recordings_name_file_and_line() {
 }
 
 #[test]
+fn an_empty_fit_set_is_an_error_not_a_panic() {
+    let (_, held) = runs(&|_, _, _| 0.0);
+    let model = DoublePendulumModel { params: params() };
+    let e = diagnose(&model, &[], &held, &DiagnoseOptions::default(), |_, _| {}).unwrap_err();
+    assert_eq!(e, DiagnoseError::NoFitRecordings);
+    assert!(e.to_string().contains("no fit recording"), "{e}");
+    // The same through the recording entry point.
+    let e = lash::diagnose::diagnose_recordings(
+        &model,
+        &[],
+        &[],
+        &[2, 5],
+        &DiagnoseOptions::default(),
+        |_, _| {},
+    )
+    .unwrap_err();
+    assert_eq!(e, DiagnoseError::NoFitRecordings, "{e}");
+}
+
+#[test]
+fn a_held_out_recording_with_fewer_channels_is_an_error_naming_it_and_the_channels() {
+    let (fit, mut held) = runs(&|_, _, _| 0.0);
+    held[0].tau.truncate(1);
+    let model = DoublePendulumModel { params: params() };
+    let e = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap_err();
+    assert!(
+        matches!(&e, DiagnoseError::ChannelMismatch { role: "held-out", recording, .. } if recording == "synthetic-99"),
+        "{e:?}"
+    );
+    let msg = e.to_string();
+    assert!(
+        msg.contains("held-out recording 'synthetic-99' has the channels [joint 1 (shoulder) torque]"),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("'synthetic-1' has [joint 1 (shoulder) torque, joint 2 (elbow) torque]"),
+        "{msg}"
+    );
+    // A fit recording with fewer channels than the first one is caught the same way.
+    let (mut fit, held) = runs(&|_, _, _| 0.0);
+    fit[2].tau.truncate(1);
+    let e = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap_err();
+    assert!(
+        e.to_string()
+            .starts_with("fit recording 'synthetic-3' has the channels"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_suite_case_without_fit_recordings_is_an_error() {
+    use lash::diagnose::suite::{cases, run_case, SuiteError, SuiteOptions};
+    let opts = SuiteOptions {
+        fit_recordings: 0,
+        holdout_recordings: 0,
+        ..SuiteOptions::reduced()
+    };
+    let e = run_case(&cases()[0], &opts, 0).unwrap_err();
+    assert!(
+        matches!(&e, SuiteError::Diagnose { source, .. } if **source == DiagnoseError::NoFitRecordings),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("no fit recording"), "{e}");
+}
+
+#[test]
+fn motion_data_that_does_not_fit_the_model_is_an_error_naming_the_series() {
+    let model = DoublePendulumModel { params: params() };
+    let opts = DiagnoseOptions::default();
+    let (fit, held) = runs(&|_, _, _| 0.0);
+    // Rates of joint 2 shorter than the time column.
+    let mut bad = fit.clone();
+    bad[1].qd[1].pop();
+    let e = diagnose(&model, &bad, &held, &opts, |_, _| {}).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "recording 'synthetic-2': series qd2 has 4999 samples, but its time column has 5000"
+    );
+    // Positions of one joint only, for a two-joint model.
+    let mut bad = fit.clone();
+    bad[0].q.pop();
+    let e = diagnose(&model, &bad, &held, &opts, |_, _| {}).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            DiagnoseError::JointCount {
+                found: 1,
+                joints: 2,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    // Neither torques nor outputs.
+    let mut bad = fit.clone();
+    for d in &mut bad {
+        d.tau.clear();
+    }
+    let e = diagnose(&model, &bad, &[], &opts, |_, _| {}).unwrap_err();
+    assert!(e.to_string().contains("neither torques nor outputs"), "{e}");
+    // Too short for the noise floor.
+    let mut bad = fit.clone();
+    let short = &mut bad[0];
+    short.t.truncate(10);
+    for v in short
+        .q
+        .iter_mut()
+        .chain(&mut short.qd)
+        .chain(&mut short.qdd)
+        .chain(&mut short.tau)
+    {
+        v.truncate(10);
+    }
+    let e = diagnose(&model, &bad, &held, &opts, |_, _| {}).unwrap_err();
+    assert!(matches!(e, DiagnoseError::TooFewSamples { found: 10, .. }), "{e}");
+    // Time running backwards in a held-out recording.
+    let mut bad = held.clone();
+    bad[0].t[7] = bad[0].t[5];
+    let e = diagnose(&model, &fit, &bad, &opts, |_, _| {}).unwrap_err();
+    assert!(
+        matches!(e, DiagnoseError::TimeNotIncreasing { index: 7, .. })
+            && e.to_string().contains("synthetic-99"),
+        "{e}"
+    );
+}
+
+#[test]
 fn dfki_real_recordings_joint_2_held_out_residual_falls_by_40_percent() {
     use lash::diagnose::data::roles;
-    use lash::diagnose::equation_error::diagnose_recordings;
+    use lash::diagnose::diagnose_recordings;
     use lash::diagnose::recording::parse_mapping;
     use lash::mechanisms::double_pendulum::DFKI_README;
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -346,7 +471,7 @@ fn a_mechanism_built_with_the_api_is_a_nominal_model_too() {
     // And it diagnoses hidden friction like the closed-form model does.
     let c = 0.05;
     let (fit, held) = coulomb_runs(c);
-    let d = diagnose(&api, &fit, &held, &DiagnoseOptions::default(), |_, _| {});
+    let d = diagnose(&api, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap();
     let est = first_is_coulomb_in_joint_2(&d);
     assert!((est.value / c - 1.0).abs() < 0.25, "{}", est.value);
 }

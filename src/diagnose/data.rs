@@ -1,7 +1,8 @@
 //! Measured motion and torques of one recording, ready for equation-error residuals.
 
+use super::error::DiagnoseError;
 use super::model::InverseDynamicsModel;
-use super::recording::{Recording, RecordingError};
+use super::recording::{Recording, RecordingError, MIN_SAMPLES};
 use super::signal::{derivative, derivative_cubic};
 
 /// One recording in equation-error form.
@@ -213,6 +214,93 @@ impl MotionData {
             self.qd.iter().map(|v| v[i]).collect(),
             self.qdd.iter().map(|v| v[i]).collect(),
         )
+    }
+
+    /// Checks that this recording fits `model`: positions, rates and accelerations of every
+    /// joint, torques of every joint or none, every output or none (at least one of the two),
+    /// every series as long as the time column, at least [`MIN_SAMPLES`] samples, time finite
+    /// and strictly increasing.
+    pub fn check(&self, model: &dyn InverseDynamicsModel) -> Result<(), DiagnoseError> {
+        let recording = || self.name.clone();
+        let (nj, no, n) = (model.joints(), model.outputs(), self.len());
+        for (what, series) in [
+            ("positions", &self.q),
+            ("rates", &self.qd),
+            ("accelerations", &self.qdd),
+        ] {
+            if series.len() != nj {
+                return Err(DiagnoseError::JointCount {
+                    recording: recording(),
+                    what,
+                    found: series.len(),
+                    joints: nj,
+                });
+            }
+        }
+        if !self.tau.is_empty() && self.tau.len() != nj {
+            return Err(DiagnoseError::TorqueCount {
+                recording: recording(),
+                found: self.tau.len(),
+                joints: nj,
+            });
+        }
+        if !self.y.is_empty() && self.y.len() != no {
+            return Err(DiagnoseError::OutputCount {
+                recording: recording(),
+                found: self.y.len(),
+                outputs: no,
+            });
+        }
+        if self.tau.is_empty() && self.y.is_empty() {
+            return Err(DiagnoseError::NoChannels {
+                recording: recording(),
+            });
+        }
+        let roles = (0..nj)
+            .flat_map(|j| {
+                [
+                    (format!("q{}", j + 1), &self.q[j]),
+                    (format!("qd{}", j + 1), &self.qd[j]),
+                    (format!("qdd{}", j + 1), &self.qdd[j]),
+                ]
+            })
+            .chain(
+                self.tau
+                    .iter()
+                    .enumerate()
+                    .map(|(j, v)| (format!("tau{}", j + 1), v)),
+            )
+            .chain(self.y.iter().enumerate().map(|(k, v)| (model.output_role(k), v)));
+        for (series, v) in roles {
+            if v.len() != n {
+                return Err(DiagnoseError::SeriesLength {
+                    recording: recording(),
+                    series,
+                    found: v.len(),
+                    expected: n,
+                });
+            }
+        }
+        if n < MIN_SAMPLES {
+            return Err(DiagnoseError::TooFewSamples {
+                recording: recording(),
+                found: n,
+                needed: MIN_SAMPLES,
+            });
+        }
+        let mut previous = f64::NEG_INFINITY;
+        for (index, &t) in self.t.iter().enumerate() {
+            if !(t.is_finite() && t > previous) {
+                return Err(DiagnoseError::TimeNotIncreasing {
+                    recording: recording(),
+                    index,
+                    t,
+                    previous,
+                });
+            }
+            previous = t;
+        }
+        Ok(())
     }
 
     /// Samples.

@@ -333,8 +333,8 @@ pub fn locate(
             f.recording,
             f.t0,
             f.t1,
-            super::equation_error::number(f.rms),
-            super::equation_error::number(f.noise_floor)
+            super::format::number(f.rms),
+            super::format::number(f.noise_floor)
         );
         out.findings.push(f);
     }

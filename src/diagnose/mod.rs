@@ -7,11 +7,19 @@
 //! | `signal.rs` | noise floor, derivatives on irregular grids, autocorrelation |
 //! | `model.rs` | the nominal model (torques from measured motion, outputs such as a tracked platform position), its perturbable parameters; the DFKI pendulum and the MR2120 |
 //! | `mechanism.rs` | any mechanism built with the multibody API as a nominal model |
-//! | `data.rs` | measured motion and torques of one recording |
+//! | `data.rs` | measured motion and torques of one recording, checked against the model |
 //! | `candidates.rs` | the library of candidate physics and their regressors |
 //! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
 //! | `locate.rs` | significant residual windows tied to the mechanism's state |
-//! | `equation_error.rs` | ranking, greedy selection, estimates, confounding, held-out check |
+//! | `run.rs` | the entry points [`diagnose`] and [`diagnose_recordings`]: noise floors, localisation, held-out check |
+//! | `options.rs` | [`DiagnoseOptions`], every tunable of the diagnosis |
+//! | `outcome.rs` | [`Diagnosis`] and its parts (ranking, steps, estimates, confounded pairs, channel fits) |
+//! | `error.rs` | [`DiagnoseError`]: why a diagnosis cannot run |
+//! | `residuals.rs` | residual assembly for both residual modes: weighted residuals, candidate columns, Gram matrices |
+//! | `selection.rs` | ranking, greedy selection by cross-validation and BIC (Occam tie-break), estimates, confounding; its module doc states the statistics (effective samples, tests, the rules for joining) |
+//! | `relinearize.rs` | the Gauss–Newton re-linearisation around the first estimates |
+//! | `verdict.rs` | the one-paragraph verdict in prose |
+//! | `format.rs` | number formatting shared by the verdict, the findings and the reports |
 //! | `report.rs` | the report folder (Markdown, JSON, plots) |
 //! | `suite.rs` | the concealed-effects suite on synthetic MR2120 recordings and its scoreboard |
 //!
@@ -25,7 +33,7 @@
 //! care of effects that are not linear in their parameters).
 //!
 //! ```no_run
-//! use lash::diagnose::{data::MotionData, equation_error::{diagnose, DiagnoseOptions}};
+//! use lash::diagnose::{diagnose, data::MotionData, DiagnoseOptions};
 //! use lash::diagnose::model::DoublePendulumModel;
 //! use lash::diagnose::recording::read_csv;
 //! use lash::mechanisms::double_pendulum::{DoublePendulumParams, DFKI_README};
@@ -42,19 +50,32 @@
 //! let dir = "../shared/data/dfki-double-pendulum/recordings";
 //! let fit = vec![load(&format!("{dir}/trajectory_00.csv"))?, load(&format!("{dir}/trajectory_01.csv"))?];
 //! let held = vec![load(&format!("{dir}/trajectory_12.csv"))?];
-//! let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {});
+//! let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {})?;
 //! println!("{}", d.verdict);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
 pub mod candidates;
 pub mod data;
-pub mod equation_error;
+mod error;
+pub mod format;
 pub mod locate;
 pub mod mechanism;
 pub mod model;
+mod options;
+mod outcome;
 pub mod recording;
+mod relinearize;
 pub mod report;
+mod residuals;
+mod run;
+mod selection;
 pub mod signal;
 pub mod stats;
 pub mod suite;
+mod verdict;
+
+pub use error::DiagnoseError;
+pub use options::DiagnoseOptions;
+pub use outcome::{ChannelFit, Confound, Diagnosis, Estimate, Ranked, ResidualTrace, Step};
+pub use run::{diagnose, diagnose_recordings};

@@ -1,7 +1,8 @@
 //! The report folder: `report.md` (for people), `report.json` (for scripts), and residual
 //! plots before/after the fit for every held-out recording and channel (PNG and SVG).
 
-use super::equation_error::{number, Diagnosis};
+use super::format::number;
+use super::Diagnosis;
 use crate::plot::{LineChart, Series};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -68,11 +69,8 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<std::path::PathBuf, Rep
         plots.push((tr.recording.clone(), tr.channel.clone(), stem));
     }
     let json = dir.join("report.json");
-    std::fs::write(
-        &json,
-        serde_json::to_string_pretty(d).expect("diagnosis serialises"),
-    )
-    .map_err(|e| io(&json, e))?;
+    let text = serde_json::to_string_pretty(d).map_err(|e| io(&json, e))?;
+    std::fs::write(&json, text).map_err(|e| io(&json, e))?;
     let mut m = String::new();
     let _ = writeln!(m, "# lash diagnose: {}\n", d.model);
     let _ = writeln!(m, "## Verdict\n\n{}\n", d.verdict);

@@ -20,9 +20,9 @@
 //!   separating experiment named.
 
 use super::data::MotionData;
-use super::equation_error::{diagnose, DiagnoseOptions, Diagnosis};
 use super::model::Mr2120Model;
 use super::signal::derivative_cubic;
+use super::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis};
 use crate::mechanisms::mr2120::record::{
     nominal_model, record, Excitation, HiddenEffects, RecordError, RecordOptions, Recorded, SensorNoise,
 };
@@ -478,6 +478,14 @@ pub enum SuiteError {
         /// Cause.
         source: RecordError,
     },
+    /// The diagnosis could not run (e.g. no fit recordings).
+    #[error("case {case}: {source}")]
+    Diagnose {
+        /// Case.
+        case: String,
+        /// Cause (boxed: a diagnosis error carries several names).
+        source: Box<DiagnoseError>,
+    },
 }
 
 fn motion(rec: &Recorded, name: String, window: usize, torques: bool) -> MotionData {
@@ -557,7 +565,10 @@ pub fn run_case(
         }
     }
     let dopts = DiagnoseOptions::default();
-    let d = diagnose(&model, &fit, &held, &dopts, |_, _| {});
+    let d = diagnose(&model, &fit, &held, &dopts, |_, _| {}).map_err(|source| SuiteError::Diagnose {
+        case: case.name.clone(),
+        source: Box::new(source),
+    })?;
     let k = case.truth.len();
     let first: Vec<&String> = d.selected.iter().take(k).collect();
     let ranked_first = match case.kind {

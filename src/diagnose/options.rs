@@ -1,0 +1,52 @@
+//! Every tunable of the diagnosis, with its default.
+
+use super::candidates::LibraryOptions;
+use super::locate::LocateOptions;
+
+/// Every tunable of the diagnosis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiagnoseOptions {
+    /// Candidate library settings.
+    pub library: LibraryOptions,
+    /// Significance level of the likelihood-ratio tests.
+    pub significance: f64,
+    /// Smallest relative fall of the cross-validated residual RMS for a candidate to join.
+    pub min_gain: f64,
+    /// Most effects combined.
+    pub max_effects: usize,
+    /// Candidates (by test statistic) whose cross-validated error is computed at each step.
+    pub shortlist: usize,
+    /// Two models whose cross-validated RMS differ by less than this (relative) cannot be
+    /// told apart with the data.
+    pub confound_tolerance: f64,
+    /// Localisation settings.
+    pub locate: LocateOptions,
+    /// Re-weigh the channels once by the residual the first selection leaves, then select
+    /// again.
+    pub reweight: bool,
+    /// Re-linearise once: move the selected model-parameter and sensor-offset estimates into
+    /// the model, recompute every column around them and select again (one Gauss–Newton
+    /// step for effects that are not linear in their parameters).
+    pub relinearize: bool,
+    /// The linearisation point, set by the re-linearisation: candidates whose values the
+    /// model already contains (name, value). Residuals are taken as if from the nominal
+    /// model (r + Σ value·column), so estimates are totals and any effect can still drop out.
+    pub shift: Vec<(String, f64)>,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        Self {
+            library: LibraryOptions::default(),
+            significance: 1e-3,
+            min_gain: 0.002,
+            max_effects: 6,
+            shortlist: 6,
+            confound_tolerance: 0.005,
+            locate: LocateOptions::default(),
+            reweight: true,
+            relinearize: true,
+            shift: vec![],
+        }
+    }
+}

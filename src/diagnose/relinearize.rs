@@ -1,0 +1,151 @@
+//! Re-linearisation: one Gauss–Newton step for effects that are not linear in their
+//! parameters. The first pass's estimates of model parameters and joint-position sensor
+//! offsets move into the model ([`Shifted`]); every column is recomputed around them and the
+//! selection runs again, with residuals taken as if from the nominal model so estimates stay
+//! totals. The second pass is then reported against the nominal model.
+
+use super::candidates::{Candidate, Effect};
+use super::model::{InverseDynamicsModel, ModelParameter, OutputSensitivities};
+use super::outcome::Diagnosis;
+use super::verdict::verdict_text;
+
+/// The model moved by the first pass's estimates, and the moved (candidate, value) pairs
+/// (the linearisation point, `DiagnoseOptions::shift`); `None` if no estimate moves the
+/// model.
+pub(super) fn shift<'a>(
+    model: &'a dyn InverseDynamicsModel,
+    first: &Diagnosis,
+    cands: &[Candidate],
+) -> Option<(Shifted<'a>, Vec<(String, f64)>)> {
+    let mut delta = vec![0.0; model.parameters().len()];
+    let mut q_offset = vec![0.0; model.joints()];
+    let mut moved: Vec<(String, f64)> = vec![];
+    for e in &first.estimates {
+        let Some(c) = cands.iter().find(|c| c.name == e.candidate) else {
+            continue;
+        };
+        match (c.effect, c.joint) {
+            (Effect::Parameter { index, .. }, _) => delta[index] += e.value,
+            (Effect::PositionOffset, Some(j)) => q_offset[j] += e.value,
+            _ => continue,
+        }
+        moved.push((c.name.clone(), e.value));
+    }
+    if moved.is_empty() {
+        return None;
+    }
+    let shifted = Shifted {
+        inner: model,
+        delta,
+        q_offset,
+    };
+    Some((shifted, moved))
+}
+
+/// The second pass (`second`, at the shifted point) reported against the nominal model:
+/// "before" is the nominal model's, and so are the localisation and the score tests of the
+/// first pass; the verdict is written anew.
+pub(super) fn against_nominal(
+    model: &dyn InverseDynamicsModel,
+    first: Diagnosis,
+    mut second: Diagnosis,
+    cands: &[Candidate],
+) -> Diagnosis {
+    for (c2, c1) in second.channels.iter_mut().zip(&first.channels) {
+        c2.fit_before = c1.fit_before;
+        c2.holdout_before = c1.holdout_before;
+        c2.holdout_reduction = if c1.holdout_before > 0.0 {
+            1.0 - c2.holdout_after / c1.holdout_before
+        } else {
+            0.0
+        };
+    }
+    for (t2, t1) in second.traces.iter_mut().zip(&first.traces) {
+        t2.before = t1.before.clone();
+    }
+    second.location = first.location;
+    second.ranking = first.ranking;
+    second.model = first.model;
+    second.no_significant_mismatch = second.selected.is_empty();
+    second.verdict = verdict_text(model, &second, cands);
+    second
+}
+
+/// The nominal model with its parameters moved by `delta` and its joint positions read with
+/// `q_offset` removed.
+pub(super) struct Shifted<'a> {
+    inner: &'a dyn InverseDynamicsModel,
+    delta: Vec<f64>,
+    q_offset: Vec<f64>,
+}
+
+impl Shifted<'_> {
+    fn q(&self, q: &[f64]) -> Vec<f64> {
+        q.iter().zip(&self.q_offset).map(|(a, b)| a - b).collect()
+    }
+}
+
+impl InverseDynamicsModel for Shifted<'_> {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+    fn joints(&self) -> usize {
+        self.inner.joints()
+    }
+    fn joint_name(&self, j: usize) -> String {
+        self.inner.joint_name(j)
+    }
+    fn parameters(&self) -> Vec<ModelParameter> {
+        let mut p = self.inner.parameters();
+        for (x, d) in p.iter_mut().zip(&self.delta) {
+            x.nominal += d;
+        }
+        p
+    }
+    fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
+        self.inner.torques(theta, &self.q(q), qd, qdd, tau)
+    }
+    fn rotor_regressor(&self, j: usize, qdd: &[f64], out: &mut [f64]) {
+        self.inner.rotor_regressor(j, qdd, out)
+    }
+    fn outputs(&self) -> usize {
+        self.inner.outputs()
+    }
+    fn output_name(&self, k: usize) -> String {
+        self.inner.output_name(k)
+    }
+    fn output_unit(&self, k: usize) -> String {
+        self.inner.output_unit(k)
+    }
+    fn output_role(&self, k: usize) -> String {
+        self.inner.output_role(k)
+    }
+    fn evaluate(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64], y: &mut [f64]) {
+        self.inner.evaluate(theta, &self.q(q), qd, qdd, tau, y)
+    }
+    fn output_sensitivities(
+        &self,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        y: &[f64],
+    ) -> Option<OutputSensitivities> {
+        self.inner.output_sensitivities(theta, &self.q(q), qd, qdd, y)
+    }
+    fn clearance_sites(&self) -> Vec<String> {
+        self.inner.clearance_sites()
+    }
+    fn clearance_load_scale(&self) -> f64 {
+        self.inner.clearance_load_scale()
+    }
+    fn backlash_torque_scale(&self) -> f64 {
+        self.inner.backlash_torque_scale()
+    }
+    fn drive_compliance(&self, theta: &[f64], j: usize) -> f64 {
+        self.inner.drive_compliance(theta, j)
+    }
+    fn configuration_tag(&self, theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
+        self.inner.configuration_tag(theta, &self.q(q), y)
+    }
+}

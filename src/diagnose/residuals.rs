@@ -1,0 +1,217 @@
+//! Residual assembly shared by both residual modes: every recording's weighted residual
+//! (measured − nominal, torques for equation error, outputs for output error) and the
+//! regressor columns of the whole candidate library, accumulated once into Gram matrices so
+//! that any subset fit, cross-validation fold or test is a small dense solve.
+//!
+//! Samples the model cannot evaluate carry no weight; a linearisation point moved by the
+//! re-linearisation (`DiagnoseOptions::shift`) is undone in the residual, so estimates stay
+//! totals relative to the nominal model.
+
+use super::candidates::{columns, Candidate};
+use super::data::MotionData;
+use super::error::DiagnoseError;
+use super::model::InverseDynamicsModel;
+use super::options::DiagnoseOptions;
+use super::stats::Gram;
+
+/// The weighted residuals and candidate columns of a set of recordings.
+pub(super) struct Prepared {
+    /// The candidate library.
+    pub cands: Vec<Candidate>,
+    /// Global column indices of each candidate.
+    pub cols_of: Vec<Vec<usize>>,
+    /// Per recording: columns (all candidates, flattened) and weighted residual.
+    pub blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)>,
+    /// Per recording: the Gram matrices of the columns and residual.
+    pub grams: Vec<Gram>,
+    /// Their sum.
+    total: Gram,
+}
+
+/// Weighted residuals (channel j divided by `sigma[j]`) and columns of `cands` on `data`
+/// (at least one recording, all with the channels of the first).
+pub(super) fn prepare(
+    model: &dyn InverseDynamicsModel,
+    data: &[MotionData],
+    sigma: &[f64],
+    cands: &[Candidate],
+    opts: &DiagnoseOptions,
+) -> Result<Prepared, DiagnoseError> {
+    let mut cols_of = vec![];
+    let mut blocks = vec![];
+    for d in data {
+        let n = d.len();
+        let chans = d.channels();
+        let nc = chans.len();
+        let (mut per, nominal) = columns(cands, d, model, &opts.library);
+        let mut b = vec![0.0; nc * n];
+        for (j, &c) in chans.iter().enumerate() {
+            let meas = d.measured(c);
+            for i in 0..n {
+                b[j * n + i] = (meas[i] - nominal[j][i]) / sigma[j];
+            }
+        }
+        // Samples the model cannot evaluate (e.g. beyond a singular configuration) carry no
+        // weight.
+        for i in 0..n {
+            if (0..nc).any(|j| !b[j * n + i].is_finite()) {
+                for j in 0..nc {
+                    b[j * n + i] = 0.0;
+                    for cc in per.iter_mut() {
+                        for col in cc.iter_mut() {
+                            col[j * n + i] = 0.0;
+                        }
+                    }
+                }
+            }
+        }
+        // Residual as if from the nominal model, linearised at the shifted point.
+        for (name, value) in &opts.shift {
+            if let Some(c) = cands.iter().position(|x| &x.name == name) {
+                for col in &per[c] {
+                    for (i, (bi, ci)) in b.iter_mut().zip(col).enumerate() {
+                        *bi += value * ci / sigma[i / n];
+                    }
+                }
+            }
+        }
+        let mut flat = vec![];
+        let mut idx = vec![];
+        for cc in per {
+            let mut ids = vec![];
+            for mut col in cc {
+                for j in 0..nc {
+                    for v in &mut col[j * n..(j + 1) * n] {
+                        *v /= sigma[j];
+                    }
+                }
+                ids.push(flat.len());
+                flat.push(col);
+            }
+            idx.push(ids);
+        }
+        cols_of = idx;
+        blocks.push((flat, b));
+    }
+    Prepared::new(cands.to_vec(), cols_of, blocks)
+}
+
+impl Prepared {
+    /// Accumulates the Gram matrices of `blocks` (one per recording; none is an error).
+    fn new(
+        cands: Vec<Candidate>,
+        cols_of: Vec<Vec<usize>>,
+        blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)>,
+    ) -> Result<Prepared, DiagnoseError> {
+        let grams: Vec<Gram> = blocks.iter().map(|(c, b)| Gram::new(c, b)).collect();
+        let total = Gram::sum(&grams).ok_or(DiagnoseError::NoFitRecordings)?;
+        Ok(Prepared {
+            cands,
+            cols_of,
+            blocks,
+            grams,
+            total,
+        })
+    }
+    /// The same columns and residual with channel j divided by `w[j]` (recording r has
+    /// `lens[r]` samples per channel).
+    pub(super) fn reweighed(&self, w: &[f64], lens: &[usize]) -> Result<Prepared, DiagnoseError> {
+        let blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)> = self
+            .blocks
+            .iter()
+            .zip(lens)
+            .map(|((cols, b), &n)| {
+                let scale =
+                    |v: &[f64]| -> Vec<f64> { v.iter().enumerate().map(|(i, x)| x / w[i / n]).collect() };
+                (cols.iter().map(|c| scale(c)).collect(), scale(b))
+            })
+            .collect();
+        Prepared::new(self.cands.clone(), self.cols_of.clone(), blocks)
+    }
+    /// Global column indices of the candidates in `set`.
+    pub(super) fn idx(&self, set: &[usize]) -> Vec<usize> {
+        set.iter().flat_map(|&c| self.cols_of[c].clone()).collect()
+    }
+    /// The Gram matrices of all recordings summed.
+    pub(super) fn total(&self) -> &Gram {
+        &self.total
+    }
+    /// Residual sum of squares of a fit of `set` on all recordings.
+    pub(super) fn rss(&self, set: &[usize]) -> f64 {
+        let g = self.total();
+        let idx = self.idx(set);
+        let x = g.solve(&idx);
+        g.rss(&idx, &x)
+    }
+    /// Leave-one-recording-out cross-validated RSS (plain RSS with one recording).
+    pub(super) fn cv_rss(&self, set: &[usize]) -> f64 {
+        let idx = self.idx(set);
+        let total = self.total();
+        if self.grams.len() < 2 {
+            return total.rss(&idx, &total.solve(&idx));
+        }
+        self.grams
+            .iter()
+            .map(|fold| {
+                let train = total.minus(fold);
+                fold.rss(&idx, &train.solve(&idx))
+            })
+            .sum()
+    }
+    /// Leave-one-recording-out residual RMS of `set` with channel j rescaled by `factor[j]`
+    /// (e.g. to noise-floor units, comparable between pre-processing choices).
+    pub(super) fn cv_rms_rescaled(&self, set: &[usize], factor: &[f64], lens: &[usize]) -> f64 {
+        let idx = self.idx(set);
+        let total = self.total();
+        let (mut ss, mut n) = (0.0, 0usize);
+        for (r, fold) in self.grams.iter().enumerate() {
+            let train = if self.grams.len() > 1 {
+                total.minus(fold)
+            } else {
+                total.clone()
+            };
+            let x = train.solve(&idx);
+            let res = self.residual(r, set, &x);
+            for (j, f) in factor.iter().enumerate() {
+                for v in &res[j * lens[r]..(j + 1) * lens[r]] {
+                    ss += (v * f).powi(2);
+                    n += 1;
+                }
+            }
+        }
+        (ss / n.max(1) as f64).sqrt()
+    }
+    /// True if every coefficient of a fit of `set` lies within its candidate's bounds.
+    pub(super) fn plausible(&self, set: &[usize]) -> bool {
+        let g = self.total();
+        let x = g.solve(&self.idx(set));
+        let mut p = 0;
+        for &c in set {
+            for &(lo, hi) in &self.cands[c].bounds {
+                if !(x[p] >= lo && x[p] <= hi) {
+                    return false;
+                }
+                p += 1;
+            }
+        }
+        true
+    }
+    /// Degrees of freedom of `set`: its columns and its grid-searched parameters.
+    pub(super) fn dof(&self, set: &[usize]) -> usize {
+        set.iter()
+            .map(|&c| self.cols_of[c].len() + self.cands[c].grid_parameters)
+            .sum()
+    }
+    /// Weighted residual series of a fit of `set` on recording r, per joint.
+    pub(super) fn residual(&self, r: usize, set: &[usize], x: &[f64]) -> Vec<f64> {
+        let (cols, b) = &self.blocks[r];
+        let idx = self.idx(set);
+        let mut out = b.clone();
+        for (p, &i) in idx.iter().enumerate() {
+            for (o, c) in out.iter_mut().zip(&cols[i]) {
+                *o -= x[p] * c;
+            }
+        }
+        out
+    }
+}

@@ -1,0 +1,295 @@
+//! The entry points: [`diagnose`] on prepared motion data (noise floors, localisation, the
+//! selection, estimates, confounding and the held-out check, then one re-linearisation) and
+//! [`diagnose_recordings`] on recordings, which first chooses the differentiation window.
+
+use super::candidates::library;
+use super::data::{Channel, MotionData};
+use super::error::DiagnoseError;
+use super::locate::locate;
+use super::model::InverseDynamicsModel;
+use super::options::DiagnoseOptions;
+use super::outcome::{ChannelFit, Diagnosis, ResidualTrace};
+use super::recording::Recording;
+use super::relinearize;
+use super::residuals::{prepare, Prepared};
+use super::selection::{confounded, estimate, select, Estimates, Selection};
+use super::signal::{noise_floor, rms};
+use super::verdict::verdict;
+
+/// Runs the diagnosis of `model` on the `fit` recordings, checked on `holdout` (equation
+/// error on torque channels, output error on output channels). `progress` receives (stage,
+/// fraction done).
+///
+/// Errors: an empty fit set, a recording that does not fit the model
+/// ([`MotionData::check`]), or one whose channels differ from the first fit recording's.
+pub fn diagnose(
+    model: &dyn InverseDynamicsModel,
+    fit: &[MotionData],
+    holdout: &[MotionData],
+    opts: &DiagnoseOptions,
+    mut progress: impl FnMut(&str, f64),
+) -> Result<Diagnosis, DiagnoseError> {
+    check_recordings(model, fit, holdout)?;
+    let first = diagnose_once(model, fit, holdout, opts, |s, f| progress(s, 0.5 * f))?;
+    if !opts.relinearize {
+        progress("done", 1.0);
+        return Ok(first);
+    }
+    // Shift the model by the selected parameter and sensor-offset estimates.
+    let cands = library(model, &opts.library);
+    let Some((shifted, moved)) = relinearize::shift(model, &first, &cands) else {
+        progress("done", 1.0);
+        return Ok(first);
+    };
+    let mut o2 = opts.clone();
+    o2.relinearize = false;
+    o2.shift = moved;
+    let second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.5 * f))?;
+    let d = relinearize::against_nominal(model, first, second, &cands);
+    progress("done", 1.0);
+    Ok(d)
+}
+
+/// Checks every recording against the model and the channels of every fit and held-out
+/// recording against those of the first fit recording.
+fn check_recordings(
+    model: &dyn InverseDynamicsModel,
+    fit: &[MotionData],
+    holdout: &[MotionData],
+) -> Result<(), DiagnoseError> {
+    let first = fit.first().ok_or(DiagnoseError::NoFitRecordings)?;
+    first.check(model)?;
+    let expected = first.channels();
+    // Channel names without asking the model about joints or outputs it does not have.
+    let names = |chans: &[Channel]| {
+        if chans.is_empty() {
+            return "none".to_string();
+        }
+        chans
+            .iter()
+            .map(|c| match *c {
+                Channel::Torque(j) if j >= model.joints() => format!("torque of joint {}", j + 1),
+                Channel::Output(k) if k >= model.outputs() => format!("output {}", k + 1),
+                c => c.name(model),
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let others = fit[1..]
+        .iter()
+        .map(|d| ("fit", d))
+        .chain(holdout.iter().map(|d| ("held-out", d)));
+    for (role, d) in others {
+        let chans = d.channels();
+        if chans != expected {
+            return Err(DiagnoseError::ChannelMismatch {
+                role,
+                recording: d.name.clone(),
+                channels: names(&chans),
+                reference: first.name.clone(),
+                expected: names(&expected),
+            });
+        }
+        d.check(model)?;
+    }
+    Ok(())
+}
+
+/// One pass of the diagnosis at the model's nominal parameters (recordings checked by
+/// [`check_recordings`]).
+fn diagnose_once(
+    model: &dyn InverseDynamicsModel,
+    fit: &[MotionData],
+    holdout: &[MotionData],
+    opts: &DiagnoseOptions,
+    mut progress: impl FnMut(&str, f64),
+) -> Result<Diagnosis, DiagnoseError> {
+    let chans = fit.first().map(MotionData::channels).unwrap_or_default();
+    let nj = chans.len();
+    progress("noise floor", 0.0);
+    // Noise floor per channel: median over the fit recordings.
+    let sigma: Vec<f64> = chans
+        .iter()
+        .map(|&c| {
+            let mut v: Vec<f64> = fit.iter().map(|d| noise_floor(d.measured(c))).collect();
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2].max(1e-12)
+        })
+        .collect();
+    let theta0: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    progress("locate", 0.1);
+    let location = locate(model, fit, &theta0, &sigma, &opts.locate);
+    let cands = library(model, &opts.library);
+    progress("candidate regressors", 0.2);
+    let lens: Vec<usize> = fit.iter().map(MotionData::len).collect();
+    let raw = prepare(model, fit, &vec![1.0; nj], &cands, opts)?;
+    let sel = select(&raw, &cands, &lens, &sigma, opts, &mut progress)?;
+    progress("estimates", 0.85);
+    let Estimates {
+        x,
+        estimates,
+        correlations,
+    } = estimate(&sel, &cands);
+    let confounded = confounded(&sel, &cands, opts);
+    let Selection {
+        prep,
+        set,
+        steps,
+        ranking,
+        n,
+        n_eff,
+        weight_scale,
+        ..
+    } = sel;
+    progress("held-out check", 0.9);
+    let (channels, traces) = channel_fits(model, fit, holdout, &prep, &set, &x, &weight_scale, &sigma, opts)?;
+    let factor: Vec<f64> = (0..nj).map(|j| weight_scale[j] / sigma[j]).collect();
+    let cv_rms_noise_units = prep.cv_rms_rescaled(&set, &factor, &lens);
+    let no_mismatch = set.is_empty();
+    let verdict = verdict(
+        model,
+        &set,
+        &prep.cands,
+        &estimates,
+        &channels,
+        &confounded,
+        &location,
+    );
+    progress("done", 1.0);
+    Ok(Diagnosis {
+        model: model.name(),
+        fit_recordings: fit.iter().map(|d| d.name.clone()).collect(),
+        holdout_recordings: holdout.iter().map(|d| d.name.clone()).collect(),
+        samples: n,
+        effective_samples: n_eff,
+        location,
+        ranking,
+        steps,
+        selected: set.iter().map(|&c| cands[c].name.clone()).collect(),
+        estimates,
+        correlations,
+        confounded,
+        channels,
+        no_significant_mismatch: no_mismatch,
+        verdict,
+        cv_rms_noise_units,
+        derivative_window: (0, vec![]),
+        traces,
+    })
+}
+
+/// Chooses the half-width of the rate differentiation by leave-one-recording-out
+/// cross-validation of the whole diagnosis on the fit recordings (the held-out recordings
+/// play no part), then diagnoses with it. Short windows pass acceleration noise into the
+/// inertial regressors; long ones bias fast motion: the cross-validated torque prediction
+/// error measures both.
+pub fn diagnose_recordings(
+    model: &dyn InverseDynamicsModel,
+    fit: &[Recording],
+    holdout: &[Recording],
+    windows: &[usize],
+    opts: &DiagnoseOptions,
+    mut progress: impl FnMut(&str, f64),
+) -> Result<Diagnosis, DiagnoseError> {
+    let nj = model.joints();
+    let load = |recs: &[Recording], w: usize| -> Result<Vec<MotionData>, _> {
+        recs.iter()
+            .map(|r| {
+                if model.outputs() > 0 {
+                    MotionData::from_recording_with_outputs(r, model, w)
+                } else {
+                    MotionData::from_recording(r, nj, w)
+                }
+            })
+            .collect()
+    };
+    let mut scores = vec![];
+    if windows.len() > 1 {
+        for (k, &w) in windows.iter().enumerate() {
+            progress(
+                "choosing the differentiation window",
+                k as f64 / windows.len() as f64 * 0.5,
+            );
+            let d = diagnose(model, &load(fit, w)?, &[], opts, |_, _| {})?;
+            scores.push((w, d.cv_rms_noise_units));
+        }
+    }
+    let w = scores
+        .iter()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|s| s.0)
+        .unwrap_or(windows.first().copied().unwrap_or(5));
+    let mut d = diagnose(model, &load(fit, w)?, &load(holdout, w)?, opts, |s, f| {
+        progress(s, 0.5 + 0.5 * f)
+    })?;
+    d.derivative_window = (w, scores);
+    Ok(d)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn channel_fits(
+    model: &dyn InverseDynamicsModel,
+    fit: &[MotionData],
+    holdout: &[MotionData],
+    prep: &Prepared,
+    set: &[usize],
+    x: &[f64],
+    sigma: &[f64],
+    noise: &[f64],
+    opts: &DiagnoseOptions,
+) -> Result<(Vec<ChannelFit>, Vec<ResidualTrace>), DiagnoseError> {
+    let chans = fit.first().map(MotionData::channels).unwrap_or_default();
+    let nj = chans.len();
+    let mut fit_b = vec![vec![]; nj];
+    let mut fit_a = vec![vec![]; nj];
+    for r in 0..fit.len() {
+        let n = fit[r].len();
+        let before = &prep.blocks[r].1;
+        let after = prep.residual(r, set, x);
+        for j in 0..nj {
+            fit_b[j].extend(before[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]));
+            fit_a[j].extend(after[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]));
+        }
+    }
+    let mut ho_b = vec![vec![]; nj];
+    let mut ho_a = vec![vec![]; nj];
+    let mut traces = vec![];
+    if !holdout.is_empty() {
+        let hp = prepare(model, holdout, sigma, &prep.cands, opts)?;
+        for r in 0..holdout.len() {
+            let n = holdout[r].len();
+            let before = &hp.blocks[r].1;
+            let after = hp.residual(r, set, x);
+            for j in 0..nj {
+                let b: Vec<f64> = before[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]).collect();
+                let a: Vec<f64> = after[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]).collect();
+                ho_b[j].extend(&b);
+                ho_a[j].extend(&a);
+                traces.push(ResidualTrace {
+                    recording: holdout[r].name.clone(),
+                    channel: chans[j].name(model),
+                    unit: chans[j].unit(model),
+                    t: holdout[r].t.clone(),
+                    before: b,
+                    after: a,
+                });
+            }
+        }
+    }
+    let channels = (0..nj)
+        .map(|j| {
+            let (hb, ha) = (rms(&ho_b[j]), rms(&ho_a[j]));
+            ChannelFit {
+                channel: chans[j].name(model),
+                unit: chans[j].unit(model),
+                noise_floor: noise[j],
+                fit_before: rms(&fit_b[j]),
+                fit_after: rms(&fit_a[j]),
+                holdout_before: hb,
+                holdout_after: ha,
+                holdout_reduction: if hb > 0.0 { 1.0 - ha / hb } else { 0.0 },
+            }
+        })
+        .collect();
+    Ok((channels, traces))
+}

@@ -1,0 +1,354 @@
+//! Selection: rank every candidate by its likelihood-ratio test at the nominal model, add
+//! effects greedily by cross-validated error and an information criterion (among the
+//! candidates the data cannot tell apart, the simpler law), re-weigh the channels once, then
+//! estimate the selected parameters with their uncertainty and flag the effects the data
+//! cannot separate.
+//!
+//! Statistics. Residuals are weighted by each channel's noise floor. Model misfit is smooth,
+//! so residual samples are not independent: tests and the information criterion use an
+//! effective sample count n·(1 − ρ)/(1 + ρ), ρ the lag-1 autocorrelation of the residual left
+//! after fitting the whole library (what remains is closest to the noise). Candidates are
+//! ranked by the likelihood-ratio statistic n_eff·ln(RSS₀/RSS₁) (χ² with as many degrees of
+//! freedom as columns). A candidate joins the model only if (1) its test is significant,
+//! (2) the leave-one-recording-out cross-validated residual falls by at least `min_gain`,
+//! and (3) the effective BIC falls.
+
+use super::candidates::{separating_experiment, Candidate, Effect};
+use super::error::DiagnoseError;
+use super::options::DiagnoseOptions;
+use super::outcome::{Confound, Estimate, Ranked, Step};
+use super::residuals::Prepared;
+use super::signal::{effective_samples, lag1};
+use super::stats::{chi2_sf, Gram};
+
+/// The outcome of the greedy selection.
+pub(super) struct Selection {
+    /// Residuals and columns with the final channel weights.
+    pub prep: Prepared,
+    /// Selected candidates (indices into the library), in order.
+    pub set: Vec<usize>,
+    /// Greedy steps.
+    pub steps: Vec<Step>,
+    /// Cross-validated RSS of the selection.
+    pub cv: f64,
+    /// Every candidate's test at the nominal model, strongest first.
+    pub ranking: Vec<Ranked>,
+    /// Samples × channels.
+    pub n: usize,
+    /// Effective independent samples.
+    pub n_eff: f64,
+    /// The Gram matrices of all recordings summed.
+    pub total: Gram,
+    /// Final channel weights (in the units of the residual `raw` was prepared with).
+    pub weight_scale: Vec<f64>,
+}
+
+/// Ranks and selects on `raw` (residuals divided by the noise floors `sigma`; recording r
+/// has `lens[r]` samples per channel).
+pub(super) fn select(
+    raw: &Prepared,
+    cands: &[Candidate],
+    lens: &[usize],
+    sigma: &[f64],
+    opts: &DiagnoseOptions,
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<Selection, DiagnoseError> {
+    let nj = sigma.len();
+    // Channel weights: the larger of the noise floor and the nominal misfit of the channel,
+    // so a channel whose misfit dwarfs its noise does not drown the others (one step of
+    // feasible generalised least squares).
+    let mut weight_scale: Vec<f64> = (0..nj)
+        .map(|j| {
+            let (ss, cnt) = raw
+                .blocks
+                .iter()
+                .zip(lens)
+                .fold((0.0, 0usize), |(ss, cnt), ((_, b), &n)| {
+                    (
+                        ss + b[j * n..(j + 1) * n].iter().map(|v| v * v).sum::<f64>(),
+                        cnt + n,
+                    )
+                });
+            (ss / cnt.max(1) as f64).sqrt().max(sigma[j])
+        })
+        .collect();
+    let mut pass = 0;
+    let (prep, set, steps, cv_cur, ranking, n, n_eff, total) = loop {
+        let prep = raw.reweighed(&weight_scale, lens)?;
+        let n: usize = prep.grams.iter().map(|g| g.n).sum();
+        // Effective samples from the residual left by the whole library.
+        let all: Vec<usize> = (0..cands.len()).collect();
+        let total = prep.total().clone();
+        let x_all = total.solve(&prep.idx(&all));
+        let rhos: Vec<f64> = (0..lens.len())
+            .flat_map(|r| {
+                let res = prep.residual(r, &all, &x_all);
+                let len = lens[r];
+                (0..nj)
+                    .map(move |j| lag1(&res[j * len..(j + 1) * len]))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let rho = rhos.iter().sum::<f64>() / rhos.len() as f64;
+        let n_eff = effective_samples(n, rho);
+        let lr = |rss0: f64, rss1: f64| n_eff * (rss0.max(1e-300) / rss1.max(1e-300)).ln();
+        let bic = |set: &[usize]| n_eff * (prep.rss(set) / n as f64).ln() + prep.dof(set) as f64 * n_eff.ln();
+        // Ranking at the nominal model.
+        progress("score tests", 0.3);
+        let rss0 = total.bb;
+        let cv0 = prep.cv_rss(&[]);
+        let mut ranking: Vec<(usize, Ranked)> = (0..cands.len())
+            .map(|c| {
+                let stat = lr(rss0, prep.rss(&[c]));
+                let k = prep.cols_of[c].len() + cands[c].grid_parameters;
+                (
+                    c,
+                    Ranked {
+                        candidate: cands[c].name.clone(),
+                        statistic: stat,
+                        p_value: chi2_sf(stat, k),
+                        cv_ratio: (prep.cv_rss(&[c]) / cv0).sqrt(),
+                        plausible: prep.plausible(&[c]),
+                    },
+                )
+            })
+            .collect();
+        ranking.sort_by(|a, b| b.1.statistic.total_cmp(&a.1.statistic));
+        // Greedy selection.
+        let mut set: Vec<usize> = vec![];
+        let mut steps = vec![];
+        let mut cv_cur = cv0;
+        let mut bic_cur = bic(&[]);
+        while set.len() < opts.max_effects {
+            progress(
+                "selection",
+                0.4 + 0.4 * set.len() as f64 / opts.max_effects as f64,
+            );
+            let rss_cur = prep.rss(&set);
+            let mut tests: Vec<(usize, f64)> = (0..cands.len())
+                .filter(|c| !set.contains(c))
+                .map(|c| {
+                    let mut s = set.clone();
+                    s.push(c);
+                    (c, lr(rss_cur, prep.rss(&s)))
+                })
+                .collect();
+            tests.sort_by(|a, b| b.1.total_cmp(&a.1));
+            let short: Vec<(usize, f64, f64, f64)> = tests
+                .iter()
+                .filter(|&&(c, _)| {
+                    let mut s = set.clone();
+                    s.push(c);
+                    prep.plausible(&s)
+                })
+                .take(opts.shortlist)
+                .map(|&(c, stat)| {
+                    let mut s = set.clone();
+                    s.push(c);
+                    (c, stat, prep.cv_rss(&s), bic(&s))
+                })
+                .collect();
+            // Smallest cross-validated error; among those the data cannot tell from it
+            // (within the confounding tolerance), the smallest information criterion — the
+            // simpler law (Coulomb before Stribeck or asymmetric friction) unless the data
+            // ask for more.
+            let cv_min = short.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
+            let tol = (1.0 + opts.confound_tolerance).powi(2);
+            let best = short
+                .iter()
+                .filter(|x| x.2 <= cv_min * tol)
+                .min_by(|a, b| a.3.total_cmp(&b.3))
+                .copied();
+            let Some((c, stat, cv, b)) = best else { break };
+            let k = prep.cols_of[c].len() + cands[c].grid_parameters;
+            let p = chi2_sf(stat, k);
+            let gain = 1.0 - (cv / cv_cur).sqrt();
+            if p > opts.significance || gain < opts.min_gain || b >= bic_cur {
+                break;
+            }
+            set.push(c);
+            cv_cur = cv;
+            bic_cur = b;
+            steps.push(Step {
+                added: cands[c].name.clone(),
+                statistic: stat,
+                p_value: p,
+                cv_rms: (cv / n as f64).sqrt(),
+                bic: b,
+            });
+        }
+        // Simplify: an effect chosen early may have absorbed part of one found later; if a
+        // simpler law of the same family (Coulomb for asymmetric or Stribeck friction) now
+        // fits as well (cross-validated, within the confounding tolerance) with a smaller
+        // information criterion, it replaces the richer one.
+        let tol = (1.0 + opts.confound_tolerance).powi(2);
+        for pos in 0..set.len() {
+            let c = set[pos];
+            let cost = |k: usize| prep.cols_of[k].len() + cands[k].grid_parameters;
+            let simpler = (0..cands.len())
+                .filter(|&d| !set.contains(&d) && same_family(&cands[c], &cands[d]) && cost(d) < cost(c))
+                .filter_map(|d| {
+                    let mut s2 = set.clone();
+                    s2[pos] = d;
+                    if !prep.plausible(&s2) {
+                        return None;
+                    }
+                    let (cv2, b2) = (prep.cv_rss(&s2), bic(&s2));
+                    (cv2 <= cv_cur * tol && b2 < bic_cur).then_some((d, cv2, b2))
+                })
+                .min_by(|a, b| a.2.total_cmp(&b.2));
+            if let Some((d, cv2, b2)) = simpler {
+                set[pos] = d;
+                steps[pos].added = cands[d].name.clone();
+                cv_cur = cv2;
+                bic_cur = b2;
+            }
+        }
+        // Re-weigh once: the channel scales the selected physics leaves (a large effect
+        // found first no longer inflates its channel's weight, so what hides under it can
+        // show).
+        if pass == 0 && opts.reweight && !set.is_empty() {
+            let x = total.solve(&prep.idx(&set));
+            let mut ss = vec![0.0; nj];
+            let mut cnt = vec![0usize; nj];
+            for r in 0..lens.len() {
+                let res = prep.residual(r, &set, &x);
+                for j in 0..nj {
+                    for v in &res[j * lens[r]..(j + 1) * lens[r]] {
+                        ss[j] += (v * weight_scale[j]).powi(2);
+                        cnt[j] += 1;
+                    }
+                }
+            }
+            let new_w: Vec<f64> = (0..nj)
+                .map(|j| (ss[j] / cnt[j].max(1) as f64).sqrt().max(sigma[j]))
+                .collect();
+            if new_w.iter().zip(&weight_scale).any(|(a, b)| a / b < 0.8) {
+                weight_scale = new_w;
+                pass += 1;
+                continue;
+            }
+        }
+        break (prep, set, steps, cv_cur, ranking, n, n_eff, total);
+    };
+    Ok(Selection {
+        prep,
+        set,
+        steps,
+        cv: cv_cur,
+        ranking: ranking.into_iter().map(|(_, r)| r).collect(),
+        n,
+        n_eff,
+        total,
+        weight_scale,
+    })
+}
+
+/// Estimates of the selected parameters and their strongly correlated pairs.
+pub(super) struct Estimates {
+    /// Coefficients of the selected columns (physical units).
+    pub x: Vec<f64>,
+    /// Estimates with their standard deviations.
+    pub estimates: Vec<Estimate>,
+    /// Estimate pairs correlated beyond ±0.8: (a, b, correlation).
+    pub correlations: Vec<(String, String, f64)>,
+}
+
+/// Estimates with uncertainty (effective-sample corrected).
+pub(super) fn estimate(sel: &Selection, cands: &[Candidate]) -> Estimates {
+    let Selection {
+        prep,
+        set,
+        n,
+        n_eff,
+        total,
+        ..
+    } = sel;
+    let (n, n_eff) = (*n, *n_eff);
+    let idx = prep.idx(set);
+    let x = total.solve(&idx);
+    let dof = (n as f64 - idx.len() as f64).max(1.0);
+    let s2 = total.rss(&idx, &x) / dof;
+    let cov = total.inverse(&idx) * (s2 * n as f64 / n_eff);
+    let mut estimates = vec![];
+    let mut labels = vec![];
+    let mut p = 0;
+    for &c in set {
+        for name in &cands[c].parameters {
+            // Columns are weighted like the residual, so coefficients are in physical units.
+            estimates.push(Estimate {
+                candidate: cands[c].name.clone(),
+                parameter: name.clone(),
+                value: x[p],
+                std: cov[(p, p)].max(0.0).sqrt(),
+            });
+            labels.push(format!("{} ({})", cands[c].name, name));
+            p += 1;
+        }
+    }
+    let mut correlations = vec![];
+    for a in 0..idx.len() {
+        for b in 0..a {
+            let r = cov[(a, b)] / (cov[(a, a)] * cov[(b, b)]).sqrt();
+            if r.abs() > 0.8 {
+                correlations.push((labels[a].clone(), labels[b].clone(), r));
+            }
+        }
+    }
+    Estimates {
+        x,
+        estimates,
+        correlations,
+    }
+}
+
+/// Effects the data cannot separate: swapping a selected effect for another fits
+/// (cross-validated) as well.
+pub(super) fn confounded(sel: &Selection, cands: &[Candidate], opts: &DiagnoseOptions) -> Vec<Confound> {
+    let Selection { prep, set, cv, .. } = sel;
+    let cv_cur = *cv;
+    let mut confounded = vec![];
+    for (pos, &c) in set.iter().enumerate() {
+        for d in 0..cands.len() {
+            if set.contains(&d) || same_family(&cands[c], &cands[d]) {
+                continue;
+            }
+            let mut s = set.clone();
+            s[pos] = d;
+            if !prep.plausible(&s) {
+                continue;
+            }
+            let ratio = (prep.cv_rss(&s) / cv_cur).sqrt();
+            if ratio < 1.0 + opts.confound_tolerance {
+                confounded.push(Confound {
+                    selected: cands[c].name.clone(),
+                    alternative: cands[d].name.clone(),
+                    cv_ratio: ratio,
+                    experiment: separating_experiment(&cands[c], &cands[d]),
+                });
+            }
+        }
+    }
+    confounded
+}
+
+/// Variants of one effect in one joint (e.g. Stribeck velocities, or Coulomb within
+/// asymmetric friction) are refinements, not rival explanations.
+fn same_family(a: &Candidate, b: &Candidate) -> bool {
+    use Effect::*;
+    let fam = |e: Effect| match e {
+        Coulomb | Stribeck { .. } | AsymmetricFriction => 1,
+        Viscous => 2,
+        RotorInertia => 3,
+        TorqueOffset => 4,
+        TorqueScale => 5,
+        TorqueDelay => 6,
+        Parameter { .. } => 7,
+        PositionOffset => 8,
+        Backlash => 9,
+        Clearance { .. } => 10,
+        OutputOffset { .. } => 11,
+        OutputDelay { .. } => 12,
+    };
+    a.joint == b.joint && fam(a.effect) == fam(b.effect) && fam(a.effect) != 7
+}
