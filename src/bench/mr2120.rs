@@ -15,7 +15,7 @@ use crate::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clea
 use crate::mechanisms::mr2120::paper::TABLE2;
 use crate::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
 use crate::mechanisms::mr2120::{Geometry, MassProperties, Mr2120Error};
-use crate::multibody::{Analysis, Mechanism, MultibodyOde, Simulation, SimulationOptions};
+use crate::multibody::{Analysis, BodyHandle, Layout, Mechanism, MechanismData, MultibodyOde, Simulation};
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::sync::Arc;
@@ -209,7 +209,7 @@ pub struct Mr2120Bench {
 
 pub(crate) struct Model {
     pub(crate) mech: Arc<Mechanism>,
-    pub(crate) platform: usize,
+    pub(crate) platform: BodyHandle,
     /// Body indices of the three driven arms.
     pub(crate) arms: [usize; 3],
     pub(crate) times: Vec<f64>,
@@ -229,7 +229,7 @@ pub(crate) fn build(opts: &Mr2120BenchOptions) -> Result<Model, Mr2120Error> {
     )?;
     let n = (opts.t_end / opts.dt).round() as usize;
     Ok(Model {
-        platform: model.platform.index(),
+        platform: model.platform,
         arms: model.arms.map(|a| a.index()),
         mech: Arc::new(model.mechanism),
         times: (1..=n).map(|k| k as f64 * opts.dt).collect(),
@@ -275,13 +275,11 @@ fn point(solver: &str, rtol: f64) -> WorkPoint {
 fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, Option<Traced>) {
     let mut wp = point(LASH_BDF, rtol);
     let start = Instant::now();
-    let opts = SimulationOptions {
-        rtol,
-        atol: rtol / 100.0,
-        // The singularity watch is not part of the integration cost.
-        singularity_warning: 0.0,
-        ..clearance_options()
-    };
+    let mut opts = clearance_options();
+    opts.bdf.rtol = rtol;
+    opts.bdf.atol = crate::dae::AbsTol::Scalar(rtol / 100.0);
+    // The singularity watch is not part of the integration cost.
+    opts.singularity_warning = 0.0;
     let res = Simulation::new(m.mech.clone(), 0.0, opts).and_then(|mut sim| {
         let mut walls = Vec::with_capacity(m.times.len());
         let tr = sim.run(&m.times, |t| {
@@ -304,7 +302,7 @@ fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, O
             let path = tr
                 .samples
                 .iter()
-                .map(|s| [s.q[7 * p], s.q[7 * p + 1], s.q[7 * p + 2]])
+                .map(|s| Layout::position_of(&s.q, p))
                 .collect();
             (wp, Some(Traced { path, wall_at }))
         }
@@ -331,26 +329,26 @@ trait Stepper {
     fn stats(&self) -> ExplicitStats;
 }
 
-struct DopriStepper(Dopri5<MultibodyOde>, usize);
+struct DopriStepper(Dopri5<MultibodyOde>, BodyHandle);
 
 impl Stepper for DopriStepper {
     fn advance(&mut self, t: f64) -> Result<[f64; 3], String> {
         self.0.solve_to(t).map_err(|e| e.to_string())?;
         let (y, p) = (self.0.y(), self.1);
-        Ok([y[7 * p], y[7 * p + 1], y[7 * p + 2]])
+        Ok(Layout::position_of(y, p))
     }
     fn stats(&self) -> ExplicitStats {
         *self.0.stats()
     }
 }
 
-struct SymplecticStepper(SymplecticEuler<MultibodyOde>, usize);
+struct SymplecticStepper(SymplecticEuler<MultibodyOde>, BodyHandle);
 
 impl Stepper for SymplecticStepper {
     fn advance(&mut self, t: f64) -> Result<[f64; 3], String> {
         self.0.solve_to(t).map_err(|e| e.to_string())?;
         let (q, p) = (self.0.q(), self.1);
-        Ok([q[7 * p], q[7 * p + 1], q[7 * p + 2]])
+        Ok(Layout::position_of(q, p))
     }
     fn stats(&self) -> ExplicitStats {
         *self.0.stats()
@@ -359,8 +357,8 @@ impl Stepper for SymplecticStepper {
 
 /// The index-1 ODE of the model and its consistent initial state (q, w).
 fn ode_start(m: &Model) -> Result<(MultibodyOde, Vec<f64>, Vec<f64>), String> {
-    let s0 = Analysis::new(m.mech.clone())
-        .and_then(|mut a| a.initial_state(0.0))
+    let s0 = Analysis::new(&m.mech)
+        .and_then(|a| a.initial_state(&m.mech, &mut MechanismData::new(&m.mech), 0.0))
         .map_err(|e| e.to_string())?;
     let ode = MultibodyOde::new(m.mech.clone()).map_err(|e| e.to_string())?;
     Ok((ode, s0.q, s0.w))
@@ -505,7 +503,7 @@ fn run_diffsol(
         &vec![rtol / 100.0; n],
         &m.times,
         |k, y| {
-            path.push([y[7 * p], y[7 * p + 1], y[7 * p + 2]]);
+            path.push(Layout::position_of(y, p));
             wall_at.push(start.elapsed().as_secs_f64());
             progress(m.times[k]);
             over = start.elapsed().as_secs_f64() > budget && k + 1 < m.times.len();
