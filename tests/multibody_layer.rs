@@ -301,3 +301,133 @@ fn explicit_ode_form_agrees_with_the_implicit_ggl_run_on_the_slider_crank() {
     let slider = body(&mech, "slider");
     assert!((Layout::position_of(dp.y(), slider)[0] - s0.body_position(slider).x).abs() > 1e-3);
 }
+
+/// A user force element whose load Jacobian names a body its `bodies()` does not list.
+#[derive(Debug)]
+struct UndeclaredCoupling {
+    declared: BodyHandle,
+    other: BodyHandle,
+}
+
+impl lash::multibody::ForceElement for UndeclaredCoupling {
+    fn name(&self) -> &str {
+        "sneaky coupler"
+    }
+    fn bodies(&self) -> Vec<BodyHandle> {
+        vec![self.declared]
+    }
+    fn apply(&self, _t: f64, _states: &[lash::multibody::BodyState], _loads: &mut [lash::multibody::BodyLoad]) {}
+    fn load_jacobian(
+        &self,
+        _t: f64,
+        _states: &[lash::multibody::BodyState],
+    ) -> Option<Vec<lash::multibody::LoadDerivative>> {
+        Some(vec![lash::multibody::LoadDerivative {
+            loaded: self.declared,
+            wrt: self.other,
+            d: nalgebra::SMatrix::<f64, 6, 13>::from_element(1.0),
+        }])
+    }
+}
+
+#[test]
+fn a_load_jacobian_outside_the_declared_bodies_is_an_error_naming_element_and_body() {
+    use lash::dae::DaeSystem;
+    let mut mech = Mechanism::new();
+    let a = mech.add_body(RigidBody::rod("anchor", 1.0, 0.2));
+    let b = mech.add_body(RigidBody::rod("bystander", 1.0, 0.2).at(Vector3::new(1.0, 0.0, 0.0)));
+    mech.add_force(Box::new(UndeclaredCoupling { declared: a, other: b }));
+    let mech = Arc::new(mech);
+    let mut dae = lash::multibody::MultibodyDae::new(mech.clone());
+    let n = dae.dim();
+    let mut y = vec![0.0; n];
+    y[mech.layout().y_q()].copy_from_slice(&mech.initial_guess().0);
+    let mut values = vec![0.0; dae.jacobian_pattern().nnz()];
+    let e = dae
+        .jacobian(0.0, &y, &vec![0.0; n], &[], 1.0, &mut values)
+        .expect_err("an undeclared body in the load Jacobian is an error");
+    let msg = e.to_string();
+    assert!(msg.contains("sneaky coupler") && msg.contains("bystander"), "{msg}");
+    // Through the simulation pipeline: an error (not a panic) that names the cause.
+    let run = Simulation::new(mech, 0.0, SimulationOptions::default()).and_then(|mut sim| sim.run(&[0.1], |_| {}));
+    let msg = run.expect_err("the run fails").to_string();
+    assert!(msg.contains("sneaky coupler") && msg.contains("bystander"), "{msg}");
+}
+
+#[test]
+fn joints_and_forces_are_replaced_and_removed_with_other_handles_valid() {
+    let (mut mech, rev, pri, _) = slider_crank();
+    let slider = body(&mech, "slider");
+    let pin = mech.joints().find(|(_, j)| j.name == "crank pin").map(|(h, _)| h).unwrap();
+    let spring = mech.add_force(Box::new(lash::multibody::SpringDamper {
+        name: "spring".into(),
+        i: (Attach::Ground, Vector3::new(0.6, 0.05, 0.1)),
+        j: (Attach::Body(slider), Vector3::zeros()),
+        stiffness: 500.0,
+        damping: 2.0,
+        free_length: 0.15,
+    }));
+    let extra = mech.add_force(Box::new(lash::multibody::PointForce {
+        name: "push".into(),
+        body: slider,
+        point: Vector3::zeros(),
+        force: Arc::new(|_| Vector3::new(1.0, 0.0, 0.0)),
+    }));
+    // Removing a force leaves a tombstone: the other handle still names its element.
+    let removed = mech.remove_force(spring).unwrap();
+    assert_eq!(removed.name(), "spring");
+    assert!(mech.force(spring).is_none());
+    assert_eq!(mech.force(extra).unwrap().name(), "push");
+    assert_eq!(mech.forces().count(), 1);
+    assert!(mech.remove_force(spring).is_err());
+    let old = mech
+        .replace_force(
+            extra,
+            Box::new(lash::multibody::PointForce {
+                name: "pull".into(),
+                body: slider,
+                point: Vector3::zeros(),
+                force: Arc::new(|_| Vector3::new(-1.0, 0.0, 0.0)),
+            }),
+        )
+        .unwrap();
+    assert_eq!(old.name(), "push");
+    assert_eq!(mech.force(extra).unwrap().name(), "pull");
+
+    // A driven joint cannot be removed; the error names it and its driver.
+    let motor = mech.drive("motor", rev, MotionLaw::Constant(0.05), 0.0).unwrap();
+    let e = mech.remove_joint(rev).unwrap_err().to_string();
+    assert!(e.contains("crank pivot") && e.contains("motor"), "{e}");
+    // Nor replaced by a joint that cannot be driven the same way.
+    let mut ball = mech.joint(pin).unwrap().clone();
+    ball.name = "ball".into();
+    let e = mech.replace_joint(rev, ball).unwrap_err().to_string();
+    assert!(e.contains("crank pivot") && e.contains("motor"), "{e}");
+    // Replace the prismatic guide by an identical one and remove nothing else: the same
+    // model, so the same state; the handles of the other joints still address their joints.
+    let guide = mech.joint(pri).unwrap().clone();
+    let before = mech.joint(pri).unwrap().clone();
+    assert_eq!(mech.replace_joint(pri, guide).unwrap(), before);
+    let lay = mech.layout();
+    assert_eq!(lay.joint_lambda(rev).len(), 5);
+    assert_eq!(lay.joint_lambda(pin), 5..8);
+    assert_eq!(lay.driver_lambda(motor), Some(lay.m - 1));
+    // Removing the (undriven) crank pin frees the loop: one joint fewer, tombstone kept.
+    let n = mech.joints().count();
+    let pin_joint = mech.remove_joint(pin).unwrap();
+    assert_eq!(pin_joint.name, "crank pin");
+    assert!(mech.joint(pin).is_none());
+    assert_eq!(mech.joints().count(), n - 1);
+    assert_eq!(mech.joint(pri).unwrap().name, "slide");
+    let lay = mech.layout();
+    assert!(lay.joint_lambda(pin).is_empty());
+    assert_eq!(lay.m, 5 + 4 + 5 + 1);
+    // The reduced model still assembles and runs; reactions and efforts by handle.
+    let mech = Arc::new(mech);
+    let mut sim = Simulation::new(mech.clone(), 0.0, SimulationOptions::default()).unwrap();
+    let s = sim.run(&[0.01], |_| {}).unwrap().samples.pop().unwrap();
+    assert!(s.reaction(&mech, pin).is_none());
+    assert!(s.reaction(&mech, pri).is_some());
+    assert!(s.driver_effort(&mech, motor).unwrap().is_finite());
+    assert_eq!(sim.data().driver_effort(motor), s.driver_effort(&mech, motor));
+}
