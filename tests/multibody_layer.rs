@@ -2,8 +2,8 @@
 //! spatial slider-crank (assembly, drift), singularity detection, and clear errors.
 
 use lash::multibody::{
-    Analysis, Attach, BodyHandle, Mechanism, MechanismData, ModelError, MotionLaw, Profile, RigidBody, RunEnd,
-    Layout, Simulation, SimulationOptions,
+    Analysis, Attach, BodyHandle, Layout, Mechanism, MechanismData, ModelError, MotionLaw, Profile,
+    RigidBody, RunEnd, Simulation, SimulationOptions,
 };
 use nalgebra::{Matrix3, Vector3};
 use std::sync::Arc;
@@ -47,7 +47,10 @@ fn free_tumbling_body_conserves_energy_to_1e6_over_10s() {
         .fold(0.0, f64::max);
     assert!(worst <= 1e-6, "relative energy drift {worst:e}");
     // The spin axis really flips (the motion is not trivial).
-    let flipped = traj.samples.iter().any(|s| s.body_angular_velocity(brick).y < 0.0);
+    let flipped = traj
+        .samples
+        .iter()
+        .any(|s| s.body_angular_velocity(brick).y < 0.0);
     assert!(flipped, "expected the intermediate-axis flip");
 }
 
@@ -194,10 +197,7 @@ fn bad_models_give_clear_errors() {
         1.0,
         Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1e-3)),
     ));
-    assert!(Analysis::new(&mech)
-        .unwrap_err()
-        .to_string()
-        .contains("flat"));
+    assert!(Analysis::new(&mech).unwrap_err().to_string().contains("flat"));
 
     // A loop that cannot close: a 0.3 m link between points 1 m apart.
     let mut mech = Mechanism::new();
@@ -260,7 +260,8 @@ fn markers_and_csv_outputs() {
     assert!(text.starts_with("t_s,body,x_m"));
     assert_eq!(text.lines().count(), 1 + 2 * 3);
     let mut joints = Vec::new();
-    lash::multibody::output::write_reactions_csv(&mut joints, sim.model(), sim.analysis(), &traj.samples).unwrap();
+    lash::multibody::output::write_reactions_csv(&mut joints, sim.model(), sim.analysis(), &traj.samples)
+        .unwrap();
     let text = String::from_utf8(joints).unwrap();
     assert_eq!(text.lines().count(), 1 + 2 * 4);
     assert!(text.contains("crank pin"));
@@ -316,7 +317,13 @@ impl lash::multibody::ForceElement for UndeclaredCoupling {
     fn bodies(&self) -> Vec<BodyHandle> {
         vec![self.declared]
     }
-    fn apply(&self, _t: f64, _states: &[lash::multibody::BodyState], _loads: &mut [lash::multibody::BodyLoad]) {}
+    fn apply(
+        &self,
+        _t: f64,
+        _states: &[lash::multibody::BodyState],
+        _loads: &mut [lash::multibody::BodyLoad],
+    ) {
+    }
     fn load_jacobian(
         &self,
         _t: f64,
@@ -336,7 +343,10 @@ fn a_load_jacobian_outside_the_declared_bodies_is_an_error_naming_element_and_bo
     let mut mech = Mechanism::new();
     let a = mech.add_body(RigidBody::rod("anchor", 1.0, 0.2));
     let b = mech.add_body(RigidBody::rod("bystander", 1.0, 0.2).at(Vector3::new(1.0, 0.0, 0.0)));
-    mech.add_force(Box::new(UndeclaredCoupling { declared: a, other: b }));
+    mech.add_force(Box::new(UndeclaredCoupling {
+        declared: a,
+        other: b,
+    }));
     let mech = Arc::new(mech);
     let mut dae = lash::multibody::MultibodyDae::new(mech.clone());
     let n = dae.dim();
@@ -347,18 +357,29 @@ fn a_load_jacobian_outside_the_declared_bodies_is_an_error_naming_element_and_bo
         .jacobian(0.0, &y, &vec![0.0; n], &[], 1.0, &mut values)
         .expect_err("an undeclared body in the load Jacobian is an error");
     let msg = e.to_string();
-    assert!(msg.contains("sneaky coupler") && msg.contains("bystander"), "{msg}");
+    assert!(
+        msg.contains("sneaky coupler") && msg.contains("bystander"),
+        "{msg}"
+    );
     // Through the simulation pipeline: an error (not a panic) that names the cause.
-    let run = Simulation::new(mech, 0.0, SimulationOptions::default()).and_then(|mut sim| sim.run(&[0.1], |_| {}));
+    let run =
+        Simulation::new(mech, 0.0, SimulationOptions::default()).and_then(|mut sim| sim.run(&[0.1], |_| {}));
     let msg = run.expect_err("the run fails").to_string();
-    assert!(msg.contains("sneaky coupler") && msg.contains("bystander"), "{msg}");
+    assert!(
+        msg.contains("sneaky coupler") && msg.contains("bystander"),
+        "{msg}"
+    );
 }
 
 #[test]
 fn joints_and_forces_are_replaced_and_removed_with_other_handles_valid() {
     let (mut mech, rev, pri, _) = slider_crank();
     let slider = body(&mech, "slider");
-    let pin = mech.joints().find(|(_, j)| j.name == "crank pin").map(|(h, _)| h).unwrap();
+    let pin = mech
+        .joints()
+        .find(|(_, j)| j.name == "crank pin")
+        .map(|(h, _)| h)
+        .unwrap();
     let spring = mech.add_force(Box::new(lash::multibody::SpringDamper {
         name: "spring".into(),
         i: (Attach::Ground, Vector3::new(0.6, 0.05, 0.1)),

@@ -95,14 +95,19 @@ fn inverse_dynamics_matches_closed_form_to_1e10() {
     assert_eq!(mech.degrees_of_freedom(), 2);
     let an = Analysis::new(&mech).unwrap();
     let times: Vec<f64> = (0..40).map(|k| k as f64 * 0.137).collect();
-    let snaps = an.kinematics(&mech, &mut MechanismData::new(&mech), &times).unwrap();
+    let snaps = an
+        .kinematics(&mech, &mut MechanismData::new(&mech), &times)
+        .unwrap();
     let drivers: Vec<_> = mech.drivers().map(|(h, _)| h).collect();
     let mut worst = 0.0f64;
     for s in &snaps {
         let (a, b) = (l1.eval(s.t), l2.eval(s.t));
         let tau = closed_form_torque(&p, [a[0], b[0]], [a[1], b[1]], [a[2], b[2]]);
         // The drivers' efforts are the actuator torques about the joint axes.
-        let got = drivers.iter().map(|&d| s.driver_effort(&mech, d).unwrap()).collect::<Vec<_>>();
+        let got = drivers
+            .iter()
+            .map(|&d| s.driver_effort(&mech, d).unwrap())
+            .collect::<Vec<_>>();
         for k in 0..2 {
             worst = worst.max((got[k] - tau[k]).abs());
         }

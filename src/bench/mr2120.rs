@@ -299,11 +299,7 @@ fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, O
             wp.factorisations = st.lu_factorisations;
             wp.phase_times = Some(st.time);
             let p = m.platform;
-            let path = tr
-                .samples
-                .iter()
-                .map(|s| Layout::position_of(&s.q, p))
-                .collect();
+            let path = tr.samples.iter().map(|s| Layout::position_of(&s.q, p)).collect();
             (wp, Some(Traced { path, wall_at }))
         }
         Ok((tr, _, _)) => {

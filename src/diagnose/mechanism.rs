@@ -186,13 +186,18 @@ impl InverseDynamicsModel for MechanismModel {
                 // differentiate driver laws in time).
                 let _ = built.data.prescribe_driver(built.drivers[j], 0.0, [x, 0.0, 0.0]);
             }
-            match built.analysis.assemble(&built.model, &mut built.data, 0.0, &built.q) {
+            match built
+                .analysis
+                .assemble(&built.model, &mut built.data, 0.0, &built.q)
+            {
                 Ok(x) => built.q = x,
                 Err(_) => break,
             }
         }
         for j in 0..n {
-            let _ = built.data.prescribe_driver(built.drivers[j], 0.0, [q[j], qd[j], qdd[j]]);
+            let _ = built
+                .data
+                .prescribe_driver(built.drivers[j], 0.0, [q[j], qd[j], qdd[j]]);
         }
         // Continue from the previous sample (samples come in time order); fall back to the
         // built configuration if that fails.

@@ -98,7 +98,10 @@ impl Analysis {
             }
         }
         let length_scale = if n > 0 && sum > 0.0 { sum / n as f64 } else { 1.0 };
-        Ok(Self { options, length_scale })
+        Ok(Self {
+            options,
+            length_scale,
+        })
     }
 
     /// Φ and [Φ; normalisation] Jacobian (dense) at (q, t).
@@ -189,7 +192,10 @@ impl Analysis {
     pub fn assemble(
         &self,
         model: &Mechanism,
-        data: &mut MechanismData, t: f64, guess: &[f64]) -> Result<Vec<f64>, ModelError> {
+        data: &mut MechanismData,
+        t: f64,
+        guess: &[f64],
+    ) -> Result<Vec<f64>, ModelError> {
         let lay = data.ev.layout.clone();
         if guess.len() != 7 * lay.nb || guess.iter().any(|v| !v.is_finite()) {
             return Err(ModelError::Output(format!(
@@ -305,7 +311,8 @@ impl Analysis {
         let mut central = |eps: f64| {
             let qp: Vec<f64> = q.iter().zip(&qd).map(|(a, b)| a + eps * b).collect();
             let qm: Vec<f64> = q.iter().zip(&qd).map(|(a, b)| a - eps * b).collect();
-            (Self::vel_residual(data, t + eps, &qp, w) - Self::vel_residual(data, t - eps, &qm, w)) / (2.0 * eps)
+            (Self::vel_residual(data, t + eps, &qp, w) - Self::vel_residual(data, t - eps, &qm, w))
+                / (2.0 * eps)
         };
         let h = 1e-3 / scale;
         let d1 = central(h);

@@ -94,7 +94,12 @@ impl MechanismData {
     /// (rad or m), rate `v` and acceleration `a`: θ_d(t) = x + v·(t − t0) + ½a·(t − t0)². For
     /// an inverse-dynamics evaluation at t0 with given joint positions, rates and
     /// accelerations.
-    pub fn prescribe_driver(&mut self, h: DriverHandle, t0: f64, [x, v, a]: [f64; 3]) -> Result<(), ModelError> {
+    pub fn prescribe_driver(
+        &mut self,
+        h: DriverHandle,
+        t0: f64,
+        [x, v, a]: [f64; 3],
+    ) -> Result<(), ModelError> {
         self.set_driver_law(
             h,
             MotionLaw::Custom(Arc::new(move |t| {
@@ -140,7 +145,14 @@ impl MechanismData {
     }
 }
 
-fn reaction_at(model: &Mechanism, lay: &Layout, h: JointHandle, t: f64, q: &[f64], lambda: &[f64]) -> Option<Reaction> {
+fn reaction_at(
+    model: &Mechanism,
+    lay: &Layout,
+    h: JointHandle,
+    t: f64,
+    q: &[f64],
+    lambda: &[f64],
+) -> Option<Reaction> {
     let j = model.joint(h)?;
     let k0 = lay.joint_lambda(h).start;
     (lambda.len() >= lay.m && q.len() >= lay.q_len()).then(|| joint_reaction(j, k0, t, q, lambda).0)

@@ -19,16 +19,16 @@
 //! bodies sharing a joint or force element with it.
 
 use super::body::Attach;
+use super::body::BodyHandle;
 use super::constraints::{Hess14, Pose, Row};
 use super::forces::{BodyLoad, BodyState};
-use super::body::BodyHandle;
 use super::joints::JointHandle;
 use super::model::{ConstraintBlock, DriverHandle, Mechanism};
-use std::ops::Range;
 use super::rotation::{l_matrix, skew};
 use crate::dae::{DaeSystem, EvalError, JacobianSource, VarKind};
 use crate::sparse::{CscPattern, SlotIndex};
 use nalgebra::{Matrix3, Matrix3x4, Matrix4, Vector3, Vector4};
+use std::ops::Range;
 use std::sync::Arc;
 
 /// Index layout of a mechanism's state vectors: the one place that knows where a body's
@@ -79,7 +79,10 @@ impl Layout {
             k += n;
             slot += 1;
         }
-        let nd = model.drivers().filter(|(_, d)| model.joint(d.joint).is_some()).count();
+        let nd = model
+            .drivers()
+            .filter(|(_, d)| model.joint(d.joint).is_some())
+            .count();
         Self {
             nb: model.bodies().len(),
             m: k + nd,

@@ -34,11 +34,11 @@ pub mod simulation;
 
 pub use analysis::{Analysis, AssemblyOptions, Reaction, Snapshot};
 pub use body::{Attach, BodyHandle, BodySet, RigidBody};
+pub use data::MechanismData;
 pub use drivers::{MotionLaw, Profile};
 pub use error::ModelError;
 pub use explicit::{BaumgarteGains, MultibodyOde};
 pub use forces::{BodyLoad, BodyState, ForceElement, LoadDerivative, PointForce, SpringDamper, Torque};
-pub use data::MechanismData;
 pub use formulation::{FormulationOptions, Layout, MultibodyDae};
 pub use joints::{Joint, JointFrame, JointHandle, JointKind};
 pub use model::{Driver, DriverHandle, ForceHandle, Marker, MarkerHandle, Mechanism, STANDARD_GRAVITY};

@@ -190,7 +190,9 @@ impl Mechanism {
                 });
             }
         }
-        Ok(self.joints[h.0].replace(joint).expect("slot checked to be occupied"))
+        Ok(self.joints[h.0]
+            .replace(joint)
+            .expect("slot checked to be occupied"))
     }
 
     /// Removes a joint, returning it; its slot stays empty, so other handles stay valid. A
@@ -201,7 +203,10 @@ impl Mechanism {
             return Err(ModelError::BadElement {
                 kind: "joint",
                 name: j.name.clone(),
-                reason: format!("driven by driver '{}': remove cannot leave the driver without its joint", d.name),
+                reason: format!(
+                    "driven by driver '{}': remove cannot leave the driver without its joint",
+                    d.name
+                ),
             });
         }
         Ok(self.joints[h.0].take().expect("slot checked to be occupied"))

@@ -209,7 +209,8 @@ impl Simulation {
     /// Largest |Φ_k(q, t)| over the constraints and Euler-parameter normalisations (drift)
     /// at (q, t).
     pub fn constraint_residual(&mut self, t: f64, q: &[f64]) -> f64 {
-        self.analysis.constraint_residual(&self.model, &mut self.data, t, q)
+        self.analysis
+            .constraint_residual(&self.model, &mut self.data, t, q)
     }
 
     fn sample(&mut self) -> Sample {

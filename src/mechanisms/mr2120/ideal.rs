@@ -198,7 +198,9 @@ mod tests {
         let platform = driven.platform;
         let mech = driven.mechanism;
         let an = Analysis::new(&mech).unwrap();
-        let s = an.initial_state(&mech, &mut MechanismData::new(&mech), 0.0).unwrap();
+        let s = an
+            .initial_state(&mech, &mut MechanismData::new(&mech), 0.0)
+            .unwrap();
         let r = s.body_position(platform);
         assert!((r - target).norm() < 1e-10, "{r:?}");
         // Tsai's conditions: the platform keeps its orientation.

@@ -226,10 +226,7 @@ pub fn run_clearance(
         .samples
         .iter()
         .map(|s| {
-            let e = pose_errors(
-                &s.q[lay.body_q(platform)],
-                &Vector3::new(0.0, 0.0, zl.value(s.t)),
-            );
+            let e = pose_errors(&s.q[lay.body_q(platform)], &Vector3::new(0.0, 0.0, zl.value(s.t)));
             ErrorSample {
                 t: s.t,
                 d: [e[0], e[1], e[2]],
