@@ -1,6 +1,7 @@
 //! The model: bodies, joints, drivers, force elements and gravity, assembled with a builder
-//! API in the style of rapier (sets with handles). The model holds no state; simulation
-//! state lives in the solver and in [`super::analysis::Snapshot`]s.
+//! API in the style of rapier (sets with handles) and read through accessors. The model holds
+//! no state: the state lives in a [`MechanismData`](super::MechanismData), in the solver and
+//! in [`Snapshot`](super::Snapshot)s and [`Sample`](super::Sample)s.
 
 use super::body::{Attach, BodyHandle, BodySet, RigidBody};
 use super::constraints::Primitive;
@@ -455,7 +456,11 @@ impl Mechanism {
 
     /// Drives a joint coordinate: the rotation of a revolute or cylindrical joint (rad), or
     /// the translation of a prismatic joint (m). `reference` is the coordinate's value in the
-    /// configuration the joint was built in.
+    /// configuration the joint was built in. The driver's effort (the torque or force it
+    /// applies on the coordinate, positive towards increasing coordinate) is read by handle:
+    /// [`Sample::driver_effort`](super::Sample::driver_effort),
+    /// [`MechanismData::driver_effort`](super::MechanismData::driver_effort); the sign
+    /// convention is stated in [`data`](super::data).
     pub fn drive(
         &mut self,
         name: &str,
