@@ -8,7 +8,7 @@ use lash::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clear
 use lash::mechanisms::mr2120::paper::TABLE2;
 use lash::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
 use lash::mechanisms::mr2120::{Geometry, MassProperties};
-use lash::multibody::{Simulation, SimulationOptions};
+use lash::multibody::Simulation;
 use nalgebra::Vector3;
 use std::hint::black_box;
 use std::sync::Arc;
@@ -30,12 +30,10 @@ fn clearance_l1(c: &mut Criterion) {
     grp.sample_size(10);
     grp.bench_function("bdf_rtol_1e-4_first_0.25s", |b| {
         b.iter(|| {
-            let opts = SimulationOptions {
-                rtol: 1e-4,
-                atol: 1e-6,
-                singularity_warning: 0.0,
-                ..clearance_options()
-            };
+            let mut opts = clearance_options();
+            opts.bdf.rtol = 1e-4;
+            opts.bdf.atol = lash::dae::AbsTol::Scalar(1e-6);
+            opts.singularity_warning = 0.0;
             let mut sim = Simulation::new(mech.clone(), 0.0, opts).unwrap();
             let tr = sim.run(&times, |_| {}).unwrap();
             black_box(tr.samples.len())

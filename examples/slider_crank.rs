@@ -30,9 +30,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let pivot = mech.revolute_at("pivot", Attach::Ground, crank, Vector3::zeros(), Vector3::z());
     mech.spherical_at("crank pin", crank, rod, tip);
     mech.universal_at("wrist pin", rod, slider, pin, Vector3::y(), Vector3::z());
-    mech.prismatic_along("guide", Attach::Ground, slider, pin, Vector3::x());
+    let guide = mech.prismatic_along("guide", Attach::Ground, slider, pin, Vector3::x());
     // Crank angle θ(t) = 4π·t rad (2 rev/s).
-    mech.drive(
+    let motor = mech.drive(
         "motor",
         pivot,
         MotionLaw::Polynomial {
@@ -54,30 +54,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
 
     let mech = Arc::new(mech);
-    let mut sim = Simulation::new(mech, 0.0, SimulationOptions::default())?;
+    let mut sim = Simulation::new(mech.clone(), 0.0, SimulationOptions::default())?;
     let times: Vec<f64> = (1..=100).map(|k| k as f64 * 0.01).collect();
     let traj = sim.run(&times, |_| {})?;
     let last = traj.samples.last().expect("samples");
-    let reactions = sim.reactions(last);
     println!(
         "after 1 s: slider at x = {:.4} m, {} steps",
-        last.q[14],
+        last.body_position(slider).x,
         sim.stats().steps
     );
+    // The effort is the torque the motor applies about the pivot axis (positive: driving
+    // the crank angle up).
     println!(
         "motor torque needed: {:.3} N·m",
-        -last.lambda.last().expect("driver multiplier")
+        last.driver_effort(&mech, motor).expect("the motor's effort")
     );
+    let reaction = last.reaction(&mech, guide).expect("the guide exists");
     println!(
         "guide reaction on the slider: {:?} N",
-        reactions[3].force.map(|f| (f * 1e3).round() / 1e3)
+        reaction.force.map(|f| (f * 1e3).round() / 1e3)
     );
 
     std::fs::create_dir_all("out/slider_crank")?;
     let mut f = std::fs::File::create("out/slider_crank/bodies.csv")?;
-    output::write_bodies_csv(&mut f, sim.analysis(), &traj.samples)?;
+    output::write_bodies_csv(&mut f, &mech, &traj.samples)?;
     let mut f = std::fs::File::create("out/slider_crank/joints.csv")?;
-    output::write_reactions_csv(&mut f, sim.analysis(), &traj.samples)?;
+    output::write_reactions_csv(&mut f, &mech, sim.analysis(), &traj.samples)?;
     println!("wrote out/slider_crank/bodies.csv and joints.csv");
     Ok(())
 }

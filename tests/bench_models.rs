@@ -8,7 +8,7 @@ use lash::mechanisms::chain::{chain_design, clearance_chain};
 #[test]
 fn clearance_chain_has_two_bodies_and_12_dof_per_link_and_its_bearings_engage() {
     let m = clearance_chain(3, &chain_design()).unwrap();
-    assert_eq!(m.bodies.len(), 6);
+    assert_eq!(m.bodies().len(), 6);
     assert_eq!(m.degrees_of_freedom(), 36);
     assert!(clearance_chain(0, &chain_design()).is_err());
     let s = bench_scaling(&[2, 4], 0.005, |_| {});

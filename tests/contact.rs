@@ -84,18 +84,11 @@ fn pendulum(joint: Option<(f64, &str)>) -> (Mechanism, lash::multibody::BodyHand
 }
 
 fn tip_after(mech: Mechanism, rod: lash::multibody::BodyHandle, t: f64) -> Vector3<f64> {
-    let opts = SimulationOptions {
-        rtol: 1e-6,
-        atol: 1e-8,
-        ..Default::default()
-    };
+    let opts = SimulationOptions::with_tolerances(1e-6, 1e-8);
     let mut sim = Simulation::new(Arc::new(mech), 0.0, opts).unwrap();
     let traj = sim.run(&[t], |_| {}).unwrap();
-    let q = &traj.samples[0].q;
-    let i = rod.index();
-    let p = nalgebra::Vector4::new(q[7 * i + 3], q[7 * i + 4], q[7 * i + 5], q[7 * i + 6]);
-    let a = lash::multibody::rotation::rotation(&p);
-    Vector3::new(q[7 * i], q[7 * i + 1], q[7 * i + 2]) + a * Vector3::new(0.25, 0.0, 0.0)
+    let s = &traj.samples[0];
+    s.body_position(rod) + s.body_rotation(rod) * Vector3::new(0.25, 0.0, 0.0)
 }
 
 #[test]

@@ -3,7 +3,7 @@
 
 use lash::dae::DaeSystem;
 use lash::mechanisms::mr2120::{ideal_model, trajectory, Geometry, MassProperties};
-use lash::multibody::{Analysis, Attach, Mechanism, MultibodyDae, RigidBody, SpringDamper};
+use lash::multibody::{Analysis, Attach, Mechanism, MechanismData, MultibodyDae, RigidBody, SpringDamper};
 use nalgebra::Vector3;
 use std::sync::Arc;
 
@@ -50,15 +50,17 @@ struct Entry {
 
 fn check(mech: Mechanism, t: f64) {
     let mech = Arc::new(mech);
-    let mut an = Analysis::new(mech.clone()).unwrap();
-    let s = an.initial_state(t).unwrap();
+    let s = Analysis::new(&mech)
+        .unwrap()
+        .initial_state(&mech, &mut MechanismData::new(&mech), t)
+        .unwrap();
     let mut dae = MultibodyDae::new(mech);
     let lay = dae.layout();
     let n = lay.dim();
     let mut y = vec![0.0; n];
-    y[..7 * lay.nb].copy_from_slice(&s.q);
+    y[lay.y_q()].copy_from_slice(&s.q);
     // Velocities, multipliers and stabilisers off their consistent values exercise every term.
-    for (i, v) in y.iter_mut().enumerate().skip(7 * lay.nb) {
+    for (i, v) in y.iter_mut().enumerate().skip(lay.q_len()) {
         *v = 0.3 * ((i as f64) * 1.7).sin();
     }
     let yp: Vec<f64> = (0..n).map(|i| 0.2 * ((i as f64) * 0.9).cos()).collect();
@@ -146,22 +148,18 @@ fn analytic_jacobian_matches_differences_on_the_mr2120_clearance_model_in_contac
     .unwrap();
     let mech = Arc::new(m.mechanism);
     let t = 0.1;
-    let opts = SimulationOptions {
-        rtol: 1e-6,
-        atol: 1e-8,
-        singularity_warning: 0.0,
-        velocities_index2: true,
-        ..Default::default()
-    };
+    let mut opts = SimulationOptions::with_tolerances(1e-6, 1e-8);
+    opts.singularity_warning = 0.0;
+    opts.formulation.velocities_index2 = true;
     let mut sim = Simulation::new(mech.clone(), 0.0, opts).unwrap();
     let s = sim.run(&[t], |_| {}).unwrap().samples.pop().unwrap();
     let mut dae = MultibodyDae::new(mech);
     let lay = dae.layout();
     let n = lay.dim();
     let mut y = vec![0.0; n];
-    y[..7 * lay.nb].copy_from_slice(&s.q);
-    y[7 * lay.nb..13 * lay.nb].copy_from_slice(&s.w);
-    y[lay.lambda()..lay.lambda() + s.lambda.len()].copy_from_slice(&s.lambda);
+    y[lay.y_q()].copy_from_slice(&s.q);
+    y[lay.y_w()].copy_from_slice(&s.w);
+    y[lay.y_lambda()].copy_from_slice(&s.lambda);
     let yp = vec![0.0; n];
     let all = entries(&mut dae, t, &y, &yp, 1e3, 1e-9);
     let mut row_scale = vec![0.0f64; n];

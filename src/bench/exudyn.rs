@@ -12,9 +12,8 @@ use crate::mechanisms::mr2120::kinematics::inverse;
 use crate::mechanisms::mr2120::paper::{TABLE2, TRAJECTORY_T_M2, TRAJECTORY_T_M3};
 use crate::mechanisms::mr2120::trajectory::drive_laws;
 use crate::mechanisms::mr2120::Geometry;
-use crate::multibody::rotation::rotation;
-use crate::multibody::{Analysis, Attach};
-use nalgebra::{Matrix3, Vector3, Vector4};
+use crate::multibody::{Analysis, Attach, MechanismData};
+use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
 /// The exported model (the schema `benches/exudyn/mr2120_exudyn.py` reads).
@@ -164,27 +163,20 @@ pub fn export_mr2120(opts: &Mr2120BenchOptions) -> Result<ExportedModel, BenchEr
     let m1 = Vector3::from(TABLE2[0].m);
     let model = build(opts)?;
     let mech = model.mech.clone();
-    let s0 = Analysis::new(mech.clone())
-        .and_then(|mut a| a.initial_state(0.0))
+    let s0 = Analysis::new(&mech)
+        .and_then(|a| a.initial_state(&mech, &mut MechanismData::new(&mech), 0.0))
         .map_err(|e| BenchError::Reference(format!("initial state: {e}")))?;
     let bodies = mech
-        .bodies
-        .bodies
+        .bodies()
         .iter()
-        .enumerate()
-        .map(|(b, body)| {
-            let q = &s0.q[7 * b..7 * b + 7];
-            let w = &s0.w[6 * b..6 * b + 6];
-            let p = Vector4::new(q[3], q[4], q[5], q[6]);
-            ExportedBody {
-                name: body.name.clone(),
-                mass: body.mass,
-                inertia: rows(&body.inertia),
-                position: [q[0], q[1], q[2]],
-                rotation: rows(&rotation(&p)),
-                velocity: [w[0], w[1], w[2]],
-                omega_body: [w[3], w[4], w[5]],
-            }
+        .map(|(h, body)| ExportedBody {
+            name: body.name.clone(),
+            mass: body.mass,
+            inertia: rows(&body.inertia),
+            position: arr(&s0.body_position(h)),
+            rotation: rows(&s0.body_rotation(h)),
+            velocity: arr(&s0.body_velocity(h)),
+            omega_body: arr(&s0.body_angular_velocity(h)),
         })
         .collect();
     let q_build = inverse(&g, m1).map_err(|e| BenchError::Reference(e.to_string()))?;
@@ -214,8 +206,8 @@ pub fn export_mr2120(opts: &Mr2120BenchOptions) -> Result<ExportedModel, BenchEr
         .collect();
     let index = |a: Attach| a.body().map(|h| h.index());
     let mut bearings = vec![];
-    for f in &mech.forces {
-        let any: &dyn std::any::Any = f.as_ref();
+    for (_, f) in mech.forces() {
+        let any: &dyn std::any::Any = f;
         let Some(cb) = any.downcast_ref::<ClearanceBearing>() else {
             return Err(BenchError::Reference(format!(
                 "force element '{}' is not a trunnion bearing and cannot be exported",
@@ -253,10 +245,10 @@ pub fn export_mr2120(opts: &Mr2120BenchOptions) -> Result<ExportedModel, BenchEr
             opts.set,
             env!("CARGO_PKG_VERSION")
         ),
-        gravity: arr(&mech.gravity),
+        gravity: arr(&mech.gravity()),
         t_end: opts.t_end,
         dt_output: opts.dt,
-        platform_body: model.platform,
+        platform_body: model.platform.index(),
         bodies,
         drives,
         z_law: ZLaw {

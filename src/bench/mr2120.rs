@@ -16,7 +16,7 @@ use crate::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clea
 use crate::mechanisms::mr2120::paper::TABLE2;
 use crate::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
 use crate::mechanisms::mr2120::{Geometry, MassProperties, Mr2120Error};
-use crate::multibody::{Analysis, Mechanism, MultibodyOde, RunEnd, Simulation, SimulationOptions};
+use crate::multibody::{Analysis, BodyHandle, Layout, Mechanism, MechanismData, MultibodyOde, RunEnd, Simulation};
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::sync::Arc;
@@ -210,7 +210,7 @@ pub struct Mr2120Bench {
 
 pub(crate) struct Model {
     pub(crate) mech: Arc<Mechanism>,
-    pub(crate) platform: usize,
+    pub(crate) platform: BodyHandle,
     /// Body indices of the three driven arms.
     pub(crate) arms: [usize; 3],
     pub(crate) times: Vec<f64>,
@@ -230,7 +230,7 @@ pub(crate) fn build(opts: &Mr2120BenchOptions) -> Result<Model, Mr2120Error> {
     )?;
     let n = (opts.t_end / opts.dt).round() as usize;
     Ok(Model {
-        platform: model.platform.index(),
+        platform: model.platform,
         arms: model.arms.map(|a| a.index()),
         mech: Arc::new(model.mechanism),
         times: (1..=n).map(|k| k as f64 * opts.dt).collect(),
@@ -276,8 +276,8 @@ fn point(solver: &str, rtol: f64) -> WorkPoint {
 
 /// The platform centre in a state whose first entries are the bodies' positions
 /// (x, y, z, Euler parameters per body).
-fn platform_centre(y: &[f64], platform: usize) -> [f64; 3] {
-    [y[7 * platform], y[7 * platform + 1], y[7 * platform + 2]]
+fn platform_centre(y: &[f64], platform: BodyHandle) -> [f64; 3] {
+    Layout::position_of(y, platform)
 }
 
 /// What [`run_sampled`] saw: the samples reached, and why it stopped early, if it did.
@@ -389,13 +389,11 @@ impl Integrator for SimulationStepper {
 fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, Option<Traced>) {
     let mut wp = point(LASH_BDF, rtol);
     let start = Instant::now();
-    let opts = SimulationOptions {
-        rtol,
-        atol: rtol / 100.0,
-        // The singularity watch is not part of the integration cost.
-        singularity_warning: 0.0,
-        ..clearance_options()
-    };
+    let mut opts = clearance_options();
+    opts.bdf.rtol = rtol;
+    opts.bdf.atol = crate::dae::AbsTol::Scalar(rtol / 100.0);
+    // The singularity watch is not part of the integration cost.
+    opts.singularity_warning = 0.0;
     let sim = match Simulation::new(m.mech.clone(), 0.0, opts) {
         Ok(sim) => sim,
         Err(e) => {
@@ -424,8 +422,8 @@ fn run_bdf(m: &Model, rtol: f64, progress: &mut dyn FnMut(f64)) -> (WorkPoint, O
 
 /// The index-1 ODE of the model and its consistent initial state (q, w).
 fn ode_start(m: &Model) -> Result<(MultibodyOde, Vec<f64>, Vec<f64>), String> {
-    let s0 = Analysis::new(m.mech.clone())
-        .and_then(|mut a| a.initial_state(0.0))
+    let s0 = Analysis::new(&m.mech)
+        .and_then(|a| a.initial_state(&m.mech, &mut MechanismData::new(&m.mech), 0.0))
         .map_err(|e| e.to_string())?;
     let ode = MultibodyOde::new(m.mech.clone()).map_err(|e| e.to_string())?;
     Ok((ode, s0.q, s0.w))

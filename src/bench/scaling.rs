@@ -104,14 +104,10 @@ pub fn bench_scaling(lengths: &[usize], t_end: f64, mut progress: impl FnMut(usi
         let built = clearance_chain(n, &chain_design())
             .map_err(|e| e.to_string())
             .and_then(|m| {
-                let opts = SimulationOptions {
-                    rtol: 1e-4,
-                    atol: 1e-6,
-                    velocities_index2: true,
-                    singularity_warning: 0.0,
-                    max_steps: 1_000_000,
-                    ..Default::default()
-                };
+                let mut opts = SimulationOptions::with_tolerances(1e-4, 1e-6);
+                opts.formulation.velocities_index2 = true;
+                opts.singularity_warning = 0.0;
+                opts.bdf.max_steps = 1_000_000;
                 Simulation::new(Arc::new(m), 0.0, opts).map_err(|e| e.to_string())
             });
         row.setup_s = start.elapsed().as_secs_f64();

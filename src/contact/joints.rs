@@ -167,7 +167,7 @@ fn pose0(mech: &Mechanism, a: Attach) -> Result<(Vector3<f64>, Matrix3<f64>), Co
     match a {
         Attach::Ground => Ok((Vector3::zeros(), Matrix3::identity())),
         Attach::Body(h) => {
-            let b = mech.bodies.get(h).ok_or(ContactError::UnknownBody(h.index()))?;
+            let b = mech.body(h).ok_or(ContactError::UnknownBody(h.index()))?;
             Ok((
                 b.position,
                 crate::multibody::rotation::rotation(&b.orientation.normalize()),

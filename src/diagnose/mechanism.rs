@@ -5,8 +5,11 @@
 //!
 //! The user supplies a builder that makes the mechanism for given parameter values and
 //! attaches its drivers with the motion laws it is handed (one per measured joint, in the
-//! order of the torque channels); the parameters are named, with units, nominal values and
-//! scales, so the candidate library can perturb them.
+//! order of the torque channels: the j-th driver added serves channel j); the parameters are
+//! named, with units, nominal values and scales, so the candidate library can perturb them.
+//! At each sample the measured motion is prescribed to the drivers in the mechanism's
+//! [`MechanismData`] ([`MechanismData::prescribe_driver`]), and the torques are the drivers'
+//! efforts ([`MechanismData::driver_effort`]).
 //!
 //! ```
 //! use lash::diagnose::mechanism::MechanismModel;
@@ -43,9 +46,9 @@
 //! ```
 
 use super::model::{InverseDynamicsModel, ModelParameter};
-use crate::multibody::{Analysis, Mechanism, ModelError, MotionLaw};
+use crate::multibody::{Analysis, DriverHandle, Mechanism, MechanismData, ModelError, MotionLaw};
 use std::cell::RefCell;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 /// Builds the mechanism for parameter values `theta`, attaching one driver per measured
 /// joint with the laws given (in channel order).
@@ -53,7 +56,11 @@ pub type MechanismBuilder = Arc<dyn Fn(&[f64], &[MotionLaw]) -> Result<Mechanism
 
 struct Built {
     theta: Vec<f64>,
+    model: Mechanism,
+    data: MechanismData,
     analysis: Analysis,
+    /// The drivers, in channel order.
+    drivers: Vec<DriverHandle>,
     q: Vec<f64>,
     w: Vec<f64>,
     /// Joint positions of the last assembled configuration.
@@ -70,8 +77,8 @@ pub struct MechanismModel {
     joints: Vec<String>,
     parameters: Vec<ModelParameter>,
     builder: MechanismBuilder,
-    /// The sample the drivers currently follow: (q, q̇, q̈) per joint.
-    sample: Arc<Mutex<Vec<[f64; 3]>>>,
+    /// The mechanism built for the last parameter values, with its data (a cache: the
+    /// diagnosis asks for torques through `&self`).
     built: RefCell<Option<Built>>,
 }
 
@@ -94,29 +101,13 @@ impl MechanismModel {
         parameters: Vec<ModelParameter>,
         builder: MechanismBuilder,
     ) -> Self {
-        let n = joints.len();
         Self {
             name: name.into(),
             joints,
             parameters,
             builder,
-            sample: Arc::new(Mutex::new(vec![[0.0; 3]; n])),
             built: RefCell::new(None),
         }
-    }
-
-    fn laws(&self) -> Vec<MotionLaw> {
-        (0..self.joints.len())
-            .map(|j| {
-                let s = Arc::clone(&self.sample);
-                // The sample's motion as a local quadratic in time about t = 0 (the analyses
-                // differentiate driver laws in time).
-                MotionLaw::Custom(Arc::new(move |t| {
-                    let [x, v, a] = s.lock().map(|v| v[j]).unwrap_or([f64::NAN; 3]);
-                    [x + v * t + 0.5 * a * t * t, v + a * t, a]
-                }))
-            })
-            .collect()
     }
 
     /// Builds (or reuses) the mechanism for `theta`.
@@ -125,12 +116,30 @@ impl MechanismModel {
         if b.as_ref().is_some_and(|x| x.theta == theta) {
             return Ok(());
         }
-        let mech = (self.builder)(theta, &self.laws())?;
-        let analysis = Analysis::new(Arc::new(mech))?;
-        let (q, w) = analysis.initial_guess();
+        // Placeholder laws: every analysis below prescribes the drivers' motion in the data.
+        let laws = vec![MotionLaw::Constant(0.0); self.joints.len()];
+        let model = (self.builder)(theta, &laws)?;
+        let analysis = Analysis::new(&model)?;
+        let drivers: Vec<DriverHandle> = model.drivers().map(|(h, _)| h).collect();
+        if drivers.len() != self.joints.len() {
+            return Err(ModelError::BadElement {
+                kind: "driver",
+                name: self.name.clone(),
+                reason: format!(
+                    "the builder attached {} drivers for {} torque channels",
+                    drivers.len(),
+                    self.joints.len()
+                ),
+            });
+        }
+        let (q, w) = model.initial_guess();
+        let data = MechanismData::new(&model);
         *b = Some(Built {
             theta: theta.to_vec(),
+            model,
+            data,
             analysis,
+            drivers,
             q,
             w,
             last: vec![0.0; self.joints.len()],
@@ -171,35 +180,43 @@ impl InverseDynamicsModel for MechanismModel {
         let steps = (jump / CONTINUATION_STEP).ceil().min(1000.0) as usize;
         for k in 1..steps {
             let f = k as f64 / steps as f64;
-            if let Ok(mut s) = self.sample.lock() {
-                for j in 0..n {
-                    s[j] = [built.last[j] + f * (q[j] - built.last[j]), 0.0, 0.0];
-                }
+            for j in 0..n {
+                let x = built.last[j] + f * (q[j] - built.last[j]);
+                // The sample's motion as a local quadratic in time about t = 0 (the analyses
+                // differentiate driver laws in time).
+                let _ = built.data.prescribe_driver(built.drivers[j], 0.0, [x, 0.0, 0.0]);
             }
-            match built.analysis.assemble(0.0, &built.q) {
+            match built
+                .analysis
+                .assemble(&built.model, &mut built.data, 0.0, &built.q)
+            {
                 Ok(x) => built.q = x,
                 Err(_) => break,
             }
         }
-        if let Ok(mut s) = self.sample.lock() {
-            for j in 0..n {
-                s[j] = [q[j], qd[j], qdd[j]];
-            }
+        for j in 0..n {
+            let _ = built
+                .data
+                .prescribe_driver(built.drivers[j], 0.0, [q[j], qd[j], qdd[j]]);
         }
         // Continue from the previous sample (samples come in time order); fall back to the
         // built configuration if that fails.
-        let snap = match built.analysis.state_at(0.0, &built.q, &built.w) {
+        let Built {
+            model,
+            data,
+            analysis,
+            ..
+        } = built;
+        let snap = match analysis.state_at(model, data, 0.0, &built.q, &built.w) {
             Ok(s) => Ok(s),
             Err(_) => {
-                let (q0, w0) = built.analysis.initial_guess();
-                built.analysis.state_at(0.0, &q0, &w0)
+                let (q0, w0) = model.initial_guess();
+                analysis.state_at(model, data, 0.0, &q0, &w0)
             }
         };
         if let Ok(s) = snap {
-            let m = s.lambda.len();
             for j in 0..n {
-                // Driver multipliers are the negated actuator efforts.
-                tau[j] = -s.lambda[m - n + j];
+                tau[j] = data.driver_effort(built.drivers[j]).unwrap_or(f64::NAN);
             }
             built.q = s.q;
             built.w = s.w;

@@ -52,6 +52,7 @@ impl Default for BaumgarteGains {
 /// A mechanism's equations of motion as an [`OdeSystem`] (see the module docs).
 #[derive(Debug)]
 pub struct MultibodyOde {
+    model: Arc<Mechanism>,
     ev: Evaluator,
     sides: Vec<(Option<usize>, Option<usize>)>,
     inv_inertia: Vec<Matrix3<f64>>,
@@ -66,16 +67,17 @@ impl MultibodyOde {
     /// Builds the ODE of a model; fails with the model's validation error.
     pub fn new(model: Arc<Mechanism>) -> Result<Self, ModelError> {
         model.validate()?;
-        let ev = Evaluator::new(model.clone());
+        let ev = Evaluator::new(&model);
         let sides = ev.row_sides();
         let inv_inertia = model
-            .bodies
+            .bodies()
             .bodies
             .iter()
             .map(|b| b.inertia.try_inverse().unwrap_or_else(Matrix3::zeros))
             .collect();
         let n = 13 * ev.layout.nb;
         Ok(Self {
+            model,
             ev,
             sides,
             inv_inertia,
@@ -87,7 +89,7 @@ impl MultibodyOde {
 
     /// Index layout (only the q and w blocks are part of the ODE state).
     pub fn layout(&self) -> Layout {
-        self.ev.layout
+        self.ev.layout.clone()
     }
 
     /// B·w + Φ_t per constraint row at the evaluator's current rows and states.
@@ -150,17 +152,17 @@ impl OdeSystem for MultibodyOde {
     }
 
     fn rhs(&mut self, t: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) -> Result<(), EvalError> {
-        let lay = self.ev.layout;
+        let lay = self.ev.layout.clone();
         let nb = lay.nb;
         let (q, w) = (&y[..7 * nb], &y[7 * nb..13 * nb]);
         let gamma = if lay.m > 0 { self.gamma(t, q, w) } else { vec![] };
         self.ev.set_state(q, w);
         self.ev.eval_constraints(t);
-        self.ev.eval_loads(t);
+        self.ev.eval_loads(&self.model, t);
         let (qdot, wdot) = dy.split_at_mut(7 * nb);
         self.qdot(q, w, qdot);
         // Unconstrained accelerations ẇ₀ = M⁻¹Q.
-        for (b, body) in self.ev.model.bodies.bodies.iter().enumerate() {
+        for (b, body) in self.model.bodies().bodies.iter().enumerate() {
             let st = &self.ev.states[b];
             let ld = &self.ev.loads[b];
             let a = ld.force / body.mass;
@@ -189,7 +191,7 @@ impl OdeSystem for MultibodyOde {
         let (wz, om, g) = (self.gains.zeta, self.gains.omega, &gamma);
         let mut rhs = DVector::zeros(m);
         let mut s = DMatrix::zeros(m, m);
-        let mass: Vec<f64> = self.ev.model.bodies.bodies.iter().map(|b| b.mass).collect();
+        let mass: Vec<f64> = self.model.bodies().bodies.iter().map(|b| b.mass).collect();
         // M⁻¹Bᵀ column k, per body touched.
         let minv_bt =
             |b: usize, bt: &Vector3<f64>, br: &Vector3<f64>| (bt / mass[b], self.inv_inertia[b] * br);

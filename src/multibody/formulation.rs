@@ -19,57 +19,160 @@
 //! bodies sharing a joint or force element with it.
 
 use super::body::Attach;
+use super::body::BodyHandle;
 use super::constraints::{Hess14, Pose, Row};
 use super::forces::{BodyLoad, BodyState};
-use super::model::{ConstraintBlock, Mechanism};
+use super::joints::JointHandle;
+use super::model::{ConstraintBlock, DriverHandle, Mechanism};
 use super::rotation::{l_matrix, skew};
 use crate::dae::{DaeSystem, EvalError, JacobianSource, VarKind};
 use crate::sparse::{CscPattern, SlotIndex};
 use nalgebra::{Matrix3, Matrix3x4, Matrix4, Vector3, Vector4};
+use std::ops::Range;
 use std::sync::Arc;
 
-/// Index layout of the DAE unknowns.
-#[derive(Debug, Clone, Copy)]
+/// Index layout of a mechanism's state vectors: the one place that knows where a body's
+/// coordinates, a joint's multipliers and a driver's multiplier live.
+///
+/// Three kinds of vectors use it:
+/// * positions q (per body r, p: [`Q_PER_BODY`](Self::Q_PER_BODY) values), velocities w (per
+///   body v, ω': [`W_PER_BODY`](Self::W_PER_BODY) values) and multipliers λ (joints in
+///   insertion order, then drivers), as in [`Snapshot`](super::Snapshot),
+///   [`Sample`](super::Sample) and [`MechanismData`](super::MechanismData): addressed with
+///   [`body_q`](Self::body_q), [`body_w`](Self::body_w), [`joint_lambda`](Self::joint_lambda),
+///   [`driver_lambda`](Self::driver_lambda);
+/// * the DAE unknowns y = (q, w, λ, μ, ν) of [`MultibodyDae`]: [`y_q`](Self::y_q),
+///   [`y_w`](Self::y_w), [`y_lambda`](Self::y_lambda) and the offsets [`q`](Self::q),
+///   [`w`](Self::w), [`lambda`](Self::lambda), [`mu`](Self::mu), [`nu`](Self::nu).
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Layout {
     /// Bodies.
     pub nb: usize,
     /// Constraint equations (joints and drivers).
     pub m: usize,
+    /// (first row, rows) of each joint slot (removed joints: no rows).
+    joints: std::sync::Arc<[(usize, usize)]>,
+    /// Row of the first driver.
+    drivers0: usize,
+    /// Drivers.
+    nd: usize,
 }
 
 impl Layout {
-    /// Offset of body b's position coordinates (r, p).
+    /// Position coordinates per body: r (3, m) and Euler parameters p (4).
+    pub const Q_PER_BODY: usize = 7;
+    /// Velocity coordinates per body: v (3, m/s) and body-frame ω' (3, rad/s).
+    pub const W_PER_BODY: usize = 6;
+
+    /// The layout of a model.
+    pub fn of(model: &Mechanism) -> Self {
+        let mut joints = Vec::new();
+        let mut k = 0;
+        let mut slot = 0;
+        for (h, j) in model.joints() {
+            while slot < h.index() {
+                joints.push((k, 0));
+                slot += 1;
+            }
+            let n: usize = j.primitives().iter().map(|p| p.len()).sum();
+            joints.push((k, n));
+            k += n;
+            slot += 1;
+        }
+        let nd = model
+            .drivers()
+            .filter(|(_, d)| model.joint(d.joint).is_some())
+            .count();
+        Self {
+            nb: model.bodies().len(),
+            m: k + nd,
+            joints: joints.into(),
+            drivers0: k,
+            nd,
+        }
+    }
+
+    /// Range of body `h`'s positions (r, p) in a q vector (and in the DAE unknowns y).
+    pub fn body_q(&self, h: BodyHandle) -> Range<usize> {
+        let o = Self::Q_PER_BODY * h.index();
+        o..o + Self::Q_PER_BODY
+    }
+    /// Position (m, base frame) of body `h`'s centre of mass read from a vector that starts
+    /// with the positions q: a q vector, or the unknowns y of [`MultibodyDae`] or of the
+    /// explicit [`MultibodyOde`](super::MultibodyOde).
+    pub fn position_of(q: &[f64], h: BodyHandle) -> [f64; 3] {
+        let o = Self::Q_PER_BODY * h.index();
+        [q[o], q[o + 1], q[o + 2]]
+    }
+    /// Range of body `h`'s velocities (v, ω') in a w vector.
+    pub fn body_w(&self, h: BodyHandle) -> Range<usize> {
+        let o = Self::W_PER_BODY * h.index();
+        o..o + Self::W_PER_BODY
+    }
+    /// Range of joint `h`'s constraint multipliers in a λ vector (empty for a removed
+    /// joint or a handle of another model).
+    pub fn joint_lambda(&self, h: JointHandle) -> Range<usize> {
+        let (o, n) = self.joints.get(h.index()).copied().unwrap_or((0, 0));
+        o..o + n
+    }
+    /// Index of driver `h`'s multiplier in a λ vector (`None` for a handle of another model).
+    pub fn driver_lambda(&self, h: DriverHandle) -> Option<usize> {
+        (h.index() < self.nd).then_some(self.drivers0 + h.index())
+    }
+    /// Length of a q vector.
+    pub fn q_len(&self) -> usize {
+        Self::Q_PER_BODY * self.nb
+    }
+    /// Length of a w vector.
+    pub fn w_len(&self) -> usize {
+        Self::W_PER_BODY * self.nb
+    }
+    /// Range of the positions q in the DAE unknowns y.
+    pub fn y_q(&self) -> Range<usize> {
+        0..self.q_len()
+    }
+    /// Range of the velocities w in the DAE unknowns y.
+    pub fn y_w(&self) -> Range<usize> {
+        self.q_len()..self.q_len() + self.w_len()
+    }
+    /// Range of the constraint forces λ in the DAE unknowns y.
+    pub fn y_lambda(&self) -> Range<usize> {
+        self.lambda()..self.lambda() + self.m
+    }
+    /// Offset of body b's position coordinates (r, p) in y.
     pub fn q(&self, b: usize) -> usize {
         7 * b
     }
-    /// Offset of body b's velocities (v, ω').
+    /// Offset of body b's velocities (v, ω') in y.
     pub fn w(&self, b: usize) -> usize {
         7 * self.nb + 6 * b
     }
-    /// Offset of the constraint forces λ.
+    /// Offset of the constraint forces λ in y.
     pub fn lambda(&self) -> usize {
         13 * self.nb
     }
-    /// Offset of the stabilisation multipliers μ.
+    /// Offset of the stabilisation multipliers μ in y.
     pub fn mu(&self) -> usize {
         13 * self.nb + self.m
     }
-    /// Offset of the normalisation multipliers ν.
+    /// Offset of the normalisation multipliers ν in y.
     pub fn nu(&self) -> usize {
         13 * self.nb + 2 * self.m
     }
-    /// Total number of unknowns.
+    /// Total number of unknowns of the DAE.
     pub fn dim(&self) -> usize {
         14 * self.nb + 2 * self.m
     }
 }
 
-/// Evaluates kinematics, constraints and loads of a mechanism at one state: shared by the
-/// DAE residual and the kinematic analyses.
-#[derive(Debug)]
+/// Scratch of one evaluation of kinematics, constraints and loads: shared by the DAE
+/// residual, the explicit ODE and the analyses (through [`MechanismData`](super::MechanismData)).
+/// Holds the model's constraint blocks (compiled when the scratch is made), never the model.
+#[derive(Debug, Clone)]
 pub(crate) struct Evaluator {
-    pub model: Arc<Mechanism>,
     pub blocks: Vec<ConstraintBlock>,
+    /// Index of the first driver block in `blocks`.
+    pub driver_block0: usize,
     pub layout: Layout,
     pub rows: Vec<Row>,
     pub poses: Vec<Pose>,
@@ -78,18 +181,19 @@ pub(crate) struct Evaluator {
 }
 
 impl Evaluator {
-    pub(crate) fn new(model: Arc<Mechanism>) -> Self {
+    pub(crate) fn new(model: &Mechanism) -> Self {
         let blocks = model.constraint_blocks();
-        let m = blocks.iter().map(|b| b.prim.len()).sum();
-        let nb = model.bodies.len();
+        let layout = Layout::of(model);
+        let nb = layout.nb;
+        let driver_block0 = blocks.len() - layout.nd;
         Self {
-            layout: Layout { nb, m },
-            rows: vec![Row::default(); m],
+            rows: vec![Row::default(); layout.m],
             poses: vec![Pose::ground(); nb],
             states: vec![BodyState::ground(); nb],
             loads: vec![BodyLoad::default(); nb],
             blocks,
-            model,
+            driver_block0,
+            layout,
         }
     }
 
@@ -142,16 +246,16 @@ impl Evaluator {
         out
     }
 
-    /// Applied loads (gravity and force elements) at time t.
-    pub(crate) fn eval_loads(&mut self, t: f64) {
-        let g = self.model.gravity;
-        for (b, body) in self.model.bodies.bodies.iter().enumerate() {
+    /// Applied loads (gravity and force elements of `model`) at time t.
+    pub(crate) fn eval_loads(&mut self, model: &Mechanism, t: f64) {
+        let g = model.gravity();
+        for (b, body) in model.bodies().bodies.iter().enumerate() {
             self.loads[b] = BodyLoad {
                 force: body.mass * g,
                 torque: Vector3::zeros(),
             };
         }
-        for f in &self.model.forces {
+        for (_, f) in model.forces() {
             f.apply(t, &self.states, &mut self.loads);
         }
     }
@@ -168,22 +272,43 @@ impl Evaluator {
     }
 }
 
+/// Tunables of the equations of motion ([`MultibodyDae`]); part of
+/// [`SimulationOptions`](super::SimulationOptions), whose module documents every default.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FormulationOptions {
+    /// Use the analytic Jacobian (default `true`) or lash's coloured finite differences.
+    pub analytic_jacobian: bool,
+    /// Measure velocity errors as index-2 variables (scaled by the step) in the error test,
+    /// as for very stiff mechanical systems (see `DaeSystem::error_index`). Default `false`.
+    pub velocities_index2: bool,
+    /// Relative central-difference increment for the Jacobians of force elements that do
+    /// not provide exact derivatives ([`ForceElement::load_jacobian`](super::ForceElement::load_jacobian)).
+    /// Default 1e-9.
+    pub force_fd_step: f64,
+}
+
+impl Default for FormulationOptions {
+    fn default() -> Self {
+        Self {
+            analytic_jacobian: true,
+            velocities_index2: false,
+            force_fd_step: 1e-9,
+        }
+    }
+}
+
 /// A mechanism's equations of motion as a [`DaeSystem`].
 #[derive(Debug)]
 pub struct MultibodyDae {
+    model: Arc<Mechanism>,
     pub(crate) ev: Evaluator,
     sides: Vec<(Option<usize>, Option<usize>)>,
     names: Vec<String>,
     pattern: Option<CscPattern>,
     /// Entry lookup on `pattern` for the analytic Jacobian.
     slots: Option<SlotIndex>,
-    /// Use the analytic Jacobian (default) or lash's coloured finite differences.
-    pub analytic_jacobian: bool,
-    /// Measure velocity errors as index-2 variables in the error test.
-    pub velocities_index2: bool,
-    /// Relative central-difference increment for the Jacobians of force elements that do
-    /// not provide exact derivatives ([`ForceElement::load_jacobian`](super::ForceElement::load_jacobian)).
-    pub force_fd_step: f64,
+    /// Tunables.
+    pub options: FormulationOptions,
 }
 
 /// ∂(L(p)·d)/∂p for a fixed 4-vector d: [d_v | −d_0·I + d̃_v] (3 × 4).
@@ -208,20 +333,24 @@ fn lt_omega_derivative(om: &Vector3<f64>) -> Matrix4<f64> {
 }
 
 impl MultibodyDae {
-    /// Builds the DAE of a validated model.
+    /// Builds the DAE of a validated model with the default [`FormulationOptions`].
     pub fn new(model: Arc<Mechanism>) -> Self {
-        let ev = Evaluator::new(model);
+        Self::with_options(model, FormulationOptions::default())
+    }
+
+    /// Builds the DAE of a validated model.
+    pub fn with_options(model: Arc<Mechanism>, options: FormulationOptions) -> Self {
+        let ev = Evaluator::new(&model);
         let sides = ev.row_sides();
         let names = ev.blocks.iter().flat_map(|b| b.names.clone()).collect();
         let mut s = Self {
+            model,
             ev,
             sides,
             names,
             pattern: None,
             slots: None,
-            analytic_jacobian: true,
-            velocities_index2: false,
-            force_fd_step: 1e-9,
+            options,
         };
         s.pattern = Some(s.build_pattern());
         s.slots = s.pattern.as_ref().map(SlotIndex::new);
@@ -230,7 +359,12 @@ impl MultibodyDae {
 
     /// The index layout.
     pub fn layout(&self) -> Layout {
-        self.ev.layout
+        self.ev.layout.clone()
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Mechanism {
+        &self.model
     }
 }
 
@@ -247,12 +381,12 @@ impl DaeSystem for MultibodyDae {
         _p: &[f64],
         res: &mut [f64],
     ) -> Result<(), EvalError> {
-        let lay = self.ev.layout;
+        let lay = self.ev.layout.clone();
         let nb = lay.nb;
         let (q, w) = (&y[..7 * nb], &y[7 * nb..13 * nb]);
         self.ev.set_state(q, w);
         self.ev.eval_constraints(t);
-        self.ev.eval_loads(t);
+        self.ev.eval_loads(&self.model, t);
         res.iter_mut().for_each(|v| *v = 0.0);
         for b in 0..nb {
             let (qo, wo) = (lay.q(b), lay.w(b));
@@ -265,7 +399,7 @@ impl DaeSystem for MultibodyDae {
             for k in 0..4 {
                 res[qo + 3 + k] = yp[qo + 3 + k] - pdot[k] + 2.0 * st.p[k] * nu;
             }
-            let body = &self.ev.model.bodies.bodies[b];
+            let body = &self.model.bodies().bodies[b];
             let jw = body.inertia * st.omega;
             let wdot = Vector3::new(yp[wo + 3], yp[wo + 4], yp[wo + 5]);
             let lin = body.mass * Vector3::new(yp[wo], yp[wo + 1], yp[wo + 2]) - self.ev.loads[b].force;
@@ -312,7 +446,7 @@ impl DaeSystem for MultibodyDae {
     }
 
     fn jacobian_source(&self) -> JacobianSource {
-        if self.analytic_jacobian {
+        if self.options.analytic_jacobian {
             JacobianSource::Analytic
         } else {
             JacobianSource::FiniteDifference
@@ -328,12 +462,11 @@ impl DaeSystem for MultibodyDae {
         alpha: f64,
         values: &mut [f64],
     ) -> Result<(), EvalError> {
-        self.analytic_jacobian_values(t, y, alpha, values);
-        Ok(())
+        self.analytic_jacobian_values(t, y, alpha, values)
     }
 
     fn var_kinds(&self) -> Vec<VarKind> {
-        let lay = self.ev.layout;
+        let lay = self.ev.layout.clone();
         (0..lay.dim())
             .map(|i| {
                 if i < 13 * lay.nb {
@@ -350,10 +483,10 @@ impl DaeSystem for MultibodyDae {
     }
 
     fn error_index(&self) -> Vec<u8> {
-        let lay = self.ev.layout;
+        let lay = self.ev.layout.clone();
         (0..lay.dim())
             .map(|i| {
-                if self.velocities_index2 && (7 * lay.nb..13 * lay.nb).contains(&i) {
+                if self.options.velocities_index2 && (7 * lay.nb..13 * lay.nb).contains(&i) {
                     2
                 } else {
                     1
@@ -365,7 +498,7 @@ impl DaeSystem for MultibodyDae {
 
 impl MultibodyDae {
     fn build_pattern(&self) -> CscPattern {
-        let lay = self.ev.layout;
+        let lay = self.ev.layout.clone();
         let nb = lay.nb;
         // Which columns a body's dynamics rows (w rows) depend on, per other body: a constraint
         // between two bodies couples them through its Hessian (G(q)ᵀλ: positions only); a force
@@ -394,7 +527,7 @@ impl MultibodyDae {
                 link(b, a, Coupling::Positions);
             }
         }
-        for f in &self.ev.model.forces {
+        for (_, f) in self.model.forces() {
             let bs = f.bodies();
             for a in &bs {
                 for b in &bs {
@@ -455,8 +588,8 @@ impl MultibodyDae {
     }
 
     fn name_of(&self, i: usize) -> String {
-        let lay = self.ev.layout;
-        let body = |b: usize| self.ev.model.bodies.bodies[b].name.clone();
+        let lay = self.ev.layout.clone();
+        let body = |b: usize| self.model.bodies().bodies[b].name.clone();
         if i < 7 * lay.nb {
             let c = ["x", "y", "z", "e0", "e1", "e2", "e3"][i % 7];
             format!("body '{}' {c}", body(i / 7))
@@ -474,26 +607,39 @@ impl MultibodyDae {
     }
 
     /// Fills the analytic iteration matrix dF/dy + α·dF/dy' on the pattern.
-    fn analytic_jacobian_values(&mut self, t: f64, y: &[f64], alpha: f64, values: &mut [f64]) {
-        let lay = self.ev.layout;
+    fn analytic_jacobian_values(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        alpha: f64,
+        values: &mut [f64],
+    ) -> Result<(), EvalError> {
+        let lay = self.ev.layout.clone();
         let nb = lay.nb;
         self.ev.set_state(&y[..7 * nb], &y[7 * nb..13 * nb]);
         self.ev.eval_constraints(t);
         values.iter_mut().for_each(|v| *v = 0.0);
-        let slots = self.slots.as_ref().expect("pattern built at construction");
+        let Some(slots) = self.slots.as_ref() else {
+            return Err(EvalError::Fatal("the Jacobian pattern was not built".into()));
+        };
+        // First entry outside the declared pattern (a bug of the formulation, reported as an
+        // error rather than a panic).
+        let mut outside: Option<(usize, usize)> = None;
         let mut add = |r: usize, c: usize, v: f64| {
             if v != 0.0 {
-                let k = slots
-                    .get(r, c)
-                    .expect("Jacobian entry outside the declared pattern");
-                values[k] += v;
+                match slots.get(r, c) {
+                    Some(k) => values[k] += v,
+                    None => {
+                        outside.get_or_insert((r, c));
+                    }
+                }
             }
         };
         // Per body: kinematics, inertia, normalisation.
         for b in 0..nb {
             let (qo, wo) = (lay.q(b), lay.w(b));
             let st = self.ev.states[b];
-            let body = &self.ev.model.bodies.bodies[b];
+            let body = &self.model.bodies().bodies[b];
             let nu = y[lay.nu() + b];
             for k in 0..3 {
                 add(qo + k, qo + k, alpha);
@@ -638,12 +784,25 @@ impl MultibodyDae {
         }
         // Force elements: central differences of each element's loads over its bodies' states
         // (one scratch copy of the states and two load buffers, reused throughout).
-        let model = self.ev.model.clone();
+        let model = self.model.clone();
         let mut states = self.ev.states.clone();
         let mut loads_p = vec![BodyLoad::default(); nb];
         let mut loads_m = vec![BodyLoad::default(); nb];
-        for f in &model.forces {
+        for (_, f) in model.forces() {
             if let Some(blocks) = f.load_jacobian(t, &self.ev.states) {
+                let declared = f.bodies();
+                for blk in &blocks {
+                    if let Some(h) = [blk.loaded, blk.wrt].into_iter().find(|h| !declared.contains(h)) {
+                        let body = model
+                            .body(h)
+                            .map(|b| format!("body '{}'", b.name))
+                            .unwrap_or_else(|| format!("body handle {}", h.index()));
+                        return Err(EvalError::Fatal(format!(
+                            "force element '{}': its load Jacobian names {body}, which its bodies() does not list",
+                            f.name()
+                        )));
+                    }
+                }
                 for blk in blocks {
                     let (br, bc) = (blk.loaded.0, blk.wrt.0);
                     for c in 0..13 {
@@ -662,7 +821,7 @@ impl MultibodyDae {
                 for c in 0..13 {
                     // Increments far below contact penetrations (~1e-8..1e-6 m): a larger one
                     // would straddle contact onset and corrupt the derivative.
-                    let h = self.force_fd_step
+                    let h = self.options.force_fd_step
                         * (1.0
                             + if c < 7 {
                                 y[lay.q(bc.0) + c].abs()
@@ -702,6 +861,14 @@ impl MultibodyDae {
                     }
                 }
             }
+        }
+        match outside {
+            Some((r, c)) => Err(EvalError::Fatal(format!(
+                "Jacobian entry ({}, {}) outside the declared pattern",
+                self.name_of(r),
+                self.name_of(c)
+            ))),
+            None => Ok(()),
         }
     }
 }

@@ -9,16 +9,18 @@
 //! | `joints/` | one joint kind per file, built from primitives |
 //! | `drivers.rs` | motion laws for driven joint coordinates |
 //! | `forces.rs` | gravity, point forces, torques, spring-dampers, the force-element trait |
-//! | `model.rs` | the mechanism (model) and its builder |
-//! | `formulation.rs` | GGL index-2 equations of motion as a `dae::DaeSystem` |
-//! | `analysis.rs` | assembly, velocity/acceleration analysis, reactions, singularity measure |
+//! | `model.rs` | the mechanism (constant model): builder, accessors, replace/remove with stable handles |
+//! | `data.rs` | the mechanism's data (state t, q, w, ẇ, λ and scratch); typed access by handle, driver-effort sign |
+//! | `formulation.rs` | the state layout (`Layout`, one place for every address); GGL index-2 equations of motion as a `dae::DaeSystem` |
+//! | `analysis.rs` | assembly, velocity/acceleration analysis, reactions, singularity measure on `(&Mechanism, &mut MechanismData)` |
 //! | `explicit.rs` | the same equations as an ODE (index-1, Baumgarte) for explicit integrators |
-//! | `simulation.rs` | the pipeline: initial state → BDF → samples, singularity watch |
+//! | `simulation.rs` | the pipeline: initial state → BDF → samples, singularity watch; `SimulationOptions` and every default |
 //! | `output.rs` | CSV per body and per joint |
 
 pub mod analysis;
 pub mod body;
 pub(crate) mod constraints;
+pub mod data;
 pub mod drivers;
 pub mod error;
 pub mod explicit;
@@ -30,13 +32,14 @@ pub mod output;
 pub mod rotation;
 pub mod simulation;
 
-pub use analysis::{Analysis, Reaction, Snapshot};
+pub use analysis::{Analysis, AssemblyOptions, Reaction, Snapshot};
 pub use body::{Attach, BodyHandle, BodySet, RigidBody};
+pub use data::MechanismData;
 pub use drivers::{MotionLaw, Profile};
 pub use error::ModelError;
 pub use explicit::{BaumgarteGains, MultibodyOde};
 pub use forces::{BodyLoad, BodyState, ForceElement, LoadDerivative, PointForce, SpringDamper, Torque};
-pub use formulation::{Layout, MultibodyDae};
+pub use formulation::{FormulationOptions, Layout, MultibodyDae};
 pub use joints::{Joint, JointFrame, JointHandle, JointKind};
-pub use model::{Driver, DriverHandle, Marker, MarkerHandle, Mechanism, STANDARD_GRAVITY};
+pub use model::{Driver, DriverHandle, ForceHandle, Marker, MarkerHandle, Mechanism, STANDARD_GRAVITY};
 pub use simulation::{RunEnd, Sample, Simulation, SimulationOptions, SingularityEvent, Trajectory};

@@ -1,12 +1,14 @@
 //! The model: bodies, joints, drivers, force elements and gravity, assembled with a builder
-//! API in the style of rapier (sets with handles). The model holds no state; simulation
-//! state lives in the solver and in [`super::analysis::Snapshot`]s.
+//! API in the style of rapier (sets with handles) and read through accessors. The model holds
+//! no state: the state lives in a [`MechanismData`](super::MechanismData), in the solver and
+//! in [`Snapshot`](super::Snapshot)s and [`Sample`](super::Sample)s.
 
 use super::body::{Attach, BodyHandle, BodySet, RigidBody};
 use super::constraints::Primitive;
 use super::drivers::MotionLaw;
 use super::error::ModelError;
 use super::forces::ForceElement;
+use super::formulation::Layout;
 use super::joints::{Joint, JointFrame, JointHandle, JointKind};
 use super::rotation::rotation;
 use nalgebra::{Matrix3, Vector3};
@@ -53,21 +55,47 @@ pub struct Marker {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct MarkerHandle(pub(crate) usize);
 
-/// A mechanism: the model of a multibody system.
+/// Handle of a force element.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ForceHandle(pub(crate) usize);
+
+impl ForceHandle {
+    /// Index of the force element's slot (removed elements keep their slot).
+    pub fn index(self) -> usize {
+        self.0
+    }
+}
+
+/// A mechanism: the model of a multibody system (constant during a simulation; the state
+/// lives in [`MechanismData`](super::MechanismData)).
+///
+/// Built with the `add_*`, `*_at` and `drive` methods, read through accessors. Joints and
+/// force elements can be replaced or removed later; a removed element leaves an empty slot,
+/// so every other handle stays valid. Build a new [`MechanismData`](super::MechanismData)
+/// after changing the model.
 #[derive(Debug, Default)]
 pub struct Mechanism {
-    /// Markers.
-    pub markers: Vec<Marker>,
-    /// Bodies.
-    pub bodies: BodySet,
-    /// Joints, in insertion order.
-    pub joints: Vec<Joint>,
-    /// Drivers.
-    pub drivers: Vec<Driver>,
-    /// Force elements.
-    pub forces: Vec<Box<dyn ForceElement>>,
-    /// Gravity, m/s² (base frame).
-    pub gravity: Vector3<f64>,
+    markers: Vec<Marker>,
+    bodies: BodySet,
+    /// Joint slots, in insertion order (`None`: removed).
+    joints: Vec<Option<Joint>>,
+    drivers: Vec<Driver>,
+    /// Force-element slots (`None`: removed).
+    forces: Vec<Option<Box<dyn ForceElement>>>,
+    gravity: Vector3<f64>,
+}
+
+/// True for the joint kinds a driver can drive.
+fn drivable(k: JointKind) -> bool {
+    !matches!(k, JointKind::Spherical | JointKind::Universal | JointKind::Fixed)
+}
+
+fn missing(kind: &'static str, index: usize) -> ModelError {
+    ModelError::BadElement {
+        kind,
+        name: format!("#{index}"),
+        reason: format!("{kind} handle {index} does not exist or was removed"),
+    }
 }
 
 /// One scalar constraint of the assembled model: its sides, primitive and owner.
@@ -113,14 +141,167 @@ impl Mechanism {
     }
 
     /// Adds a force element.
-    pub fn add_force(&mut self, f: Box<dyn ForceElement>) {
-        self.forces.push(f);
+    pub fn add_force(&mut self, f: Box<dyn ForceElement>) -> ForceHandle {
+        self.forces.push(Some(f));
+        ForceHandle(self.forces.len() - 1)
+    }
+
+    /// Replaces a force element, returning the old one; other handles stay valid.
+    pub fn replace_force(
+        &mut self,
+        h: ForceHandle,
+        f: Box<dyn ForceElement>,
+    ) -> Result<Box<dyn ForceElement>, ModelError> {
+        match self.forces.get_mut(h.0) {
+            Some(slot @ Some(_)) => Ok(slot.replace(f).expect("slot checked to be occupied")),
+            _ => Err(missing("force", h.0)),
+        }
+    }
+
+    /// Removes a force element, returning it; its slot stays empty, so other handles stay
+    /// valid.
+    pub fn remove_force(&mut self, h: ForceHandle) -> Result<Box<dyn ForceElement>, ModelError> {
+        self.forces
+            .get_mut(h.0)
+            .and_then(Option::take)
+            .ok_or_else(|| missing("force", h.0))
     }
 
     /// Adds a joint given by frames in each side's body frame.
     pub fn add_joint(&mut self, joint: Joint) -> JointHandle {
-        self.joints.push(joint);
+        self.joints.push(Some(joint));
         JointHandle(self.joints.len() - 1)
+    }
+
+    /// Replaces a joint, returning the old one; other handles stay valid. A driven joint
+    /// can only be replaced by a joint that can be driven the same way (revolute or
+    /// cylindrical for a rotation driver, prismatic for a translation driver).
+    pub fn replace_joint(&mut self, h: JointHandle, joint: Joint) -> Result<Joint, ModelError> {
+        let old = self.joint(h).ok_or_else(|| missing("joint", h.0))?;
+        if let Some(d) = self.drivers.iter().find(|d| d.joint == h) {
+            let translation = |k: JointKind| k == JointKind::Prismatic;
+            if !drivable(joint.kind) || translation(joint.kind) != translation(old.kind) {
+                return Err(ModelError::BadElement {
+                    kind: "joint",
+                    name: old.name.clone(),
+                    reason: format!(
+                        "driven by driver '{}': cannot be replaced by the {:?} joint '{}'",
+                        d.name, joint.kind, joint.name
+                    ),
+                });
+            }
+        }
+        Ok(self.joints[h.0]
+            .replace(joint)
+            .expect("slot checked to be occupied"))
+    }
+
+    /// Removes a joint, returning it; its slot stays empty, so other handles stay valid. A
+    /// driven joint cannot be removed (the error names the joint and its driver).
+    pub fn remove_joint(&mut self, h: JointHandle) -> Result<Joint, ModelError> {
+        let j = self.joint(h).ok_or_else(|| missing("joint", h.0))?;
+        if let Some(d) = self.drivers.iter().find(|d| d.joint == h) {
+            return Err(ModelError::BadElement {
+                kind: "joint",
+                name: j.name.clone(),
+                reason: format!(
+                    "driven by driver '{}': remove cannot leave the driver without its joint",
+                    d.name
+                ),
+            });
+        }
+        Ok(self.joints[h.0].take().expect("slot checked to be occupied"))
+    }
+
+    /// The bodies.
+    pub fn bodies(&self) -> &BodySet {
+        &self.bodies
+    }
+
+    /// The body of a handle.
+    pub fn body(&self, h: BodyHandle) -> Option<&RigidBody> {
+        self.bodies.get(h)
+    }
+
+    /// Mutable access to a body (its mass properties and initial state), while building.
+    pub fn body_mut(&mut self, h: BodyHandle) -> Option<&mut RigidBody> {
+        self.bodies.get_mut(h)
+    }
+
+    /// The joints present, with their handles, in insertion order.
+    pub fn joints(&self) -> impl Iterator<Item = (JointHandle, &Joint)> {
+        self.joints
+            .iter()
+            .enumerate()
+            .filter_map(|(i, j)| j.as_ref().map(|j| (JointHandle(i), j)))
+    }
+
+    /// The joint of a handle (`None` if it was removed or never existed).
+    pub fn joint(&self, h: JointHandle) -> Option<&Joint> {
+        self.joints.get(h.0).and_then(Option::as_ref)
+    }
+
+    /// The drivers, with their handles, in insertion order.
+    pub fn drivers(&self) -> impl Iterator<Item = (DriverHandle, &Driver)> {
+        self.drivers.iter().enumerate().map(|(i, d)| (DriverHandle(i), d))
+    }
+
+    /// The driver of a handle.
+    pub fn driver(&self, h: DriverHandle) -> Option<&Driver> {
+        self.drivers.get(h.0)
+    }
+
+    /// The force elements present, with their handles, in insertion order.
+    pub fn forces(&self) -> impl Iterator<Item = (ForceHandle, &dyn ForceElement)> {
+        self.forces
+            .iter()
+            .enumerate()
+            .filter_map(|(i, f)| f.as_deref().map(|f| (ForceHandle(i), f)))
+    }
+
+    /// The force element of a handle (`None` if it was removed or never existed).
+    pub fn force(&self, h: ForceHandle) -> Option<&dyn ForceElement> {
+        self.forces.get(h.0).and_then(|f| f.as_deref())
+    }
+
+    /// Gravity, m/s² (base frame).
+    pub fn gravity(&self) -> Vector3<f64> {
+        self.gravity
+    }
+
+    /// Sets gravity, m/s² (base frame).
+    pub fn set_gravity(&mut self, g: Vector3<f64>) {
+        self.gravity = g;
+    }
+
+    /// The markers, with their handles.
+    pub fn markers(&self) -> impl Iterator<Item = (MarkerHandle, &Marker)> {
+        self.markers.iter().enumerate().map(|(i, m)| (MarkerHandle(i), m))
+    }
+
+    /// The marker of a handle.
+    pub fn marker(&self, h: MarkerHandle) -> Option<&Marker> {
+        self.markers.get(h.0)
+    }
+
+    /// The index layout of this model's state vectors (see [`Layout`]).
+    pub fn layout(&self) -> Layout {
+        Layout::of(self)
+    }
+
+    /// The bodies' initial positions q = (r, p) and velocities w = (v, ω') as given in the
+    /// model (not yet assembled).
+    pub fn initial_guess(&self) -> (Vec<f64>, Vec<f64>) {
+        let nb = self.bodies.len();
+        let mut q = Vec::with_capacity(Layout::Q_PER_BODY * nb);
+        let mut w = Vec::with_capacity(Layout::W_PER_BODY * nb);
+        for b in &self.bodies.bodies {
+            q.extend(b.position.iter());
+            q.extend(b.orientation.normalize().iter());
+            w.extend(b.velocity.iter());
+            w.extend(b.angular_velocity.iter());
+        }
+        (q, w)
     }
 
     fn pose0(&self, a: Attach) -> (Vector3<f64>, Matrix3<f64>) {
@@ -275,7 +456,11 @@ impl Mechanism {
 
     /// Drives a joint coordinate: the rotation of a revolute or cylindrical joint (rad), or
     /// the translation of a prismatic joint (m). `reference` is the coordinate's value in the
-    /// configuration the joint was built in.
+    /// configuration the joint was built in. The driver's effort (the torque or force it
+    /// applies on the coordinate, positive towards increasing coordinate) is read by handle:
+    /// [`Sample::driver_effort`](super::Sample::driver_effort),
+    /// [`MechanismData::driver_effort`](super::MechanismData::driver_effort); the sign
+    /// convention is stated in [`data`](super::data).
     pub fn drive(
         &mut self,
         name: &str,
@@ -283,15 +468,12 @@ impl Mechanism {
         law: MotionLaw,
         reference: f64,
     ) -> Result<DriverHandle, ModelError> {
-        let j = self.joints.get(joint.0).ok_or_else(|| ModelError::BadElement {
+        let j = self.joint(joint).ok_or_else(|| ModelError::BadElement {
             kind: "driver",
             name: name.into(),
             reason: format!("joint handle {} does not exist", joint.0),
         })?;
-        if matches!(
-            j.kind,
-            JointKind::Spherical | JointKind::Universal | JointKind::Fixed
-        ) {
+        if !drivable(j.kind) {
             return Err(ModelError::BadElement {
                 kind: "driver",
                 name: name.into(),
@@ -320,8 +502,8 @@ impl Mechanism {
     /// assuming independent constraints.
     pub fn degrees_of_freedom(&self) -> isize {
         let joint_eqs: usize = self
-            .joints
-            .iter()
+            .joints()
+            .map(|(_, j)| j)
             .map(|j| j.primitives().iter().map(|p| p.len()).sum::<usize>())
             .sum();
         6 * self.bodies.len() as isize - joint_eqs as isize
@@ -340,7 +522,7 @@ impl Mechanism {
             b.validate()?;
         }
         let nb = self.bodies.len();
-        for j in &self.joints {
+        for (_, j) in self.joints() {
             for a in [j.body_i, j.body_j] {
                 if let Attach::Body(h) = a {
                     if h.0 >= nb {
@@ -360,12 +542,21 @@ impl Mechanism {
                 });
             }
         }
-        for f in &self.forces {
+        for (_, f) in self.forces() {
             if let Some(h) = f.bodies().iter().find(|h| h.0 >= nb) {
                 return Err(ModelError::BadElement {
                     kind: "force",
                     name: f.name().into(),
                     reason: format!("body handle {} does not exist", h.0),
+                });
+            }
+        }
+        for d in &self.drivers {
+            if self.joint(d.joint).is_none() {
+                return Err(ModelError::BadElement {
+                    kind: "driver",
+                    name: d.name.clone(),
+                    reason: format!("joint handle {} does not exist", d.joint.0),
                 });
             }
         }
@@ -382,7 +573,7 @@ impl Mechanism {
     /// All constraint blocks: joint primitives, then one per driver.
     pub(crate) fn constraint_blocks(&self) -> Vec<ConstraintBlock> {
         let mut out = vec![];
-        for j in &self.joints {
+        for (_, j) in self.joints() {
             let names = j.constraint_names();
             let mut k = 0;
             for prim in j.primitives() {
@@ -397,7 +588,9 @@ impl Mechanism {
             }
         }
         for d in &self.drivers {
-            let j = &self.joints[d.joint.0];
+            let Some(j) = self.joint(d.joint) else {
+                continue; // validate() reports it; removal of a driven joint is refused
+            };
             let law = MotionLaw::Sum(vec![d.law.clone(), MotionLaw::Constant(-d.reference)]);
             let (fi, fj) = (&j.frame_i, &j.frame_j);
             let prim = match j.kind {

@@ -2,6 +2,7 @@
 
 use super::analysis::Analysis;
 use super::error::ModelError;
+use super::model::Mechanism;
 use super::simulation::Sample;
 use std::io::Write;
 
@@ -13,7 +14,7 @@ fn io(e: std::io::Error) -> ModelError {
 /// (m/s), body-frame angular velocity (rad/s).
 pub fn write_bodies_csv(
     out: &mut impl Write,
-    analysis: &Analysis,
+    model: &Mechanism,
     samples: &[Sample],
 ) -> Result<(), ModelError> {
     writeln!(
@@ -22,10 +23,10 @@ pub fn write_bodies_csv(
     )
     .map_err(io)?;
     for s in samples {
-        for (h, b) in analysis.model().bodies.iter() {
-            let i = h.index();
-            let q = &s.q[7 * i..7 * i + 7];
-            let w = &s.w[6 * i..6 * i + 6];
+        let lay = model.layout();
+        for (h, b) in model.bodies().iter() {
+            let q = &s.q[lay.body_q(h)];
+            let w = &s.w[lay.body_w(h)];
             write!(out, "{},{}", s.t, b.name).map_err(io)?;
             for v in q.iter().chain(w) {
                 write!(out, ",{v}").map_err(io)?;
@@ -40,13 +41,14 @@ pub fn write_bodies_csv(
 /// body (N) and torque about the joint origin (N·m), base frame.
 pub fn write_reactions_csv(
     out: &mut impl Write,
-    analysis: &mut Analysis,
+    model: &Mechanism,
+    analysis: &Analysis,
     samples: &[Sample],
 ) -> Result<(), ModelError> {
     writeln!(out, "t_s,joint,fx_N,fy_N,fz_N,tx_Nm,ty_Nm,tz_Nm").map_err(io)?;
-    let names: Vec<String> = analysis.model().joints.iter().map(|j| j.name.clone()).collect();
+    let names: Vec<String> = model.joints().map(|(_, j)| j.name.clone()).collect();
     for s in samples {
-        let r = analysis.reactions(s.t, &s.q, &s.lambda);
+        let r = analysis.reactions(model, s.t, &s.q, &s.lambda);
         for (name, r) in names.iter().zip(r) {
             writeln!(
                 out,

@@ -1,71 +1,98 @@
 //! The simulation pipeline (named stages, as in MuJoCo's): validate → assemble the initial
 //! state (positions, velocities, accelerations and forces) → integrate the GGL equations with
 //! the BDF → sample outputs, watching the constraint Jacobian for singular configurations.
+//!
+//! # Options
+//! [`SimulationOptions`] reaches every tunable of a simulation; each has exactly one default,
+//! listed here (`SimulationOptions::default()`):
+//!
+//! | field | tunable | default |
+//! |---|---|---|
+//! | `bdf` | [`BdfOptions`]: all integrator settings | as [`BdfOptions::default`] except the rows below |
+//! | `bdf.rtol` | relative tolerance | 1e-8 |
+//! | `bdf.atol` | absolute tolerance (m, rad, m/s, rad/s alike) | 1e-9 (scalar) |
+//! | `bdf.suppress_algebraic` | leave λ, μ, ν out of the error test | `true` |
+//! | `bdf.max_steps` | steps between two output samples | 200 000 |
+//! | `bdf.filter_error_estimate` | filter local error estimates through the iteration matrix | `false` |
+//! | `bdf.max_newton_iters` | Newton iterations per step before retrying smaller | 8 |
+//! | `bdf.max_jacobian_refreshes_in_solve` | matrix rebuilds within one step | 2 |
+//! | `assembly.max_iterations` | Gauss–Newton iterations of position assembly | 50 |
+//! | `assembly.tolerance` | constraint residual accepted by assembly | 1e-12 |
+//! | `formulation.analytic_jacobian` | analytic (or finite-difference) iteration matrix | `true` |
+//! | `formulation.velocities_index2` | velocities as index-2 variables in the error test | `false` |
+//! | `formulation.force_fd_step` | relative difference step for force elements without derivatives | 1e-9 |
+//! | `singularity_warning` | singularity measure below which a warning is recorded | 1e-3 |
+//!
+//! Why 8 Newton iterations (IDA: 4) and two matrix rebuilds within a step: they suit stiff
+//! contact. A contact that switches on within the step makes the iteration crawl, and failing
+//! the step costs more than a few iterations. Measured on the MR2120 clearance model (L1,
+//! first 1.5 s, `lash bench mr2120`): 25–45 % less wall time at rtol 1e-4…1e-7 than 4
+//! iterations without rebuilds.
 
-use super::analysis::{Analysis, Reaction};
+use super::analysis::{Analysis, AssemblyOptions, Reaction};
+use super::data::MechanismData;
 use super::error::ModelError;
-use super::formulation::{Layout, MultibodyDae};
+use super::formulation::{FormulationOptions, Layout, MultibodyDae};
 use super::model::Mechanism;
-use crate::dae::{BdfOptions, BdfSolver, Statistics};
+use crate::dae::{AbsTol, BdfOptions, BdfSolver, Statistics};
 use serde::Serialize;
 use std::sync::Arc;
 
-/// Every tunable of a simulation.
+/// Every tunable of a simulation; the defaults are listed in the [module docs](self).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimulationOptions {
-    /// Relative tolerance of the integrator.
-    pub rtol: f64,
-    /// Absolute tolerance of the integrator (m, rad, m/s, rad/s alike).
-    pub atol: f64,
+    /// The integrator's settings.
+    pub bdf: BdfOptions,
+    /// Position assembly (initial state and analyses).
+    pub assembly: AssemblyOptions,
+    /// The equations of motion.
+    pub formulation: FormulationOptions,
     /// Singularity measure (see [`Analysis::singularity_measure`]) below which a warning is
     /// recorded.
     pub singularity_warning: f64,
-    /// Maximum integrator steps between two output samples.
-    pub max_steps: usize,
-    /// Filter the BDF's local error estimates through the iteration matrix (see
-    /// `dae::bdf::estimate`): transients along stiff contact directions then no longer force
-    /// tiny steps.
-    pub filter_error_estimate: bool,
-    /// Measure velocity errors as index-2 variables (scaled by the step), as for very stiff
-    /// mechanical systems (see `DaeSystem::error_index`).
-    pub velocities_index2: bool,
-    /// Newton iterations allowed per step before the step is retried smaller. The default, 8
-    /// (IDA: 4), and two matrix rebuilds within a step suit stiff contact: a contact that
-    /// switches on within the step makes the iteration crawl, and failing the step costs more
-    /// than a few iterations. Measured on the MR2120 clearance model (L1, first 1.5 s,
-    /// `lash bench mr2120`): 25–45 % less wall time at rtol 1e-4…1e-7 than 4 iterations
-    /// without rebuilds.
-    pub max_newton_iters: usize,
-    /// Times the Newton matrix may be rebuilt within one step when the iteration converges
-    /// slowly (see [`BdfOptions::max_jacobian_refreshes_in_solve`]).
-    pub max_jacobian_refreshes_in_solve: usize,
 }
 
 impl Default for SimulationOptions {
     fn default() -> Self {
         Self {
-            rtol: 1e-8,
-            atol: 1e-9,
+            bdf: BdfOptions {
+                suppress_algebraic: true,
+                max_steps: 200_000,
+                filter_error_estimate: false,
+                max_newton_iters: 8,
+                max_jacobian_refreshes_in_solve: 2,
+                ..BdfOptions::with_tolerances(1e-8, 1e-9)
+            },
+            assembly: AssemblyOptions::default(),
+            formulation: FormulationOptions::default(),
             singularity_warning: 1e-3,
-            max_steps: 200_000,
-            filter_error_estimate: false,
-            velocities_index2: false,
-            max_newton_iters: 8,
-            max_jacobian_refreshes_in_solve: 2,
         }
     }
 }
 
-/// One output sample.
+impl SimulationOptions {
+    /// The defaults with the integrator's relative tolerance `rtol` and scalar absolute
+    /// tolerance `atol`.
+    pub fn with_tolerances(rtol: f64, atol: f64) -> Self {
+        let mut o = Self::default();
+        o.bdf.rtol = rtol;
+        o.bdf.atol = AbsTol::Scalar(atol);
+        o
+    }
+}
+
+/// One output sample. Typed access by handle: [`body_position`](Self::body_position),
+/// [`body_velocity`](Self::body_velocity), [`reaction`](Self::reaction),
+/// [`driver_effort`](Self::driver_effort), …
 #[derive(Debug, Clone, Serialize)]
 pub struct Sample {
     /// Time, s.
     pub t: f64,
-    /// Positions (r, p) per body.
+    /// Positions (r, p) per body (see [`Layout::body_q`]).
     pub q: Vec<f64>,
-    /// Velocities (v, ω') per body.
+    /// Velocities (v, ω') per body (see [`Layout::body_w`]).
     pub w: Vec<f64>,
-    /// Constraint multipliers (joints, then drivers).
+    /// Constraint multipliers (joints, then drivers; see [`Layout::joint_lambda`]).
     pub lambda: Vec<f64>,
     /// Singularity measure of the constraint Jacobian (1 good, 0 singular).
     pub singularity: f64,
@@ -110,8 +137,10 @@ pub struct Trajectory {
 /// A running simulation of a mechanism.
 #[derive(Debug)]
 pub struct Simulation {
+    model: Arc<Mechanism>,
     solver: BdfSolver<MultibodyDae>,
     analysis: Analysis,
+    data: MechanismData,
     layout: Layout,
     opts: SimulationOptions,
 }
@@ -120,46 +149,40 @@ impl Simulation {
     /// Validates the model, computes a consistent initial state at `t0` and sets up the
     /// integrator.
     pub fn new(model: Arc<Mechanism>, t0: f64, opts: SimulationOptions) -> Result<Self, ModelError> {
-        let mut analysis = Analysis::new(model.clone())?;
-        let s0 = analysis.initial_state(t0)?;
-        let mut dae = MultibodyDae::new(model);
-        dae.velocities_index2 = opts.velocities_index2;
+        let analysis = Analysis::with_options(&model, opts.assembly)?;
+        let mut data = MechanismData::new(&model);
+        let s0 = analysis.initial_state(&model, &mut data, t0)?;
+        let dae = MultibodyDae::with_options(model.clone(), opts.formulation);
         let lay = dae.layout();
         let mut y0 = vec![0.0; lay.dim()];
         let mut yp0 = vec![0.0; lay.dim()];
-        y0[..7 * lay.nb].copy_from_slice(&s0.q);
-        y0[7 * lay.nb..13 * lay.nb].copy_from_slice(&s0.w);
-        y0[lay.lambda()..lay.lambda() + lay.m].copy_from_slice(&s0.lambda);
+        y0[lay.y_q()].copy_from_slice(&s0.q);
+        y0[lay.y_w()].copy_from_slice(&s0.w);
+        y0[lay.y_lambda()].copy_from_slice(&s0.lambda);
         // q̇ = H w at the initial state.
-        for b in 0..lay.nb {
-            let p =
-                nalgebra::Vector4::new(s0.q[7 * b + 3], s0.q[7 * b + 4], s0.q[7 * b + 5], s0.q[7 * b + 6]);
-            let om = nalgebra::Vector3::new(s0.w[6 * b + 3], s0.w[6 * b + 4], s0.w[6 * b + 5]);
+        for (h, _) in model.bodies().iter() {
+            let p = s0.body_euler_parameters(h);
+            let om = s0.body_angular_velocity(h);
             let pd = 0.5 * super::rotation::l_matrix(&p).transpose() * om;
-            yp0[7 * b..7 * b + 3].copy_from_slice(&s0.w[6 * b..6 * b + 3]);
-            yp0[7 * b + 3..7 * b + 7].copy_from_slice(pd.as_slice());
+            let qr = lay.body_q(h);
+            yp0[qr.start..qr.start + 3].copy_from_slice(s0.body_velocity(h).as_slice());
+            yp0[qr.start + 3..qr.end].copy_from_slice(pd.as_slice());
         }
-        yp0[7 * lay.nb..13 * lay.nb].copy_from_slice(&s0.wdot);
-        let bdf = BdfOptions {
-            suppress_algebraic: true,
-            max_steps: opts.max_steps,
-            filter_error_estimate: opts.filter_error_estimate,
-            max_newton_iters: opts.max_newton_iters,
-            max_jacobian_refreshes_in_solve: opts.max_jacobian_refreshes_in_solve,
-            ..BdfOptions::with_tolerances(opts.rtol, opts.atol)
-        };
-        let solver = BdfSolver::new(dae, t0, &y0, &yp0, &[], bdf)?;
+        yp0[lay.y_w()].copy_from_slice(&s0.wdot);
+        let solver = BdfSolver::new(dae, t0, &y0, &yp0, &[], opts.bdf.clone())?;
         Ok(Self {
+            model,
             solver,
             analysis,
+            data,
             layout: lay,
             opts,
         })
     }
 
     /// Index layout of the state.
-    pub fn layout(&self) -> Layout {
-        self.layout
+    pub fn layout(&self) -> &Layout {
+        &self.layout
     }
 
     /// Integrator statistics so far.
@@ -167,23 +190,47 @@ impl Simulation {
         self.solver.stats()
     }
 
-    /// The analyses on the same model (reactions, drift, measures).
-    pub fn analysis(&mut self) -> &mut Analysis {
-        &mut self.analysis
+    /// The model.
+    pub fn model(&self) -> &Mechanism {
+        &self.model
+    }
+
+    /// The analyses' settings (use them with [`model`](Self::model) and a
+    /// [`MechanismData`]).
+    pub fn analysis(&self) -> &Analysis {
+        &self.analysis
+    }
+
+    /// The data at the last sample (t, q, w, ẇ, λ).
+    pub fn data(&self) -> &MechanismData {
+        &self.data
+    }
+
+    /// Largest |Φ_k(q, t)| over the constraints and Euler-parameter normalisations (drift)
+    /// at (q, t).
+    pub fn constraint_residual(&mut self, t: f64, q: &[f64]) -> f64 {
+        self.analysis
+            .constraint_residual(&self.model, &mut self.data, t, q)
     }
 
     fn sample(&mut self) -> Sample {
-        let lay = self.layout;
+        let lay = &self.layout;
         let y = self.solver.y();
-        let q = y[..7 * lay.nb].to_vec();
         let s = Sample {
             t: self.solver.t(),
-            w: y[7 * lay.nb..13 * lay.nb].to_vec(),
-            lambda: y[lay.lambda()..lay.lambda() + lay.m].to_vec(),
+            q: y[lay.y_q()].to_vec(),
+            w: y[lay.y_w()].to_vec(),
+            lambda: y[lay.y_lambda()].to_vec(),
             singularity: 0.0,
-            q,
         };
-        let measure = self.analysis.singularity_measure(s.t, &s.q);
+        self.data.t = s.t;
+        self.data.q.clone_from(&s.q);
+        self.data.w.clone_from(&s.w);
+        self.data.lambda.clone_from(&s.lambda);
+        self.data.wdot.copy_from_slice(&self.solver.yp()[lay.y_w()]);
+        let measure = self
+            .analysis
+            .singularity_measure(&self.model, &mut self.data, s.t, &s.q);
         Sample {
             singularity: measure,
             ..s
@@ -247,8 +294,9 @@ impl Simulation {
         })
     }
 
-    /// Joint reactions at a sample.
-    pub fn reactions(&mut self, s: &Sample) -> Vec<Reaction> {
-        self.analysis.reactions(s.t, &s.q, &s.lambda)
+    /// Reactions of the joints present (in insertion order) at a sample; see
+    /// [`Sample::reaction`] for one joint by handle.
+    pub fn reactions(&self, s: &Sample) -> Vec<Reaction> {
+        self.analysis.reactions(&self.model, s.t, &s.q, &s.lambda)
     }
 }

@@ -126,10 +126,10 @@ pub fn dynamic_envelope(
         .map(|k| ex.settle + (ex.end() - ex.settle) * k as f64 / n as f64)
         .collect();
     let traj = sim.run(&times, |_| {})?;
-    let p = platform.index();
+    let lay = sim.layout();
     let mut r = [(f64::INFINITY, f64::NEG_INFINITY); 6];
     for s in &traj.samples {
-        let qq = &s.q[7 * p..7 * p + 7];
+        let qq = &s.q[lay.body_q(platform)];
         widen(&mut r, &pose_errors(qq, &m));
     }
     Ok((r, sim.stats().steps))
@@ -244,7 +244,7 @@ pub fn static_envelope(
             .chain([platform])
             .collect();
         for &b in &free {
-            let body = model.mechanism.bodies.get(b).expect("handle of this model");
+            let body = model.mechanism.body(b).expect("handle of this model");
             let (mass, inertia) = (body.mass, body.inertia);
             model.mechanism.add_force(Box::new(Relaxation {
                 body: b,
@@ -270,8 +270,7 @@ pub fn static_envelope(
         let traj = sim.run(&[RELAXATION_TIME], |_| {})?;
         steps += sim.stats().steps;
         let s = traj.samples.last().expect("one sample");
-        let p = platform.index();
-        let qq = &s.q[7 * p..7 * p + 7];
+        let qq = &s.q[sim.layout().body_q(platform)];
         widen(&mut r, &pose_errors(qq, &m));
     }
     Ok((r, steps))

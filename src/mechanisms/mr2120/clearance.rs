@@ -119,9 +119,9 @@ mod tests {
             &bearing_design(&set, DEFAULT_DAMPING),
         )
         .unwrap();
-        assert_eq!(m.mechanism.bodies.len(), 13);
+        assert_eq!(m.mechanism.bodies().len(), 13);
         assert_eq!(m.mechanism.degrees_of_freedom(), 63);
-        assert_eq!(m.mechanism.forces.len(), 24);
+        assert_eq!(m.mechanism.forces().count(), 24);
         assert!(matches!(
             clearance_set("L9"),
             Err(Mr2120Error::UnknownClearanceSet(_))

@@ -99,29 +99,29 @@ pub fn run_ideal(
 ) -> Result<IdealRun, Mr2120Error> {
     let m1 = Vector3::from(TABLE2[0].m);
     let model = ideal_model(g, mp, m1, Some(drive_laws(g)))?;
-    let platform = model.platform.index();
+    let platform = model.platform;
     let laws = drive_laws(g);
     let mut sim = Simulation::new(Arc::new(model.mechanism), 0.0, opts)?;
     let n = (t_end / dt).round() as usize;
     let times: Vec<f64> = (1..=n).map(|k| k as f64 * dt).collect();
     let traj = sim.run(&times, progress)?;
-    let m_count = sim.layout().m;
+    let mech = sim.model();
+    let drivers: Vec<_> = mech.drivers().map(|(h, _)| h).collect();
     let zl = platform_law();
     let a0 = Matrix3::identity();
     let mut samples = Vec::with_capacity(traj.samples.len());
     let (mut max_dev, mut max_rot) = (0.0f64, 0.0f64);
     for s in &traj.samples {
-        let q = &s.q[7 * platform..7 * platform + 7];
-        let m = [q[0], q[1], q[2]];
+        let m: [f64; 3] = s.body_position(platform).into();
         let mk = [0.0, 0.0, zl.value(s.t)];
         let dev = ((m[0] - mk[0]).powi(2) + (m[1] - mk[1]).powi(2) + (m[2] - mk[2]).powi(2)).sqrt();
-        let a = crate::multibody::rotation::rotation(&Vector4::new(q[3], q[4], q[5], q[6]));
+        let a = s.body_rotation(platform);
         let rot = rotation_vector(&a, &a0).norm();
         if s.singularity > 1e-2 {
             max_dev = max_dev.max(dev);
         }
         max_rot = max_rot.max(rot);
-        let torque = [0, 1, 2].map(|i| -s.lambda[m_count - 3 + i]);
+        let torque = [0, 1, 2].map(|i| s.driver_effort(mech, drivers[i]).unwrap_or(f64::NAN));
         samples.push(IdealSample {
             t: s.t,
             q_deg: [0, 1, 2].map(|i| laws[i].value(s.t).to_degrees()),
@@ -192,13 +192,10 @@ pub struct ClearanceRun {
 /// Integrator settings of the clearance runs: index-2 velocity errors, so the contact rattle
 /// along stiff directions is damped by the BDF instead of resolved.
 pub fn clearance_options() -> SimulationOptions {
-    SimulationOptions {
-        rtol: 1e-4,
-        atol: 1e-6,
-        velocities_index2: true,
-        max_steps: 1_000_000,
-        ..Default::default()
-    }
+    let mut o = SimulationOptions::with_tolerances(1e-4, 1e-6);
+    o.formulation.velocities_index2 = true;
+    o.bdf.max_steps = 1_000_000;
+    o
 }
 
 /// Simulates the clearance model of `set` along the trajectory, sampling every `dt` seconds
@@ -218,8 +215,9 @@ pub fn run_clearance(
     let start = std::time::Instant::now();
     let m1 = Vector3::from(TABLE2[0].m);
     let model = clearance_model(g, mp, m1, Some(drive_laws(g)), &bearing_design(set, damping))?;
-    let platform = model.platform.index();
+    let platform = model.platform;
     let mut sim = Simulation::new(Arc::new(model.mechanism), 0.0, opts)?;
+    let lay = sim.layout().clone();
     let n = (t_end / dt).round() as usize;
     let times: Vec<f64> = (1..=n).map(|k| k as f64 * dt).collect();
     let traj = sim.run(&times, progress)?;
@@ -228,10 +226,7 @@ pub fn run_clearance(
         .samples
         .iter()
         .map(|s| {
-            let e = pose_errors(
-                &s.q[7 * platform..7 * platform + 7],
-                &Vector3::new(0.0, 0.0, zl.value(s.t)),
-            );
+            let e = pose_errors(&s.q[lay.body_q(platform)], &Vector3::new(0.0, 0.0, zl.value(s.t)));
             ErrorSample {
                 t: s.t,
                 d: [e[0], e[1], e[2]],
