@@ -34,6 +34,7 @@ pub mod diagnose;
 pub mod mechanisms;
 pub mod multibody;
 pub mod peers;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod sparse;
 

@@ -297,9 +297,9 @@ pub fn andrews_rows_at(tol: f64, repeats: usize) -> Vec<BenchRow> {
         lash_bdf(&one, &y0, &yp0, &plain, reference::ANDREWS_T_END, repeats),
         err,
     ));
-    let sys = andrews::Andrews::new(andrews::AndrewsIndex::One);
     #[cfg(feature = "peers")]
     {
+        let sys = andrews::Andrews::new(andrews::AndrewsIndex::One);
         let mass: Vec<f64> = (0..27).map(|i| if i < 14 { 1.0 } else { 0.0 }).collect();
         let (res, wall) = best_of(repeats, || {
             crate::peers::diffsol_dae(sys.clone(), &mass, &y0, tol, &[tol], reference::ANDREWS_T_END)

@@ -242,6 +242,7 @@ type Path = Vec<[f64; 3]>;
 const LASH_BDF: &str = "lash BDF (GGL index 2)";
 const DOPRI: &str = "Dormand-Prince 5(4) (index 1 + Baumgarte)";
 const SYMPLECTIC: &str = "symplectic Euler (index 1 + Baumgarte)";
+#[cfg_attr(not(feature = "peers"), allow(dead_code))]
 const DIFFSOL: &str = "diffsol BDF 0.18 (index 1 + Baumgarte)";
 
 /// A run's platform path and the wall time at each sample.
