@@ -55,7 +55,9 @@ impl Progress {
     /// Ends the bar, leaving it on its line if it was shown.
     pub fn finish(&self) {
         if self.shown {
+            // Leaves the bar as it is and ends its line.
             self.bar.abandon();
+            eprintln!();
         }
     }
 }
