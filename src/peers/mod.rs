@@ -1,8 +1,9 @@
 //! Independent peer solvers, used as cross-checks of lash's answers and as benchmark peers.
 //! Compiled with the `peers` feature (on by default).
 //!
-//! * `diffsol_bdf` (and `diffsol_bdf_sampled`, `diffsol_dae`) — diffsol's variable-order BDF (NDF variant), pinned to diffsol 0.18.0,
-//!   for problems in the form M·y' = f(t, y) with a constant diagonal M (index ≤ 1).
+//! * `diffsol_bdf` (and `diffsol_bdf_sampled`, `diffsol_dae`) — diffsol's variable-order BDF
+//!   (NDF variant), pinned to diffsol 0.18.0, for problems in the form M·y' = f(t, y) with a
+//!   constant diagonal M (index ≤ 1).
 
 #[cfg(feature = "peers")]
 mod diffsol_bdf;
