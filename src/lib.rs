@@ -19,10 +19,27 @@
 //! [`validation`] holds published reference problems (Andrews' squeezer, the turning stiff
 //! spring, Robertson, a GGL pendulum) with their reference values, run by `lash validate`
 //! and by the test suite; its sources live in the top-level `validation/` folder.
-//! [`plot`] draws PNG/SVG charts with a bundled font.
+//! `plot` (feature `plot`) draws PNG/SVG charts with a bundled font.
 //!
 //! Beside them: [`peers`] (diffsol's BDF as an independent cross-check) and [`mod@bench`]
 //! (side-by-side benchmarks behind `lash bench`), which use the layers above.
+//!
+//! ## Features
+//!
+//! The solver and mechanics layers build with `default-features = false` and pull in none of
+//! the command-line stack. Default features, all on:
+//!
+//! * `cli` — what the `lash` binary needs: clap (arguments) and indicatif (progress bars).
+//!   The library itself has no CLI code; the binary requires all three features.
+//! * `plot` — plotters: the `plot` module and every chart the library draws (the residual
+//!   plots of [`diagnose::report`], the MR2120 trajectory charts of
+//!   [`mechanisms::mr2120::output`], `bench::charts`). Without it the same reports and CSV
+//!   files are written, without plots.
+//! * `peers` — diffsol: [`peers`]' solvers and the diffsol rows of [`mod@bench`].
+//!
+//! ```toml
+//! lash = { path = "../lash", default-features = false }
+//! ```
 //!
 //! All quantities are SI unless a doc comment says otherwise.
 #![warn(missing_docs)]
@@ -34,6 +51,7 @@ pub mod diagnose;
 pub mod mechanisms;
 pub mod multibody;
 pub mod peers;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod sparse;
 

@@ -1,7 +1,7 @@
 //! The benchmark models and harnesses run and measure what they claim (short runs; the
 //! timings themselves come from `lash bench`, never from tests).
 
-use lash::bench::mr2120::{bench_mr2120, Mr2120BenchOptions};
+use lash::bench::mr2120::Mr2120BenchOptions;
 use lash::bench::scaling::{bench_scaling, log_slope};
 use lash::mechanisms::chain::{chain_design, clearance_chain};
 
@@ -22,6 +22,7 @@ fn clearance_chain_has_two_bodies_and_12_dof_per_link_and_its_bearings_engage() 
 }
 
 #[test]
+#[cfg(feature = "peers")]
 fn mr2120_bench_measures_both_integrators_against_one_reference() {
     let opts = Mr2120BenchOptions {
         t_end: 0.02,
@@ -34,7 +35,7 @@ fn mr2120_bench_measures_both_integrators_against_one_reference() {
         explicit_budget_s: 60.0,
         ..Default::default()
     };
-    let b = bench_mr2120(&opts, |_, _| {}).unwrap();
+    let b = lash::bench::mr2120::bench_mr2120(&opts, |_, _| {}).unwrap();
     assert_eq!(b.reference.error, 0.0);
     assert_eq!(b.points.len(), 4);
     assert_eq!(b.times.len(), 2);

@@ -108,3 +108,77 @@ fn mr2120_record_writes_csv_and_truth_and_refuses_unknown_effects() {
     let bad = lash(&["diagnose", "--model", "robot"]);
     assert!(String::from_utf8_lossy(&bad.stderr).contains("available: double-pendulum, mr2120"));
 }
+
+/// The exit code and stderr of a run.
+fn status(args: &[&str]) -> (Option<i32>, String) {
+    let out = lash(args);
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn success_exits_with_0() {
+    let (code, err) = status(&["mr2120", "kinematics"]);
+    assert_eq!(code, Some(0), "{err}");
+}
+
+#[test]
+fn usage_errors_exit_with_2() {
+    let (code, err) = status(&["frobnicate"]);
+    assert_eq!(code, Some(2), "{err}");
+    let (code, err) = status(&["validate", "--no-such-flag"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--no-such-flag"), "{err}");
+}
+
+#[test]
+fn bad_input_exits_with_2_and_names_the_cause() {
+    // An unknown model.
+    let (code, err) = status(&["diagnose", "--model", "robot"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.starts_with("error: unknown model 'robot'"), "{err}");
+    // A malformed value.
+    let (code, err) = status(&["diagnose", "--derivative-window", "wide"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("--derivative-window") && err.contains("wide"),
+        "{err}"
+    );
+    let (code, err) = status(&["mr2120", "trajectory", "--dt", "0.7"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--dt must be in (0, 0.5] s, got 0.7"), "{err}");
+    // A missing file.
+    let missing = std::env::temp_dir().join("lash-no-such-recording.csv");
+    let m = missing.to_string_lossy();
+    let (code, err) = status(&["diagnose", "--fit", &m, "--holdout", ""]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains(&*m) && err.contains("cannot read"), "{err}");
+    // An unknown clearance set, case or suite case.
+    let (code, err) = status(&["mr2120", "trajectory", "--clearance", "L7"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("L7"), "{err}");
+    let (code, err) = status(&["mr2120", "record", "--case", "gremlins"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("unknown case 'gremlins'"), "{err}");
+    let (code, err) = status(&["diagnose", "--suite", "--only", "gremlins"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("'gremlins'"), "{err}");
+    // An unknown column role of the MR2120.
+    let csv = std::env::temp_dir().join(format!("lash-header-{}.csv", std::process::id()));
+    std::fs::write(&csv, "time,q1,q2,q3,qd1,qd2,qd3\n0,0,0,0,0,0,0\n").unwrap();
+    let c = csv.to_string_lossy();
+    let (code, err) = status(&["diagnose", "--model", "mr2120", "--fit", &c, "--map", "w=x"]);
+    let _ = std::fs::remove_file(&csv);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("'w'"), "{err}");
+}
+
+#[test]
+fn quiet_is_accepted_by_every_subcommand() {
+    let (code, err) = status(&["--quiet", "mr2120", "kinematics"]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, err) = status(&["mr2120", "kinematics", "--quiet"]);
+    assert_eq!(code, Some(0), "{err}");
+}

@@ -1,6 +1,8 @@
 //! Side-by-side benchmarks: every number a performance claim quotes comes from here
 //! (`lash bench dae`), measured in one run with ratios to lash.
 
+#[cfg(feature = "plot")]
+pub mod charts;
 pub mod exudyn;
 pub mod mr2120;
 pub mod scaling;

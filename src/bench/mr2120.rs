@@ -16,7 +16,9 @@ use crate::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clea
 use crate::mechanisms::mr2120::paper::TABLE2;
 use crate::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
 use crate::mechanisms::mr2120::{Geometry, MassProperties, Mr2120Error};
-use crate::multibody::{Analysis, BodyHandle, Layout, Mechanism, MechanismData, MultibodyOde, RunEnd, Simulation};
+use crate::multibody::{
+    Analysis, BodyHandle, Layout, Mechanism, MechanismData, MultibodyOde, RunEnd, Simulation,
+};
 use nalgebra::Vector3;
 use serde::Serialize;
 use std::sync::Arc;

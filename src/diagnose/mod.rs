@@ -4,6 +4,7 @@
 //! | file | concern |
 //! |---|---|
 //! | `recording.rs` | CSV recordings, column mapping, errors with file and line |
+//! | `columns.rs` | which column each role of a model reads by default; derivative-window grids |
 //! | `signal.rs` | noise floor, derivatives on irregular grids, autocorrelation |
 //! | `model.rs` | the nominal model (torques from measured motion, outputs such as a tracked platform position), its perturbable parameters; the DFKI pendulum and the MR2120 |
 //! | `mechanism.rs` | any mechanism built with the multibody API as a nominal model |
@@ -56,6 +57,7 @@
 //! ```
 
 pub mod candidates;
+pub mod columns;
 pub mod data;
 mod error;
 pub mod format;

@@ -86,6 +86,17 @@ pub trait InverseDynamicsModel {
     fn output_role(&self, k: usize) -> String {
         format!("y{}", k + 1)
     }
+    /// Half-widths (samples) of the local line that differentiates rates into accelerations,
+    /// tried by cross-validation when the user gives none. Default:
+    /// [`DEFAULT_DERIVATIVE_WINDOWS`](super::columns::DEFAULT_DERIVATIVE_WINDOWS).
+    fn derivative_windows(&self) -> Vec<usize> {
+        super::columns::DEFAULT_DERIVATIVE_WINDOWS.to_vec()
+    }
+    /// How its roles find their recording columns when the user maps none or only some.
+    /// Default: [`ColumnDefaults::RoleNames`](super::columns::ColumnDefaults::RoleNames).
+    fn column_defaults(&self) -> super::columns::ColumnDefaults {
+        super::columns::ColumnDefaults::RoleNames
+    }
     /// Torques and outputs at one sample. `y` holds, on entry, the previous sample's outputs
     /// (zeros at the first) as a starting guess for iterative kinematics; a configuration the
     /// model cannot evaluate gives NaN. Default: [`torques`](Self::torques), no outputs.
@@ -154,6 +165,10 @@ impl DoublePendulumModel {
 impl InverseDynamicsModel for DoublePendulumModel {
     fn name(&self) -> String {
         "DFKI double pendulum (nominal rigid model of its README)".into()
+    }
+    /// The DFKI recordings' column names ([`DFKI_COLUMNS`](super::columns::DFKI_COLUMNS)).
+    fn column_defaults(&self) -> super::columns::ColumnDefaults {
+        super::columns::ColumnDefaults::Fixed(super::columns::DFKI_COLUMNS.into())
     }
     fn joints(&self) -> usize {
         2
@@ -367,6 +382,10 @@ impl InverseDynamicsModel for Mr2120Model {
     }
     fn output_role(&self, k: usize) -> String {
         ["x", "y", "z"][k.min(2)].into()
+    }
+    /// Synthetic recordings at a few hundred hertz: short windows suffice.
+    fn derivative_windows(&self) -> Vec<usize> {
+        vec![4, 6, 8, 12, 16]
     }
     fn evaluate(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64], y: &mut [f64]) {
         let m = self.with(theta);

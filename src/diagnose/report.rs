@@ -1,11 +1,11 @@
 //! The report folder: `report.md` (for people), `report.json` (for scripts), and residual
-//! plots before/after the fit for every held-out recording and channel (PNG and SVG).
+//! plots before/after the fit for every held-out recording and channel (PNG and SVG; drawn
+//! with the `plot` feature).
 
 use super::format::number;
 use super::Diagnosis;
-use crate::plot::{LineChart, Series};
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Why the report could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -27,6 +27,7 @@ fn io(path: &Path, e: impl std::fmt::Display) -> ReportError {
     }
 }
 
+#[cfg(feature = "plot")]
 fn slug(s: &str) -> String {
     s.chars()
         .map(|c| {
@@ -43,9 +44,12 @@ fn slug(s: &str) -> String {
         .join("-")
 }
 
-/// Writes the report into `dir` (created if needed); returns the Markdown path.
-pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<std::path::PathBuf, ReportError> {
-    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+/// Draws the residual before/after the fit for every held-out recording and channel as
+/// `dir/holdout-<recording>-<channel>.png` and `.svg`; returns (recording, channel, stem) of
+/// each chart.
+#[cfg(feature = "plot")]
+fn residual_charts(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String, PathBuf)>, ReportError> {
+    use crate::plot::{LineChart, Series};
     let mut plots = vec![];
     for tr in &d.traces {
         let stem = dir.join(format!("holdout-{}-{}", slug(&tr.recording), slug(&tr.channel)));
@@ -68,6 +72,19 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<std::path::PathBuf, Rep
         chart.save(&stem).map_err(|e| io(&stem, e))?;
         plots.push((tr.recording.clone(), tr.channel.clone(), stem));
     }
+    Ok(plots)
+}
+
+/// Without the `plot` feature no chart is drawn.
+#[cfg(not(feature = "plot"))]
+fn residual_charts(_: &Diagnosis, _: &Path) -> Result<Vec<(String, String, PathBuf)>, ReportError> {
+    Ok(vec![])
+}
+
+/// Writes the report into `dir` (created if needed); returns the Markdown path.
+pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
+    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+    let plots = residual_charts(d, dir)?;
     let json = dir.join("report.json");
     let text = serde_json::to_string_pretty(d).map_err(|e| io(&json, e))?;
     std::fs::write(&json, text).map_err(|e| io(&json, e))?;
@@ -205,6 +222,12 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<std::path::PathBuf, Rep
         );
     }
     let _ = writeln!(m, "\n## Held-out residuals\n");
+    if plots.is_empty() && !d.traces.is_empty() {
+        let _ = writeln!(
+            m,
+            "Plots need lash's `plot` feature; the residuals are in report.json.\n"
+        );
+    }
     for (rec, ch, stem) in &plots {
         let name = stem
             .file_name()

@@ -12,6 +12,7 @@ pub mod geometry;
 pub mod ideal;
 pub mod kinematics;
 pub mod lumped;
+pub mod output;
 pub mod paper;
 pub mod record;
 pub mod trajectory;

@@ -1,0 +1,407 @@
+//! `lash bench`: benchmarks measured side by side in one run, reported as ratios to lash.
+
+use super::progress::Progress;
+use super::{items, json, CliError, Output};
+use lash::bench::charts;
+use std::path::{Path, PathBuf};
+
+/// The benchmarks.
+#[derive(clap::Subcommand)]
+pub enum BenchWhat {
+    /// The DAE layer: lash's BDF against diffsol's BDF and explicit stepping.
+    Dae {
+        /// Print the rows as JSON.
+        #[arg(long)]
+        json: bool,
+        /// Repeats per timing (the best is kept).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// Also sweep Andrews' squeezer over tolerances 1e-3..1e-9 and draw its
+        /// work-precision diagram into this folder.
+        #[arg(long)]
+        plots: Option<PathBuf>,
+    },
+    /// Cost per BDF step of a chain of N links joined by universal joints with clearance,
+    /// against N, with the fitted log-log slope (sparse factorisation must stay sparse).
+    Scaling {
+        /// Chain lengths, comma-separated.
+        #[arg(long, default_value = "10,100,1000,10000")]
+        links: String,
+        /// Simulated time per run, s (long enough for every bearing to come into contact).
+        #[arg(long, default_value_t = 0.01)]
+        t_end: f64,
+        /// Output folder for the log-log plot.
+        #[arg(long, default_value = "out/bench-scaling")]
+        out: PathBuf,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// The 63-DOF MR2120 clearance model along the 4 s trajectory: lash's BDF against
+    /// Dormand–Prince, symplectic Euler and diffsol's BDF at equal accuracy (platform centre
+    /// within --target of a tight reference).
+    Mr2120(Mr2120BenchArgs),
+}
+
+/// Options of `lash bench mr2120`.
+#[derive(clap::Args, Debug)]
+pub struct Mr2120BenchArgs {
+    /// Clearance set (L1, L2, L3).
+    #[arg(long, default_value = "L1")]
+    set: String,
+    /// End of the trajectory, s.
+    #[arg(long, default_value_t = 4.0)]
+    t_end: f64,
+    /// Target accuracy of the platform centre, m.
+    #[arg(long, default_value_t = 1e-6)]
+    target: f64,
+    /// Relative tolerance of the reference run (lash BDF).
+    #[arg(long, default_value_t = 1e-8)]
+    reference_rtol: f64,
+    /// Relative tolerances swept for lash's BDF, comma-separated.
+    #[arg(long, default_value = "1e-4,1e-5,1e-6,1e-7")]
+    bdf_rtols: String,
+    /// Relative tolerances swept for Dormand–Prince, comma-separated (empty: none).
+    #[arg(long, default_value = "1e-5")]
+    dopri_rtols: String,
+    /// Fixed steps swept for symplectic Euler, s, comma-separated (empty: none).
+    #[arg(long, default_value = "5e-7")]
+    symplectic_steps: String,
+    /// Relative tolerances swept for diffsol's BDF on the index-1 ODE, comma-separated
+    /// (empty: none).
+    #[arg(long, default_value = "1e-4,1e-6")]
+    diffsol_rtols: String,
+    /// Hunt–Crossley contact damping α of the bearings, s/m (the studies use 1; see
+    /// lash::bench::mr2120::BENCH_DAMPING for why the benchmark uses 300).
+    #[arg(long, default_value_t = 300.0)]
+    alpha: f64,
+    /// Wall-time budget of each explicit run, s (the time ratio is then a lower bound).
+    #[arg(long, default_value_t = 600.0)]
+    explicit_budget: f64,
+    /// Relative tolerance of an extra Dormand–Prince run that checks the reference (0: skip;
+    /// every Dormand–Prince run of the sweep is already an independent check).
+    #[arg(long, default_value_t = 0.0)]
+    check_rtol: f64,
+    /// Output folder for the work-precision diagram.
+    #[arg(long, default_value = "out/bench-mr2120")]
+    out: PathBuf,
+    /// Also write the model (`model.json`, the schema of `benches/exudyn/`) and the
+    /// result with the reference path (`lash.json`) into this folder, for the Exudyn
+    /// comparison (`bash benches/exudyn/run.sh`).
+    #[arg(long)]
+    export: Option<PathBuf>,
+    /// Print the result as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs one benchmark.
+pub fn run(what: BenchWhat) -> Result<Output, CliError> {
+    match what {
+        BenchWhat::Dae { json, repeats, plots } => dae(json, repeats, plots.as_deref()),
+        BenchWhat::Scaling {
+            links,
+            t_end,
+            out,
+            json,
+        } => scaling(&links, t_end, &out, json),
+        BenchWhat::Mr2120(a) => mr2120(&a),
+    }
+}
+
+fn dae(as_json: bool, repeats: usize, plots: Option<&Path>) -> Result<Output, CliError> {
+    let rows = lash::bench::bench_dae(repeats);
+    if let Some(dir) = plots {
+        let wp = lash::bench::andrews_work_precision(&charts::ANDREWS_TOLERANCES, repeats);
+        eprintln!("{}", charts::andrews_work_precision_chart(&wp, dir));
+    }
+    if as_json {
+        println!("{}", json(&rows));
+        return Ok(Output::OK);
+    }
+    println!(
+        "{:<22} {:<20} {:<40} {:>10} {:>9} {:>10} {:>10} {:>9} {:>9}",
+        "problem", "solver", "setting", "error", "steps", "rhs evals", "wall s", "steps/x", "time/x"
+    );
+    for r in &rows {
+        println!(
+            "{:<22} {:<20} {:<40} {:>10.2e} {:>9} {:>10} {:>10.4} {:>9.2} {:>9.2}{}",
+            r.problem,
+            r.solver,
+            r.setting,
+            r.error,
+            r.steps,
+            r.rhs_evals,
+            r.wall_s,
+            r.steps_ratio,
+            r.time_ratio,
+            r.failure
+                .as_ref()
+                .map(|f| format!("  FAILED: {f}"))
+                .unwrap_or_default()
+        );
+    }
+    println!("(steps/x, time/x: ratio to lash BDF on the same problem, measured in this run)");
+    Ok(Output::OK)
+}
+
+fn scaling(links: &str, t_end: f64, out: &Path, as_json: bool) -> Result<Output, CliError> {
+    let lengths = items(links)
+        .map(|s| {
+            s.parse::<usize>()
+                .ok()
+                .filter(|n| *n > 0)
+                .ok_or_else(|| CliError::Input(format!("--links: '{s}' is not a positive integer")))
+        })
+        .collect::<Result<Vec<usize>, _>>()?;
+    if lengths.is_empty() {
+        return Err(CliError::input("--links names no chain length"));
+    }
+    if !(t_end > 0.0 && t_end.is_finite()) {
+        return Err(CliError::input("--t-end must be positive"));
+    }
+    let mut progress = Progress::new("bench scaling", lengths.len() as f64);
+    let mut k = 0.0;
+    let s = lash::bench::scaling::bench_scaling(&lengths, t_end, |_| {
+        progress.update(k);
+        k += 1.0;
+    });
+    progress.finish();
+    let note = charts::scaling_chart(&s, out);
+    if as_json {
+        println!("{}", json(&s));
+        return Ok(Output::OK);
+    }
+    println!(
+        "clearance chain (links + crosses, 4 bearings per joint), {} s simulated per run",
+        s.t_end
+    );
+    println!(
+        "{:>7} {:>8} {:>9} {:>9} {:>9} {:>7} {:>7} {:>12} {:>10}",
+        "links", "bodies", "unknowns", "setup s", "wall s", "steps", "LU", "per step s", "RSS MB"
+    );
+    for r in &s.rows {
+        println!(
+            "{:>7} {:>8} {:>9} {:>9.3} {:>9.3} {:>7} {:>7} {:>12.3e} {:>10.1}{}",
+            r.links,
+            r.bodies,
+            r.unknowns,
+            r.setup_s,
+            r.wall_s,
+            r.steps,
+            r.factorisations,
+            r.per_step_s,
+            r.resident_bytes as f64 / 1e6,
+            r.failure
+                .as_ref()
+                .map(|f| format!("  FAILED: {f}"))
+                .unwrap_or_default()
+        );
+    }
+    println!(
+        "log-log slope of time per step against N (N >= 100): {:.2} (target <= 1.2); memory: {:.2}",
+        s.slope, s.memory_slope
+    );
+    println!("{note}");
+    Ok(Output::OK)
+}
+
+/// Positive finite numbers of a comma-separated list (empty: none).
+fn positive_list(s: &str, what: &str) -> Result<Vec<f64>, CliError> {
+    items(s)
+        .map(|x| {
+            x.parse::<f64>()
+                .ok()
+                .filter(|v| *v > 0.0 && v.is_finite())
+                .ok_or_else(|| CliError::Input(format!("{what}: '{x}' is not a positive number")))
+        })
+        .collect()
+}
+
+/// Writes the MR2120 clearance model of the benchmark as `dir/model.json` for the Exudyn
+/// comparison.
+fn export_mr2120_model(opts: &lash::bench::mr2120::Mr2120BenchOptions, dir: &Path) -> Result<(), CliError> {
+    let model = lash::bench::exudyn::export_mr2120(opts).map_err(CliError::run)?;
+    std::fs::create_dir_all(dir)
+        .map_err(|e| CliError::Run(format!("cannot create {}: {e}", dir.display())))?;
+    let path = dir.join("model.json");
+    std::fs::write(&path, json(&model))
+        .map_err(|e| CliError::Run(format!("cannot write {}: {e}", path.display())))?;
+    eprintln!(
+        "bench mr2120: model for the Exudyn comparison written to {}",
+        path.display()
+    );
+    Ok(())
+}
+
+fn mr2120(a: &Mr2120BenchArgs) -> Result<Output, CliError> {
+    use lash::bench::mr2120::{bench_mr2120, Mr2120BenchOptions};
+    lash::mechanisms::mr2120::clearance::clearance_set(&a.set).map_err(CliError::input)?;
+    let bdf_rtols = positive_list(&a.bdf_rtols, "--bdf-rtols")?;
+    let dopri_rtols = positive_list(&a.dopri_rtols, "--dopri-rtols")?;
+    let symplectic_steps = positive_list(&a.symplectic_steps, "--symplectic-steps")?;
+    let diffsol_rtols = positive_list(&a.diffsol_rtols, "--diffsol-rtols")?;
+    let valid = a.t_end > 0.0 && a.t_end <= 4.0 && a.target > 0.0 && a.reference_rtol > 0.0 && a.alpha >= 0.0;
+    if !valid {
+        return Err(CliError::input(
+            "need 0 < --t-end <= 4, --target > 0, --reference-rtol > 0 and --alpha >= 0",
+        ));
+    }
+    let opts = Mr2120BenchOptions {
+        set: a.set.clone(),
+        t_end: a.t_end,
+        target: a.target,
+        reference_rtol: a.reference_rtol,
+        bdf_rtols,
+        dopri_rtols,
+        symplectic_steps,
+        diffsol_rtols,
+        reference_check_rtol: (a.check_rtol > 0.0).then_some(a.check_rtol),
+        damping: lash::contact::Damping::HuntCrossley(a.alpha),
+        explicit_budget_s: a.explicit_budget,
+        ..Default::default()
+    };
+    if let Some(dir) = &a.export {
+        export_mr2120_model(&opts, dir)?;
+    }
+    let mut current = String::new();
+    let mut progress = Progress::new("", 1.0);
+    let res = bench_mr2120(&opts, |label, frac| {
+        if label != current {
+            progress.finish();
+            current = label.to_string();
+            progress = Progress::new(&format!("bench mr2120: {label}"), 1.0);
+        }
+        progress.update(frac);
+    });
+    progress.finish();
+    let b = res.map_err(CliError::run)?;
+    let plot_note = charts::mr2120_work_precision_chart(&b, &a.out);
+    if let Some(dir) = &a.export {
+        let path = dir.join("lash.json");
+        std::fs::write(&path, json(&b))
+            .map_err(|e| CliError::Run(format!("cannot write {}: {e}", path.display())))?;
+    }
+    if a.json {
+        println!("{}", json(&b));
+        return Ok(Output::OK);
+    }
+    print_mr2120(&b);
+    println!("{plot_note}");
+    Ok(Output::OK)
+}
+
+fn print_mr2120(b: &lash::bench::mr2120::Mr2120Bench) {
+    println!(
+        "MR2120 clearance model ({}), trajectory 0..{} s; accuracy = largest platform-centre distance from the reference",
+        b.set, b.t_end
+    );
+    println!(
+        "reference: lash BDF rtol {:.0e}: {} steps, {:.1} s wall{}",
+        b.reference.rtol,
+        b.reference.steps,
+        b.reference.wall_s,
+        b.reference_check
+            .map(|d| format!("; Dormand-Prince check run differs by {d:.2e} m"))
+            .unwrap_or_default()
+    );
+    println!(
+        "agreement horizon: the reference and the independent Dormand-Prince run agree within {:.0e} m up to t = {:.2} s",
+        b.target, b.horizon_s
+    );
+    println!(
+        "\n{:<44} {:>9} {:>10} {:>10} {:>8} {:>8} {:>9} {:>8} {:>7} {:>8} {:>9} {:>6}",
+        "solver",
+        "setting",
+        "err<=hor.",
+        "err 0..end",
+        "steps",
+        "rejected",
+        "rhs evals",
+        "newton",
+        "LU",
+        "wall s",
+        "wall hor.",
+        "t s"
+    );
+    for p in &b.points {
+        println!(
+            "{:<44} {:>9} {:>10.2e} {:>10.2e} {:>8} {:>8} {:>9} {:>8} {:>7} {:>8.2} {:>9.2} {:>6.2}{}",
+            p.solver,
+            p.setting(),
+            p.error_to_horizon,
+            p.error,
+            p.steps,
+            p.rejected,
+            p.rhs_evals,
+            p.newton_iters,
+            p.factorisations,
+            p.wall_s,
+            p.wall_to_horizon_s,
+            p.reached_t,
+            p.failure
+                .as_ref()
+                .map(|f| format!("  STOPPED: {f}"))
+                .unwrap_or_default()
+        );
+    }
+    println!("\nwhere lash's BDF spends its time (its own timers; the rest is step logic and output):");
+    for p in b.points.iter().chain([&b.reference]) {
+        if let Some(t) = p.phase_times {
+            let share = |x: f64| 100.0 * x / p.wall_s;
+            println!(
+                "  rtol {:.0e}: {:.2} s = residuals {:.0} %, Jacobians {:.0} %, LU factorisations {:.0} %, triangular solves {:.0} %, other {:.0} %",
+                p.rtol,
+                p.wall_s,
+                share(t.residual_s),
+                share(t.jacobian_s),
+                share(t.factorisation_s),
+                share(t.solve_s),
+                share(p.wall_s - t.residual_s - t.jacobian_s - t.factorisation_s - t.solve_s)
+            );
+        }
+    }
+    println!("\nlargest platform error [m] by time window:");
+    for p in &b.points {
+        let w: Vec<String> = p
+            .error_windows
+            .iter()
+            .map(|(a, c, e)| format!("{a}-{c} s: {e:.1e}"))
+            .collect();
+        println!("  {:<44} {}: {}", p.solver, p.setting(), w.join(", "));
+    }
+    println!(
+        "\nat equal accuracy (platform within {:.0e} m of the reference up to the horizon), cheapest setting per solver:",
+        b.target
+    );
+    for c in &b.comparison {
+        match &c.chosen {
+            Some(p) => {
+                println!(
+                "  {:<44} {}: {:.2} s to the horizon ({:.2} s for the whole run, {} steps); time {:.1}x lash",
+                c.solver, p.setting(), p.wall_to_horizon_s, p.wall_s, p.steps, c.time_ratio
+            )
+            }
+            None => match c.time_ratio_at_least {
+                Some(r) => println!(
+                    "  {:<44} ran out of its wall-time budget before the horizon: time >= {r:.1}x lash",
+                    c.solver
+                ),
+                None => println!("  {:<44} no setting in the sweep reached the target", c.solver),
+            },
+        }
+        if let Some(o) = &c.at_own_accuracy {
+            println!(
+                "  {:<44}   at its own best accuracy, {:.2e} m ({}, {:.2} s to the horizon): lash {} reaches {:.2e} m in {:.2} s; time {:.1}x lash",
+                "",
+                o.accuracy_m,
+                o.setting,
+                o.wall_to_horizon_s,
+                o.lash_setting,
+                o.lash_error_m,
+                o.lash_wall_to_horizon_s,
+                o.time_ratio
+            );
+        }
+    }
+}

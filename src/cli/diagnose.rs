@@ -1,0 +1,272 @@
+//! `lash diagnose`: where a model and recordings disagree, the missing physics, its fit and
+//! the held-out improvement; with `--suite`, the concealed-effects suite on the MR2120.
+
+use super::progress::Progress;
+use super::{items, json, CliError, Output};
+use lash::diagnose::columns::{csv_header, resolve_columns};
+use lash::diagnose::model::{DoublePendulumModel, InverseDynamicsModel, Mr2120Model};
+use lash::diagnose::recording::{read_csv, Recording};
+use lash::diagnose::{diagnose_recordings, format::number, DiagnoseOptions};
+use std::path::{Path, PathBuf};
+
+const DFKI_FIT: &str = "../shared/data/dfki-double-pendulum/recordings/trajectory_00.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_01.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_02.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_03.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_04.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_05.csv";
+const DFKI_HOLDOUT: &str = "../shared/data/dfki-double-pendulum/recordings/trajectory_12.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_13.csv";
+
+/// Report folder of a single diagnosis unless `--report` names one.
+const REPORT: &str = "out/diagnose";
+/// Report folder of the suite unless `--report` names one.
+const SUITE_REPORT: &str = "out/diagnose-suite";
+
+/// The half-width of the rate differentiation: chosen by cross-validation, or fixed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Window {
+    /// Cross-validated over the model's grid.
+    Auto,
+    /// This many samples.
+    Fixed(usize),
+}
+
+fn parse_window(s: &str) -> Result<Window, String> {
+    match s {
+        "auto" => Ok(Window::Auto),
+        _ => match s.parse::<usize>() {
+            Ok(w) if w >= 1 => Ok(Window::Fixed(w)),
+            _ => Err("neither 'auto' nor a positive integer".into()),
+        },
+    }
+}
+
+/// Options of `lash diagnose`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Nominal model (double-pendulum: the DFKI pendulum's rigid model from --params;
+    /// mr2120: the MR2120's closed-form rigid model).
+    #[arg(long, default_value = "double-pendulum")]
+    model: String,
+    /// README with the model's parameter table.
+    #[arg(long, default_value = lash::mechanisms::double_pendulum::DFKI_README)]
+    params: PathBuf,
+    /// Recordings to fit on, comma-separated CSV paths.
+    #[arg(long, default_value = DFKI_FIT)]
+    fit: String,
+    /// Recordings held out (never fitted), comma-separated CSV paths.
+    #[arg(long, default_value = DFKI_HOLDOUT)]
+    holdout: String,
+    /// Time column.
+    #[arg(long, default_value = "time")]
+    time_column: String,
+    /// Column mapping role=column for the model's roles (q1.., qd1.., tau1.., outputs).
+    /// Default for double-pendulum: the DFKI recordings' columns
+    /// (q1=pos_filt1,q2=pos_filt2,qd1=vel_filt1,qd2=vel_filt2,tau1=tau_meas1,tau2=tau_meas2);
+    /// for mr2120 each role reads the column of its own name (torques and tracker when
+    /// present), and a mapping renames some of them.
+    #[arg(long)]
+    map: Option<String>,
+    /// Half-width (samples) of the local line that differentiates rates into
+    /// accelerations, or "auto": chosen by cross-validation on the fit recordings.
+    #[arg(long, default_value = "auto", value_parser = parse_window)]
+    derivative_window: Window,
+    /// Report folder (Markdown, JSON, PNG/SVG plots) [default: out/diagnose, with --suite
+    /// out/diagnose-suite].
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Print the diagnosis as JSON.
+    #[arg(long)]
+    json: bool,
+    /// Run the concealed-effects suite on the MR2120 (synthetic recordings from a truth
+    /// with hidden effects, each diagnosed blind) and print the scoreboard.
+    #[arg(long)]
+    suite: bool,
+    /// With --suite: the reduced design CI runs (fewer, shorter recordings).
+    #[arg(long)]
+    reduced: bool,
+    /// With --suite: only the cases whose names contain one of these (comma-separated).
+    #[arg(long, default_value = "")]
+    only: String,
+}
+
+/// Diagnoses the recordings, or runs the suite; the suite's check is its targets.
+pub fn run(a: Args) -> Result<Output, CliError> {
+    if a.suite {
+        let dir = a.report.unwrap_or_else(|| SUITE_REPORT.into());
+        return suite(a.reduced, &a.only, &dir, a.json);
+    }
+    let dp;
+    let mr;
+    let model: &dyn InverseDynamicsModel = match a.model.as_str() {
+        "double-pendulum" => {
+            let params = lash::mechanisms::double_pendulum::DoublePendulumParams::from_readme(&a.params)
+                .map_err(CliError::input)?;
+            dp = DoublePendulumModel { params };
+            &dp
+        }
+        "mr2120" => {
+            mr = Mr2120Model {
+                nominal: lash::mechanisms::mr2120::record::nominal_model(),
+            };
+            &mr
+        }
+        other => {
+            return Err(CliError::Input(format!(
+                "unknown model '{other}' (available: double-pendulum, mr2120)"
+            )))
+        }
+    };
+    let first = items(&a.fit)
+        .next()
+        .ok_or_else(|| CliError::input("--fit names no recording"))?;
+    let header = csv_header(Path::new(first)).map_err(CliError::input)?;
+    let mapping = resolve_columns(model, a.map.as_deref(), &header).map_err(CliError::input)?;
+    let windows = match a.derivative_window {
+        Window::Auto => model.derivative_windows(),
+        Window::Fixed(w) => vec![w],
+    };
+    let load = |list: &str| -> Result<Vec<Recording>, CliError> {
+        items(list)
+            .map(|f| read_csv(Path::new(f), &a.time_column, &mapping).map_err(CliError::input))
+            .collect()
+    };
+    let fit = load(&a.fit)?;
+    let held = load(&a.holdout)?;
+    let mut progress = Progress::new("diagnose", 1.0);
+    let d = diagnose_recordings(
+        model,
+        &fit,
+        &held,
+        &windows,
+        &DiagnoseOptions::default(),
+        |_, f| progress.update(f),
+    );
+    progress.finish();
+    let d = d.map_err(CliError::input)?;
+    let report = a.report.unwrap_or_else(|| REPORT.into());
+    let md = lash::diagnose::report::write_report(&d, &report).map_err(CliError::run)?;
+    if a.json {
+        println!("{}", json(&d));
+        return Ok(Output::OK);
+    }
+    println!("{}\n", d.verdict);
+    println!(
+        "{:<28} {:>10} {:>12} {:>12} {:>14} {:>14} {:>10}",
+        "channel", "noise", "fit before", "fit after", "held-out bef.", "held-out aft.", "reduction"
+    );
+    for c in &d.channels {
+        println!(
+            "{:<28} {:>10} {:>12} {:>12} {:>14} {:>14} {:>9.1}%",
+            c.channel,
+            number(c.noise_floor),
+            number(c.fit_before),
+            number(c.fit_after),
+            number(c.holdout_before),
+            number(c.holdout_after),
+            100.0 * c.holdout_reduction
+        );
+    }
+    println!("\nselected (in order):");
+    for s in &d.steps {
+        println!(
+            "  {:<60} statistic {:>10.1}  p {:.1e}  CV RMS {:.3}",
+            s.added, s.statistic, s.p_value, s.cv_rms
+        );
+    }
+    if d.steps.is_empty() {
+        println!("  none: no significant mismatch");
+    }
+    println!("\nreport: {}", md.display());
+    Ok(Output::OK)
+}
+
+fn suite(reduced: bool, only: &str, dir: &Path, as_json: bool) -> Result<Output, CliError> {
+    use lash::diagnose::suite::{run_suite, SuiteOptions};
+    let mut opts = if reduced {
+        SuiteOptions::reduced()
+    } else {
+        SuiteOptions::default()
+    };
+    opts.only = items(only).map(String::from).collect();
+    let names: Vec<String> = lash::diagnose::suite::cases()
+        .into_iter()
+        .map(|c| c.name)
+        .collect();
+    if let Some(o) = opts
+        .only
+        .iter()
+        .find(|o| !names.iter().any(|n| n.contains(o.as_str())))
+    {
+        return Err(CliError::Input(format!(
+            "--only: no case name contains '{o}' (cases: {})",
+            names.join(", ")
+        )));
+    }
+    let mut progress = Progress::new("diagnose --suite", 1.0);
+    let board = run_suite(&opts, Some(dir), |_, f| progress.update(f));
+    progress.finish();
+    let board = board.map_err(CliError::run)?;
+    let text = json(&board);
+    std::fs::create_dir_all(dir)
+        .and_then(|_| std::fs::write(dir.join("scoreboard.json"), &text))
+        .map_err(|e| CliError::Run(format!("{}: {e}", dir.display())))?;
+    if as_json {
+        println!("{text}");
+        return Ok(Output::checked(board.targets_met));
+    }
+    let (f, h, d, r) = board.design;
+    println!(
+        "Concealed-effects suite on the MR2120: {f} recordings fitted, {h} held out per case, {d} s at {r} Hz; noise: torque {} N m, tracker {} m, encoder {} rad, rate {} rad/s\n",
+        board.noise.torque, board.noise.tracker, board.noise.encoder, board.noise.rate
+    );
+    println!(
+        "{:<24} {:>7} {:>6}  {:<6} {:<22} {:>8}  {:<5}  selected first",
+        "case", "<noise", "peak", "ranked", "estimate (rel. err.)", "held/σ", "pass"
+    );
+    for c in &board.cases {
+        let est: Vec<String> = c
+            .estimates
+            .iter()
+            .map(|e| match e {
+                Some((_, r)) => format!("{:.1} %", 100.0 * r),
+                None => "not found".into(),
+            })
+            .collect();
+        println!(
+            "{:<24} {:>6.0}% {:>6.1}  {:<6} {:<22} {:>8.2}  {:<5}  {}",
+            c.case,
+            100.0 * c.below_noise_fraction,
+            c.peak_snr,
+            if c.ranked_first { "yes" } else { "no" },
+            if est.is_empty() {
+                "-".to_string()
+            } else {
+                est.join(", ")
+            },
+            c.holdout_noise_ratio,
+            if c.pass { "yes" } else { "NO" },
+            if c.selected.is_empty() {
+                "nothing (no significant mismatch)".to_string()
+            } else {
+                c.selected.iter().take(3).cloned().collect::<Vec<_>>().join("; ")
+            }
+        );
+        if let Some(x) = &c.confounded {
+            println!("{:<24} flagged as confounded; separating experiment: {x}", "");
+        }
+    }
+    println!(
+        "\nranked first {}/{}  estimates within 25 % {}/{}  held-out ≤ 1.1× noise {}/{}  null case {}  pair case {}",
+        board.ranked_first.0,
+        board.ranked_first.1,
+        board.estimates_within_25pct.0,
+        board.estimates_within_25pct.1,
+        board.holdout_at_noise.0,
+        board.holdout_at_noise.1,
+        if board.null_ok { "ok" } else { "FAILED" },
+        if board.pair_ok { "ok" } else { "FAILED" }
+    );
+    println!(
+        "targets {}; scoreboard: {}; one diagnosis report per case in {}/<case>/",
+        if board.targets_met { "met" } else { "NOT met" },
+        dir.join("scoreboard.json").display(),
+        dir.display()
+    );
+    Ok(Output::checked(board.targets_met))
+}
