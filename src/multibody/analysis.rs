@@ -12,9 +12,9 @@ use super::body::Attach;
 use super::constraints::{Pose, Row};
 use super::data::MechanismData;
 use super::error::ModelError;
-#[cfg(doc)]
-use super::formulation::Layout;
 use super::joints::Joint;
+#[cfg(doc)]
+use super::layout::Layout;
 use super::model::Mechanism;
 use super::rotation::l_matrix;
 use nalgebra::{DMatrix, DVector, Vector3};

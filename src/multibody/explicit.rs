@@ -18,7 +18,8 @@
 //! Dormand–Prince with the implicit GGL/BDF pipeline on the same model.
 
 use super::error::ModelError;
-use super::formulation::{Evaluator, Layout};
+use super::evaluator::Evaluator;
+use super::layout::Layout;
 use super::model::Mechanism;
 use super::rotation::l_matrix;
 use crate::dae::explicit::{OdeSystem, SecondOrderSystem};

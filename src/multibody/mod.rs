@@ -11,7 +11,9 @@
 //! | `forces.rs` | gravity, point forces, torques, spring-dampers, the force-element trait |
 //! | `model.rs` | the mechanism (constant model): builder, accessors, replace/remove with stable handles |
 //! | `data.rs` | the mechanism's data (state t, q, w, ẇ, λ and scratch); typed access by handle, driver-effort sign |
-//! | `formulation.rs` | the state layout (`Layout`, one place for every address); GGL index-2 equations of motion as a `dae::DaeSystem` |
+//! | `layout.rs` | the state layout (`Layout`): the one place for every address |
+//! | `evaluator.rs` | scratch of one evaluation of kinematics, constraints and loads |
+//! | `formulation.rs` | GGL index-2 equations of motion as a `dae::DaeSystem` |
 //! | `analysis.rs` | assembly, velocity/acceleration analysis, reactions, singularity measure on `(&Mechanism, &mut MechanismData)` |
 //! | `explicit.rs` | the same equations as an ODE (index-1, Baumgarte) for explicit integrators |
 //! | `simulation.rs` | the pipeline: initial state → BDF → samples, singularity watch; `SimulationOptions` and every default |
@@ -23,10 +25,12 @@ pub(crate) mod constraints;
 pub mod data;
 pub mod drivers;
 pub mod error;
+pub(crate) mod evaluator;
 pub mod explicit;
 pub mod forces;
 pub mod formulation;
 pub mod joints;
+pub mod layout;
 pub mod model;
 pub mod output;
 pub mod rotation;

@@ -8,8 +8,8 @@ use super::constraints::Primitive;
 use super::drivers::MotionLaw;
 use super::error::ModelError;
 use super::forces::ForceElement;
-use super::formulation::Layout;
 use super::joints::{Joint, JointFrame, JointHandle, JointKind};
+use super::layout::Layout;
 use super::rotation::rotation;
 use nalgebra::{Matrix3, Vector3};
 

@@ -1,0 +1,117 @@
+//! Scratch of one evaluation of a mechanism's kinematics, constraints and loads, shared by the
+//! DAE residual, the explicit ODE and the analyses.
+
+use super::body::Attach;
+use super::constraints::{Pose, Row};
+use super::forces::{BodyLoad, BodyState};
+use super::layout::Layout;
+use super::model::{ConstraintBlock, Mechanism};
+use super::rotation::l_matrix;
+use nalgebra::{Vector3, Vector4};
+
+/// Scratch of one evaluation of kinematics, constraints and loads: shared by the DAE
+/// residual, the explicit ODE and the analyses (through [`MechanismData`](super::MechanismData)).
+/// Holds the model's constraint blocks (compiled when the scratch is made), never the model.
+#[derive(Debug, Clone)]
+pub(crate) struct Evaluator {
+    pub blocks: Vec<ConstraintBlock>,
+    /// Index of the first driver block in `blocks`.
+    pub driver_block0: usize,
+    pub layout: Layout,
+    pub rows: Vec<Row>,
+    pub poses: Vec<Pose>,
+    pub states: Vec<BodyState>,
+    pub loads: Vec<BodyLoad>,
+}
+
+impl Evaluator {
+    pub(crate) fn new(model: &Mechanism) -> Self {
+        let blocks = model.constraint_blocks();
+        let layout = Layout::of(model);
+        let nb = layout.nb;
+        let driver_block0 = blocks.len() - layout.nd;
+        Self {
+            rows: vec![Row::default(); layout.m],
+            poses: vec![Pose::ground(); nb],
+            states: vec![BodyState::ground(); nb],
+            loads: vec![BodyLoad::default(); nb],
+            blocks,
+            driver_block0,
+            layout,
+        }
+    }
+
+    pub(crate) fn side(a: Attach) -> Option<usize> {
+        match a {
+            Attach::Ground => None,
+            Attach::Body(h) => Some(h.0),
+        }
+    }
+
+    /// Sets poses and velocities from q = (r, p) per body and w = (v, ω') per body.
+    pub(crate) fn set_state(&mut self, q: &[f64], w: &[f64]) {
+        for b in 0..self.layout.nb {
+            let r = Vector3::new(q[7 * b], q[7 * b + 1], q[7 * b + 2]);
+            let p = Vector4::new(q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]);
+            self.poses[b] = Pose::new(r, p);
+            let v = Vector3::new(w[6 * b], w[6 * b + 1], w[6 * b + 2]);
+            let om = Vector3::new(w[6 * b + 3], w[6 * b + 4], w[6 * b + 5]);
+            self.states[b] = BodyState {
+                r,
+                p,
+                a: self.poses[b].a,
+                v,
+                omega: om,
+            };
+        }
+    }
+
+    /// Evaluates all constraint rows at time t.
+    pub(crate) fn eval_constraints(&mut self, t: f64) {
+        let ground = Pose::ground();
+        let mut k = 0;
+        for blk in &self.blocks {
+            let pi = Self::side(blk.i).map(|b| self.poses[b]).unwrap_or(ground);
+            let pj = Self::side(blk.j).map(|b| self.poses[b]).unwrap_or(ground);
+            let n = blk.prim.len();
+            blk.prim.eval(&pi, &pj, t, &mut self.rows[k..k + n]);
+            k += n;
+        }
+    }
+
+    /// The sides (body indices) of each scalar constraint.
+    pub(crate) fn row_sides(&self) -> Vec<(Option<usize>, Option<usize>)> {
+        let mut out = vec![];
+        for blk in &self.blocks {
+            for _ in 0..blk.prim.len() {
+                out.push((Self::side(blk.i), Self::side(blk.j)));
+            }
+        }
+        out
+    }
+
+    /// Applied loads (gravity and force elements of `model`) at time t.
+    pub(crate) fn eval_loads(&mut self, model: &Mechanism, t: f64) {
+        let g = model.gravity();
+        for (b, body) in model.bodies().bodies.iter().enumerate() {
+            self.loads[b] = BodyLoad {
+                force: body.mass * g,
+                torque: Vector3::zeros(),
+            };
+        }
+        for (_, f) in model.forces() {
+            f.apply(t, &self.states, &mut self.loads);
+        }
+    }
+
+    /// Velocity-Jacobian row k restricted to body b: (translational, rotational) parts.
+    pub(crate) fn b_row(&self, k: usize, side_i: bool, b: usize) -> (Vector3<f64>, Vector3<f64>) {
+        let row = &self.rows[k];
+        let l = l_matrix(&self.poses[b].p);
+        if side_i {
+            (row.d_ri, 0.5 * l * row.d_pi)
+        } else {
+            (row.d_rj, 0.5 * l * row.d_pj)
+        }
+    }
+}
