@@ -14,7 +14,15 @@
 //! 3. [`multibody`] — rigid bodies, joints, drivers, forces, the GGL equations of motion with
 //!    an analytic sparse Jacobian, analyses and the simulation pipeline.
 //! 4. [`contact`] — contact laws, Hertz stiffness, clearance bearings, joints with clearance.
-//! 5. [`mechanisms`] — the WUT MR2120 (ideal and clearance models, the paper's studies).
+//! 5. [`mechanisms`] — the WUT MR2120 (ideal and clearance models, the paper's studies), the
+//!    DFKI pendulum, a clearance chain.
+//! 6. [`diagnose`] — where a model and recordings disagree, the missing physics, its fit and
+//!    the held-out improvement.
+//!
+//! A multibody model is a constant [`multibody::Mechanism`] beside a
+//! [`multibody::MechanismData`] (state and scratch), with typed access by handle and every
+//! address from one [`multibody::Layout`]; a simulation's tunables are one
+//! [`multibody::SimulationOptions`].
 //!
 //! [`validation`] holds published reference problems (Andrews' squeezer, the turning stiff
 //! spring, Robertson, a GGL pendulum) with their reference values, run by `lash validate`

@@ -1,5 +1,13 @@
 //! Side-by-side benchmarks: every number a performance claim quotes comes from here
 //! (`lash bench dae`), measured in one run with ratios to lash.
+//!
+//! | file | concern |
+//! |---|---|
+//! | `mod.rs` | `lash bench dae`: the validation problems, lash against diffsol and explicit stepping |
+//! | `mr2120.rs` | `lash bench mr2120`: the 63-DOF clearance model at equal accuracy, every solver through [`Integrator`] |
+//! | `scaling.rs` | `lash bench scaling`: cost per step of a clearance chain against its length |
+//! | `exudyn.rs` | the MR2120 model exported for the Exudyn comparison (`benches/exudyn/`) |
+//! | `charts.rs` | work-precision and log-log diagrams (feature `plot`) |
 
 #[cfg(feature = "plot")]
 pub mod charts;

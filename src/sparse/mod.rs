@@ -14,5 +14,5 @@ mod lu;
 mod pattern;
 
 pub use colouring::column_colouring;
-pub use lu::{LinearSolveError, SparseLu};
+pub use lu::{LinearSolveError, SparseLu, SUPERNODAL_THRESHOLD};
 pub use pattern::{CscMatrix, CscPattern, PatternError, SlotIndex};

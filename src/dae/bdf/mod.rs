@@ -9,7 +9,7 @@
 //! | `mod.rs` | the state struct, construction, norms, accessors |
 //! | `step.rs` | one step: coefficients, predictor, error test, order/step selection |
 //! | `newton.rs` | the Newton iteration with Jacobian/LU reuse and refresh |
-//! | `linsys.rs` | the iteration matrix dF/dy + α·dF/dy' and its sparse LU |
+//! | `linsys.rs` | the one set-up path of the iteration matrix dF/dy + α·dF/dy' (Newton and initial conditions) and its factorisation through the [`LinearSolver`](crate::dae::LinearSolver) seam |
 //! | `estimate.rs` | filtering of the local error estimates in stiff directions |
 //! | `ic.rs` | consistent initial values (index 1) and the consistency check |
 //! | `output.rs` | dense output, the output-time driver, stop times, events, restarts |

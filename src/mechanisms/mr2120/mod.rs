@@ -5,6 +5,12 @@
 //! * [`geometry`] — the reconstructed layout (`../shared/reference/mr2120-geometry.md`).
 //! * [`kinematics`] — inverse/forward kinematics, Jacobians, singularity measures.
 //! * [`ideal`] — the ideal 3-DOF multibody model.
+//! * [`clearance`] — the 63-DOF clearance model (trunnion bearings in every universal joint).
+//! * [`trajectory`] — the trajectory M1 → M2 → M3 (paper §4.1) and the errors of eq. (4.1).
+//! * [`accuracy`] — positioning accuracy at M1–M3 (Table 3), dynamic and static methods.
+//! * [`output`] — CSV files and charts of the studies.
+//! * [`lumped`] — a closed-form rigid model (fast cross-check of the ideal model's torques).
+//! * [`record`] — synthetic recordings with hidden effects for the diagnosis suite.
 
 pub mod accuracy;
 pub mod clearance;
