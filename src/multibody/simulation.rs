@@ -58,7 +58,6 @@ impl Default for SimulationOptions {
             bdf: BdfOptions {
                 suppress_algebraic: true,
                 max_steps: 200_000,
-                filter_error_estimate: false,
                 max_newton_iters: 8,
                 max_jacobian_refreshes_in_solve: 2,
                 ..BdfOptions::with_tolerances(1e-8, 1e-9)
@@ -141,7 +140,6 @@ pub struct Simulation {
     solver: BdfSolver<MultibodyDae>,
     analysis: Analysis,
     data: MechanismData,
-    layout: Layout,
     opts: SimulationOptions,
 }
 
@@ -152,7 +150,7 @@ impl Simulation {
         let analysis = Analysis::with_options(&model, opts.assembly)?;
         let mut data = MechanismData::new(&model);
         let s0 = analysis.initial_state(&model, &mut data, t0)?;
-        let dae = MultibodyDae::with_options(model.clone(), opts.formulation);
+        let dae = MultibodyDae::with_options(model.clone(), opts.formulation)?;
         let lay = dae.layout();
         let mut y0 = vec![0.0; lay.dim()];
         let mut yp0 = vec![0.0; lay.dim()];
@@ -175,14 +173,13 @@ impl Simulation {
             solver,
             analysis,
             data,
-            layout: lay,
             opts,
         })
     }
 
     /// Index layout of the state.
     pub fn layout(&self) -> &Layout {
-        &self.layout
+        self.model.layout()
     }
 
     /// Integrator statistics so far.
@@ -207,14 +204,13 @@ impl Simulation {
     }
 
     /// Largest |Φ_k(q, t)| over the constraints and Euler-parameter normalisations (drift)
-    /// at (q, t).
-    pub fn constraint_residual(&mut self, t: f64, q: &[f64]) -> f64 {
-        self.analysis
-            .constraint_residual(&self.model, &mut self.data, t, q)
+    /// at (q, t). Evaluates in a scratch copy of the data's (an allocation per call).
+    pub fn constraint_residual(&self, t: f64, q: &[f64]) -> f64 {
+        Analysis::residual_in(&mut self.data.ev.clone(), t, q)
     }
 
     fn sample(&mut self) -> Sample {
-        let lay = &self.layout;
+        let lay = self.model.layout();
         let y = self.solver.y();
         let s = Sample {
             t: self.solver.t(),
@@ -228,9 +224,8 @@ impl Simulation {
         self.data.w.clone_from(&s.w);
         self.data.lambda.clone_from(&s.lambda);
         self.data.wdot.copy_from_slice(&self.solver.yp()[lay.y_w()]);
-        let measure = self
-            .analysis
-            .singularity_measure(&self.model, &mut self.data, s.t, &s.q);
+        // In the simulation's own scratch: no copy per output sample.
+        let measure = self.analysis.singularity_in(&mut self.data.ev, s.t, &s.q);
         Sample {
             singularity: measure,
             ..s
