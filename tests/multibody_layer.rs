@@ -452,3 +452,60 @@ fn joints_and_forces_are_replaced_and_removed_with_other_handles_valid() {
     assert!(s.driver_effort(&mech, motor).unwrap().is_finite());
     assert_eq!(sim.data().driver_effort(motor), s.driver_effort(&mech, motor));
 }
+
+#[test]
+fn data_made_before_a_model_change_is_refused_by_the_analyses() {
+    let (mut mech, _, _, _) = slider_crank();
+    let an = Analysis::new(&mech).unwrap();
+    let mut data = MechanismData::new(&mech);
+    let (q0, _) = mech.initial_guess();
+    let s0 = an.initial_state(&mech, &mut data, 0.0).unwrap();
+    assert!(an.constraint_residual(&mech, &data, 0.0, &s0.q).unwrap() < 1e-12);
+    // A force element changes no layout, but the data is stale all the same.
+    let slider = body(&mech, "slider");
+    mech.add_force(Box::new(lash::multibody::PointForce {
+        name: "push".into(),
+        body: slider,
+        point: Vector3::zeros(),
+        force: Arc::new(|_| Vector3::new(1.0, 0.0, 0.0)),
+    }));
+    let stale = |e: ModelError| {
+        assert_eq!(e, ModelError::StaleData);
+        let msg = e.to_string();
+        assert!(
+            msg.contains("different version of the model") && msg.contains("make a new MechanismData"),
+            "{msg}"
+        );
+    };
+    stale(an.assemble(&mech, &mut data, 0.0, &q0).unwrap_err());
+    stale(an.initial_state(&mech, &mut data, 0.0).unwrap_err());
+    stale(an.constraint_residual(&mech, &data, 0.0, &s0.q).unwrap_err());
+    stale(an.singularity_measure(&mech, &data, 0.0, &s0.q).unwrap_err());
+    stale(an.velocities(&mech, &mut data, 0.0, &s0.q, &s0.w).unwrap_err());
+    stale(an.accelerations(&mech, &mut data, 0.0, &s0.q, &s0.w).unwrap_err());
+    // Data of another model is refused too, even with the same number of bodies.
+    let (other, _, _, _) = slider_crank();
+    stale(an.assemble(&other, &mut data, 0.0, &q0).unwrap_err());
+    // New data for the changed model works.
+    let mut data = MechanismData::new(&mech);
+    assert!(an.initial_state(&mech, &mut data, 0.0).is_ok());
+}
+
+#[test]
+fn a_force_naming_a_body_of_another_model_is_refused_by_the_dae() {
+    let mut big = Mechanism::new();
+    big.add_body(RigidBody::rod("first", 1.0, 0.2));
+    let foreign = big.add_body(RigidBody::rod("second", 1.0, 0.2));
+    let mut mech = Mechanism::new();
+    mech.add_body(RigidBody::rod("only", 1.0, 0.2));
+    mech.add_force(Box::new(lash::multibody::PointForce {
+        name: "stray push".into(),
+        body: foreign,
+        point: Vector3::zeros(),
+        force: Arc::new(|_| Vector3::new(1.0, 0.0, 0.0)),
+    }));
+    let e = lash::multibody::MultibodyDae::new(Arc::new(mech))
+        .expect_err("a body handle the model does not have is an error");
+    let msg = e.to_string();
+    assert!(msg.contains("stray push") && msg.contains("body handle 1"), "{msg}");
+}
