@@ -472,7 +472,8 @@ fn a_builder_with_the_wrong_number_of_drivers_is_an_error() {
         std::sync::Arc::new(|theta: &[f64], laws: &[MotionLaw]| {
             let mut mech = Mechanism::new();
             let l1 = mech.add_body(
-                RigidBody::new("link1", theta[0], Matrix3::identity() * 1e-2).at(Vector3::new(0.0, 0.0, -0.5)),
+                RigidBody::new("link1", theta[0], Matrix3::identity() * 1e-2)
+                    .at(Vector3::new(0.0, 0.0, -0.5)),
             );
             let a = mech.revolute_at("shoulder", Attach::Ground, l1, Vector3::zeros(), Vector3::y());
             mech.drive("q1", a, laws[0].clone(), 0.0)?;

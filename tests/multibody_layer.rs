@@ -507,5 +507,8 @@ fn a_force_naming_a_body_of_another_model_is_refused_by_the_dae() {
     let e = lash::multibody::MultibodyDae::new(Arc::new(mech))
         .expect_err("a body handle the model does not have is an error");
     let msg = e.to_string();
-    assert!(msg.contains("stray push") && msg.contains("body handle 1"), "{msg}");
+    assert!(
+        msg.contains("stray push") && msg.contains("body handle 1"),
+        "{msg}"
+    );
 }

@@ -153,7 +153,10 @@ fn free_swing_matches_closed_form_dynamics_and_keeps_constraints() {
     let mut drift = 0.0f64;
     for k in 1..=200 {
         solver.solve_to(k as f64 * 0.01).unwrap();
-        drift = drift.max(an.constraint_residual(&mech, &data, solver.t(), &solver.y()[lay.y_q()]).unwrap());
+        drift = drift.max(
+            an.constraint_residual(&mech, &data, solver.t(), &solver.y()[lay.y_q()])
+                .unwrap(),
+        );
     }
     assert!(drift < 1e-8, "constraint drift {drift:e}");
     // Relative angle of link 2 and absolute angle of link 1 from the orientations.

@@ -388,7 +388,8 @@ impl Analysis {
                 rhs[6 * b + 3 + c] = ld.torque[c] - gyro[c];
             }
         }
-        k.view_mut((0, n), (n, lay.constraints())).copy_from(&bm.transpose());
+        k.view_mut((0, n), (n, lay.constraints()))
+            .copy_from(&bm.transpose());
         k.view_mut((n, 0), (lay.constraints(), n)).copy_from(&bm);
         rhs.rows_mut(n, lay.constraints()).copy_from(&gamma);
         let sol = match k.clone().lu().solve(&rhs) {

@@ -159,7 +159,8 @@ fn reaction_at(
 ) -> Option<Reaction> {
     let j = model.joint(h)?;
     let k0 = lay.joint_lambda(h).start;
-    (lambda.len() >= lay.constraints() && q.len() >= lay.q_len()).then(|| joint_reaction(j, k0, t, q, lambda).0)
+    (lambda.len() >= lay.constraints() && q.len() >= lay.q_len())
+        .then(|| joint_reaction(j, k0, t, q, lambda).0)
 }
 
 fn effort(lay: &Layout, lambda: &[f64], h: DriverHandle) -> Option<f64> {

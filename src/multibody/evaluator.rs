@@ -27,7 +27,7 @@ pub(crate) struct Evaluator {
 impl Evaluator {
     pub(crate) fn new(model: &Mechanism) -> Self {
         let blocks = model.constraint_blocks();
-        let layout = Layout::of(model);
+        let layout = model.layout().clone();
         let nb = layout.bodies();
         let driver_block0 = blocks.len() - layout.drivers();
         Self {

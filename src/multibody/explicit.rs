@@ -156,7 +156,11 @@ impl OdeSystem for MultibodyOde {
         let lay = self.ev.layout.clone();
         let nb = lay.bodies();
         let (q, w) = (&y[..7 * nb], &y[7 * nb..13 * nb]);
-        let gamma = if lay.constraints() > 0 { self.gamma(t, q, w) } else { vec![] };
+        let gamma = if lay.constraints() > 0 {
+            self.gamma(t, q, w)
+        } else {
+            vec![]
+        };
         self.ev.set_state(q, w);
         self.ev.eval_constraints(t);
         self.ev.eval_loads(&self.model, t);
