@@ -16,7 +16,7 @@ use std::ops::Range;
 ///   [`Sample`](super::Sample) and [`MechanismData`](super::MechanismData): addressed with
 ///   [`body_q`](Self::body_q), [`body_w`](Self::body_w), [`joint_lambda`](Self::joint_lambda),
 ///   [`driver_lambda`](Self::driver_lambda);
-/// * the DAE unknowns y = (q, w, λ, μ, ν) of [`MultibodyDae`]: [`y_q`](Self::y_q),
+/// * the DAE unknowns y = (q, w, λ, μ, ν) of [`MultibodyDae`](super::MultibodyDae): [`y_q`](Self::y_q),
 ///   [`y_w`](Self::y_w), [`y_lambda`](Self::y_lambda) and the offsets [`q`](Self::q),
 ///   [`w`](Self::w), [`lambda`](Self::lambda), [`mu`](Self::mu), [`nu`](Self::nu).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -100,7 +100,7 @@ impl Layout {
         o..o + Self::Q_PER_BODY
     }
     /// Position (m, base frame) of body `h`'s centre of mass read from a vector that starts
-    /// with the positions q: a q vector, or the unknowns y of [`MultibodyDae`] or of the
+    /// with the positions q: a q vector, or the unknowns y of [`MultibodyDae`](super::MultibodyDae) or of the
     /// explicit [`MultibodyOde`](super::MultibodyOde).
     pub fn position_of(q: &[f64], h: BodyHandle) -> [f64; 3] {
         let o = Self::Q_PER_BODY * h.index();
