@@ -448,6 +448,61 @@ fn api_pendulum() -> lash::diagnose::mechanism::MechanismModel {
             Ok(mech)
         }),
     )
+    .expect("the pendulum builder attaches one driver per channel")
+}
+
+#[test]
+fn a_builder_with_the_wrong_number_of_drivers_is_an_error() {
+    use lash::diagnose::mechanism::MechanismModel;
+    use lash::diagnose::model::{ModelParameter, ParameterFamily};
+    use lash::diagnose::DiagnoseError;
+    use lash::multibody::{Attach, Mechanism, MotionLaw, RigidBody};
+    use nalgebra::{Matrix3, Vector3};
+    // Two torque channels, but the builder drives only the shoulder.
+    let r = MechanismModel::new(
+        "one driver short",
+        vec!["joint 1".into(), "joint 2".into()],
+        vec![ModelParameter {
+            name: "link mass".into(),
+            unit: "kg".into(),
+            nominal: 1.0,
+            scale: 1.0,
+            family: ParameterFamily::MassProperties,
+        }],
+        std::sync::Arc::new(|theta: &[f64], laws: &[MotionLaw]| {
+            let mut mech = Mechanism::new();
+            let l1 = mech.add_body(
+                RigidBody::new("link1", theta[0], Matrix3::identity() * 1e-2)
+                    .at(Vector3::new(0.0, 0.0, -0.5)),
+            );
+            let a = mech.revolute_at("shoulder", Attach::Ground, l1, Vector3::zeros(), Vector3::y());
+            mech.drive("q1", a, laws[0].clone(), 0.0)?;
+            Ok(mech)
+        }),
+    );
+    match r {
+        Err(e @ DiagnoseError::Model { .. }) => {
+            let msg = e.to_string();
+            assert!(msg.contains("one driver short"), "{msg}");
+            assert!(msg.contains("1 drivers for 2 torque channels"), "{msg}");
+        }
+        other => panic!("expected a model error, got {other:?}"),
+    }
+    // A builder that fails names its error.
+    let r = MechanismModel::new(
+        "failing builder",
+        vec!["joint 1".into()],
+        vec![],
+        std::sync::Arc::new(|_: &[f64], _: &[MotionLaw]| {
+            let mut mech = Mechanism::new();
+            let b = mech.add_body(RigidBody::new("ball", 1.0, Matrix3::identity()));
+            let s = mech.spherical_at("socket", Attach::Ground, b, Vector3::zeros());
+            mech.drive("spin", s, MotionLaw::Constant(0.0), 0.0)?;
+            Ok(mech)
+        }),
+    );
+    let msg = r.expect_err("a spherical joint cannot be driven").to_string();
+    assert!(msg.contains("builder failed") && msg.contains("spin"), "{msg}");
 }
 
 #[test]

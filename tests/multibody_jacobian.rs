@@ -54,7 +54,7 @@ fn check(mech: Mechanism, t: f64) {
         .unwrap()
         .initial_state(&mech, &mut MechanismData::new(&mech), t)
         .unwrap();
-    let mut dae = MultibodyDae::new(mech);
+    let mut dae = MultibodyDae::new(mech).unwrap();
     let lay = dae.layout();
     let n = lay.dim();
     let mut y = vec![0.0; n];
@@ -153,7 +153,7 @@ fn analytic_jacobian_matches_differences_on_the_mr2120_clearance_model_in_contac
     opts.formulation.velocities_index2 = true;
     let mut sim = Simulation::new(mech.clone(), 0.0, opts).unwrap();
     let s = sim.run(&[t], |_| {}).unwrap().samples.pop().unwrap();
-    let mut dae = MultibodyDae::new(mech);
+    let mut dae = MultibodyDae::new(mech).unwrap();
     let lay = dae.layout();
     let n = lay.dim();
     let mut y = vec![0.0; n];

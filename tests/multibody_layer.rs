@@ -123,11 +123,11 @@ fn slider_crank_assembles_closed_loop_and_keeps_drift_below_1e8() {
     let mut data = MechanismData::new(&mech);
     let (guess, _) = mech.initial_guess();
     assert!(
-        an.constraint_residual(&mech, &mut data, 0.0, &guess) > 1e-3,
+        an.constraint_residual(&mech, &data, 0.0, &guess).unwrap() > 1e-3,
         "the guess is off the constraints"
     );
     let s0 = an.initial_state(&mech, &mut data, 0.0).unwrap();
-    assert!(an.constraint_residual(&mech, &mut data, 0.0, &s0.q) < 1e-12);
+    assert!(an.constraint_residual(&mech, &data, 0.0, &s0.q).unwrap() < 1e-12);
     let mut sim = Simulation::new(mech.clone(), 0.0, SimulationOptions::default()).unwrap();
     let times: Vec<f64> = (1..=200).map(|k| k as f64 * 0.01).collect();
     let traj = sim.run(&times, |_| {}).unwrap();
@@ -348,7 +348,7 @@ fn a_load_jacobian_outside_the_declared_bodies_is_an_error_naming_element_and_bo
         other: b,
     }));
     let mech = Arc::new(mech);
-    let mut dae = lash::multibody::MultibodyDae::new(mech.clone());
+    let mut dae = lash::multibody::MultibodyDae::new(mech.clone()).unwrap();
     let n = dae.dim();
     let mut y = vec![0.0; n];
     y[mech.layout().y_q()].copy_from_slice(&mech.initial_guess().0);
@@ -432,7 +432,7 @@ fn joints_and_forces_are_replaced_and_removed_with_other_handles_valid() {
     let lay = mech.layout();
     assert_eq!(lay.joint_lambda(rev).len(), 5);
     assert_eq!(lay.joint_lambda(pin), 5..8);
-    assert_eq!(lay.driver_lambda(motor), Some(lay.m - 1));
+    assert_eq!(lay.driver_lambda(motor), Some(lay.constraints() - 1));
     // Removing the (undriven) crank pin frees the loop: one joint fewer, tombstone kept.
     let n = mech.joints().count();
     let pin_joint = mech.remove_joint(pin).unwrap();
@@ -442,7 +442,7 @@ fn joints_and_forces_are_replaced_and_removed_with_other_handles_valid() {
     assert_eq!(mech.joint(pri).unwrap().name, "slide");
     let lay = mech.layout();
     assert!(lay.joint_lambda(pin).is_empty());
-    assert_eq!(lay.m, 5 + 4 + 5 + 1);
+    assert_eq!(lay.constraints(), 5 + 4 + 5 + 1);
     // The reduced model still assembles and runs; reactions and efforts by handle.
     let mech = Arc::new(mech);
     let mut sim = Simulation::new(mech.clone(), 0.0, SimulationOptions::default()).unwrap();
@@ -451,4 +451,64 @@ fn joints_and_forces_are_replaced_and_removed_with_other_handles_valid() {
     assert!(s.reaction(&mech, pri).is_some());
     assert!(s.driver_effort(&mech, motor).unwrap().is_finite());
     assert_eq!(sim.data().driver_effort(motor), s.driver_effort(&mech, motor));
+}
+
+#[test]
+fn data_made_before_a_model_change_is_refused_by_the_analyses() {
+    let (mut mech, _, _, _) = slider_crank();
+    let an = Analysis::new(&mech).unwrap();
+    let mut data = MechanismData::new(&mech);
+    let (q0, _) = mech.initial_guess();
+    let s0 = an.initial_state(&mech, &mut data, 0.0).unwrap();
+    assert!(an.constraint_residual(&mech, &data, 0.0, &s0.q).unwrap() < 1e-12);
+    // A force element changes no layout, but the data is stale all the same.
+    let slider = body(&mech, "slider");
+    mech.add_force(Box::new(lash::multibody::PointForce {
+        name: "push".into(),
+        body: slider,
+        point: Vector3::zeros(),
+        force: Arc::new(|_| Vector3::new(1.0, 0.0, 0.0)),
+    }));
+    let stale = |e: ModelError| {
+        assert_eq!(e, ModelError::StaleData);
+        let msg = e.to_string();
+        assert!(
+            msg.contains("different version of the model") && msg.contains("make a new MechanismData"),
+            "{msg}"
+        );
+    };
+    stale(an.assemble(&mech, &mut data, 0.0, &q0).unwrap_err());
+    stale(an.initial_state(&mech, &mut data, 0.0).unwrap_err());
+    stale(an.constraint_residual(&mech, &data, 0.0, &s0.q).unwrap_err());
+    stale(an.singularity_measure(&mech, &data, 0.0, &s0.q).unwrap_err());
+    stale(an.velocities(&mech, &mut data, 0.0, &s0.q, &s0.w).unwrap_err());
+    stale(an.accelerations(&mech, &mut data, 0.0, &s0.q, &s0.w).unwrap_err());
+    // Data of another model is refused too, even with the same number of bodies.
+    let (other, _, _, _) = slider_crank();
+    stale(an.assemble(&other, &mut data, 0.0, &q0).unwrap_err());
+    // New data for the changed model works.
+    let mut data = MechanismData::new(&mech);
+    assert!(an.initial_state(&mech, &mut data, 0.0).is_ok());
+}
+
+#[test]
+fn a_force_naming_a_body_of_another_model_is_refused_by_the_dae() {
+    let mut big = Mechanism::new();
+    big.add_body(RigidBody::rod("first", 1.0, 0.2));
+    let foreign = big.add_body(RigidBody::rod("second", 1.0, 0.2));
+    let mut mech = Mechanism::new();
+    mech.add_body(RigidBody::rod("only", 1.0, 0.2));
+    mech.add_force(Box::new(lash::multibody::PointForce {
+        name: "stray push".into(),
+        body: foreign,
+        point: Vector3::zeros(),
+        force: Arc::new(|_| Vector3::new(1.0, 0.0, 0.0)),
+    }));
+    let e = lash::multibody::MultibodyDae::new(Arc::new(mech))
+        .expect_err("a body handle the model does not have is an error");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("stray push") && msg.contains("body handle 1"),
+        "{msg}"
+    );
 }

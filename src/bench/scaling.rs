@@ -3,7 +3,7 @@
 //! factorisation should keep the per-step cost near O(N).
 
 use crate::mechanisms::chain::{chain_design, clearance_chain};
-use crate::multibody::{Simulation, SimulationOptions};
+use crate::multibody::Simulation;
 use serde::Serialize;
 use std::sync::Arc;
 use std::time::Instant;
@@ -104,10 +104,9 @@ pub fn bench_scaling(lengths: &[usize], t_end: f64, mut progress: impl FnMut(usi
         let built = clearance_chain(n, &chain_design())
             .map_err(|e| e.to_string())
             .and_then(|m| {
-                let mut opts = SimulationOptions::with_tolerances(1e-4, 1e-6);
-                opts.formulation.velocities_index2 = true;
+                // The clearance runs' settings, without singularity warnings.
+                let mut opts = crate::mechanisms::mr2120::trajectory::clearance_options();
                 opts.singularity_warning = 0.0;
-                opts.bdf.max_steps = 1_000_000;
                 Simulation::new(Arc::new(m), 0.0, opts).map_err(|e| e.to_string())
             });
         row.setup_s = start.elapsed().as_secs_f64();

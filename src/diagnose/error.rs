@@ -108,6 +108,15 @@ pub enum DiagnoseError {
         /// Time at the previous sample, s (−∞ for the first).
         previous: f64,
     },
+    /// The nominal model cannot serve the diagnosis (e.g. a mechanism builder that fails, or
+    /// attaches a driver count other than the torque channels').
+    #[error("model '{model}': {message}")]
+    Model {
+        /// The model's name.
+        model: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A recording could not be read or mapped.
     #[error(transparent)]
     Recording(#[from] RecordingError),

@@ -7,6 +7,8 @@
 //! attaches its drivers with the motion laws it is handed (one per measured joint, in the
 //! order of the torque channels: the j-th driver added serves channel j); the parameters are
 //! named, with units, nominal values and scales, so the candidate library can perturb them.
+//! [`MechanismModel::new`] builds the mechanism once with the nominal values and refuses a
+//! builder that fails or attaches a wrong number of drivers.
 //! At each sample the measured motion is prescribed to the drivers in the mechanism's
 //! [`MechanismData`] ([`MechanismData::prescribe_driver`]), and the torques are the drivers'
 //! efforts ([`MechanismData::driver_effort`]).
@@ -38,13 +40,15 @@
 //!         m.drive("q1", j, laws[0].clone(), 0.0)?;
 //!         Ok(m)
 //!     }),
-//! );
+//! )?;
 //! let mut tau = [0.0];
 //! // Held at 90° the drive carries the weight: m g r = 1 · 9.81 · 0.5 N·m.
 //! model.torques(&[1.0], &[std::f64::consts::FRAC_PI_2], &[0.0], &[0.0], &mut tau);
 //! assert!((tau[0].abs() - 9.81 * 0.5).abs() < 1e-6);
+//! # Ok::<(), lash::diagnose::DiagnoseError>(())
 //! ```
 
+use super::error::DiagnoseError;
 use super::model::{InverseDynamicsModel, ModelParameter};
 use crate::multibody::{Analysis, DriverHandle, Mechanism, MechanismData, ModelError, MotionLaw};
 use std::cell::RefCell;
@@ -94,43 +98,47 @@ impl std::fmt::Debug for MechanismModel {
 
 impl MechanismModel {
     /// A model named `name` with torque channels `joints` (names, one per driver), the
-    /// perturbable `parameters` and the `builder`.
+    /// perturbable `parameters` and the `builder`. Builds the mechanism with the nominal
+    /// parameter values; fails ([`DiagnoseError::Model`], naming the cause) if the builder
+    /// fails, the mechanism is invalid or it has not one driver per torque channel.
     pub fn new(
         name: &str,
         joints: Vec<String>,
         parameters: Vec<ModelParameter>,
         builder: MechanismBuilder,
-    ) -> Self {
-        Self {
+    ) -> Result<Self, DiagnoseError> {
+        let m = Self {
             name: name.into(),
             joints,
             parameters,
             builder,
             built: RefCell::new(None),
-        }
+        };
+        let nominal: Vec<f64> = m.parameters.iter().map(|p| p.nominal).collect();
+        m.ensure(&nominal).map_err(|message| DiagnoseError::Model {
+            model: m.name.clone(),
+            message: format!("with the nominal parameters: {message}"),
+        })?;
+        Ok(m)
     }
 
-    /// Builds (or reuses) the mechanism for `theta`.
-    fn ensure(&self, theta: &[f64]) -> Result<(), ModelError> {
+    /// Builds (or reuses) the mechanism for `theta`; the error names the cause.
+    fn ensure(&self, theta: &[f64]) -> Result<(), String> {
         let mut b = self.built.borrow_mut();
         if b.as_ref().is_some_and(|x| x.theta == theta) {
             return Ok(());
         }
         // Placeholder laws: every analysis below prescribes the drivers' motion in the data.
         let laws = vec![MotionLaw::Constant(0.0); self.joints.len()];
-        let model = (self.builder)(theta, &laws)?;
-        let analysis = Analysis::new(&model)?;
+        let model = (self.builder)(theta, &laws).map_err(|e| format!("the builder failed: {e}"))?;
+        let analysis = Analysis::new(&model).map_err(|e| format!("invalid mechanism: {e}"))?;
         let drivers: Vec<DriverHandle> = model.drivers().map(|(h, _)| h).collect();
         if drivers.len() != self.joints.len() {
-            return Err(ModelError::BadElement {
-                kind: "driver",
-                name: self.name.clone(),
-                reason: format!(
-                    "the builder attached {} drivers for {} torque channels",
-                    drivers.len(),
-                    self.joints.len()
-                ),
-            });
+            return Err(format!(
+                "the builder attached {} drivers for {} torque channels (one driver per measured joint, in channel order)",
+                drivers.len(),
+                self.joints.len()
+            ));
         }
         let (q, w) = model.initial_guess();
         let data = MechanismData::new(&model);
@@ -165,7 +173,9 @@ impl InverseDynamicsModel for MechanismModel {
         self.parameters.clone()
     }
     /// Driver torques (N·m, or N for a prismatic drive) at the sample; NaN where the
-    /// mechanism cannot be assembled or its inverse dynamics is singular.
+    /// mechanism cannot be assembled, its inverse dynamics is singular or the builder fails
+    /// for perturbed parameter values (the nominal ones are checked by
+    /// [`MechanismModel::new`]).
     fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
         let n = self.joints.len();
         tau[..n].iter_mut().for_each(|v| *v = f64::NAN);

@@ -12,6 +12,7 @@ use super::body::Attach;
 use super::constraints::{Pose, Row};
 use super::data::MechanismData;
 use super::error::ModelError;
+use super::evaluator::Evaluator;
 use super::joints::Joint;
 #[cfg(doc)]
 use super::layout::Layout;
@@ -105,17 +106,17 @@ impl Analysis {
     }
 
     /// Φ and [Φ; normalisation] Jacobian (dense) at (q, t).
-    fn position_system(data: &mut MechanismData, t: f64, q: &[f64]) -> (DVector<f64>, DMatrix<f64>) {
-        let lay = data.ev.layout.clone();
-        let zeros = vec![0.0; 6 * lay.nb];
-        data.ev.set_state(q, &zeros);
-        data.ev.eval_constraints(t);
-        let sides = data.ev.row_sides();
-        let n_eq = lay.m + lay.nb;
+    fn position_system(ev: &mut Evaluator, t: f64, q: &[f64]) -> (DVector<f64>, DMatrix<f64>) {
+        let lay = ev.layout.clone();
+        let zeros = vec![0.0; 6 * lay.bodies()];
+        ev.set_state(q, &zeros);
+        ev.eval_constraints(t);
+        let sides = ev.row_sides();
+        let n_eq = lay.constraints() + lay.bodies();
         let mut f = DVector::zeros(n_eq);
-        let mut j = DMatrix::zeros(n_eq, 7 * lay.nb);
+        let mut j = DMatrix::zeros(n_eq, 7 * lay.bodies());
         for (k, &(si, sj)) in sides.iter().enumerate() {
-            let row = &data.ev.rows[k];
+            let row = &ev.rows[k];
             f[k] = row.phi;
             if let Some(b) = si {
                 for c in 0..3 {
@@ -134,27 +135,27 @@ impl Analysis {
                 }
             }
         }
-        for b in 0..lay.nb {
+        for b in 0..lay.bodies() {
             let p = &q[7 * b + 3..7 * b + 7];
-            f[lay.m + b] = 0.5 * (p.iter().map(|v| v * v).sum::<f64>() - 1.0);
+            f[lay.constraints() + b] = 0.5 * (p.iter().map(|v| v * v).sum::<f64>() - 1.0);
             for c in 0..4 {
-                j[(lay.m + b, 7 * b + 3 + c)] = p[c];
+                j[(lay.constraints() + b, 7 * b + 3 + c)] = p[c];
             }
         }
         (f, j)
     }
 
     /// Velocity Jacobian B (m × 6nb) and Φ_t at the state last set.
-    fn velocity_system(data: &MechanismData) -> (DMatrix<f64>, DVector<f64>) {
-        let lay = &data.ev.layout;
-        let sides = data.ev.row_sides();
-        let mut bm = DMatrix::zeros(lay.m, 6 * lay.nb);
-        let mut phit = DVector::zeros(lay.m);
+    fn velocity_system(ev: &Evaluator) -> (DMatrix<f64>, DVector<f64>) {
+        let lay = &ev.layout;
+        let sides = ev.row_sides();
+        let mut bm = DMatrix::zeros(lay.constraints(), 6 * lay.bodies());
+        let mut phit = DVector::zeros(lay.constraints());
         for (k, &(si, sj)) in sides.iter().enumerate() {
-            phit[k] = data.ev.rows[k].phi_t;
+            phit[k] = ev.rows[k].phi_t;
             for (side_i, b) in [(true, si), (false, sj)] {
                 let Some(b) = b else { continue };
-                let (bt, br) = data.ev.b_row(k, side_i, b);
+                let (bt, br) = ev.b_row(k, side_i, b);
                 for c in 0..3 {
                     bm[(k, 6 * b + c)] += bt[c];
                     bm[(k, 6 * b + 3 + c)] += br[c];
@@ -166,7 +167,7 @@ impl Analysis {
 
     fn constraint_name(model: &Mechanism, data: &MechanismData, k: usize) -> String {
         let lay = &data.ev.layout;
-        if k < lay.m {
+        if k < lay.constraints() {
             let mut i = 0;
             for blk in &data.ev.blocks {
                 if k < i + blk.prim.len() {
@@ -177,14 +178,27 @@ impl Analysis {
         }
         format!(
             "normalisation of body '{}'",
-            model.bodies().bodies[k - lay.m].name
+            model.bodies().bodies[k - lay.constraints()].name
         )
     }
 
     /// Largest |Φ_k(q, t)| over the constraints and Euler-parameter normalisations (drift).
-    pub fn constraint_residual(&self, model: &Mechanism, data: &mut MechanismData, t: f64, q: &[f64]) -> f64 {
-        debug_assert_eq!(data.ev.layout.nb, model.bodies().len(), "data of another model");
-        Self::position_system(data, t, q).0.amax()
+    /// Read-only: evaluates in a scratch copy of `data`'s (an allocation per call, as the
+    /// dense Jacobian built here is anyway). Fails for data made for another model.
+    pub fn constraint_residual(
+        &self,
+        model: &Mechanism,
+        data: &MechanismData,
+        t: f64,
+        q: &[f64],
+    ) -> Result<f64, ModelError> {
+        model.check_data(data)?;
+        Ok(Self::residual_in(&mut data.ev.clone(), t, q))
+    }
+
+    /// [`constraint_residual`](Self::constraint_residual) in the given scratch.
+    pub(crate) fn residual_in(ev: &mut Evaluator, t: f64, q: &[f64]) -> f64 {
+        Self::position_system(ev, t, q).0.amax()
     }
 
     /// Position assembly: Gauss–Newton with minimum-norm steps on Φ(q, t) = 0 and the
@@ -196,17 +210,18 @@ impl Analysis {
         t: f64,
         guess: &[f64],
     ) -> Result<Vec<f64>, ModelError> {
+        model.check_data(data)?;
         let lay = data.ev.layout.clone();
-        if guess.len() != 7 * lay.nb || guess.iter().any(|v| !v.is_finite()) {
+        if guess.len() != 7 * lay.bodies() || guess.iter().any(|v| !v.is_finite()) {
             return Err(ModelError::Output(format!(
                 "assembly guess must have {} finite values",
-                7 * lay.nb
+                7 * lay.bodies()
             )));
         }
         let mut q = guess.to_vec();
-        if lay.m == 0 {
+        if lay.constraints() == 0 {
             // No constraints: only the Euler parameters need normalising.
-            for b in 0..lay.nb {
+            for b in 0..lay.bodies() {
                 let p = &mut q[7 * b + 3..7 * b + 7];
                 let n = p.iter().map(|v| v * v).sum::<f64>().sqrt();
                 if n == 0.0 {
@@ -218,7 +233,7 @@ impl Analysis {
         }
         let mut last = f64::INFINITY;
         for _ in 0..self.options.max_iterations {
-            let (f, j) = Self::position_system(data, t, &q);
+            let (f, j) = Self::position_system(&mut data.ev, t, &q);
             let norm = f.amax();
             if norm <= self.options.tolerance {
                 return Ok(q);
@@ -231,7 +246,7 @@ impl Analysis {
             // Damped step: halve while the residual grows a lot (far from the solution).
             for _ in 0..10 {
                 let trial: Vec<f64> = q.iter().zip(step.iter()).map(|(a, b)| a - alpha * b).collect();
-                let (ft, _) = Self::position_system(data, t, &trial);
+                let (ft, _) = Self::position_system(&mut data.ev, t, &trial);
                 if ft.amax() < norm.max(1e-300) * 1.5 || alpha < 1e-3 {
                     q = trial;
                     break;
@@ -243,7 +258,7 @@ impl Analysis {
             }
             last = norm;
         }
-        let (f, _) = Self::position_system(data, t, &q);
+        let (f, _) = Self::position_system(&mut data.ev, t, &q);
         if f.amax() <= self.options.tolerance * 10.0 {
             return Ok(q);
         }
@@ -265,13 +280,13 @@ impl Analysis {
         q: &[f64],
         guess: &[f64],
     ) -> Result<Vec<f64>, ModelError> {
-        debug_assert_eq!(data.ev.layout.nb, model.bodies().len(), "data of another model");
-        if data.ev.layout.m == 0 {
+        model.check_data(data)?;
+        if data.ev.layout.constraints() == 0 {
             return Ok(guess.to_vec());
         }
         data.ev.set_state(q, guess);
         data.ev.eval_constraints(t);
-        let (bm, phit) = Self::velocity_system(data);
+        let (bm, phit) = Self::velocity_system(&data.ev);
         let w0 = DVector::from_column_slice(guess);
         let r = &bm * &w0 + phit;
         let dw = bm
@@ -285,13 +300,13 @@ impl Analysis {
     fn vel_residual(data: &mut MechanismData, t: f64, q: &[f64], w: &[f64]) -> DVector<f64> {
         data.ev.set_state(q, w);
         data.ev.eval_constraints(t);
-        let (bm, phit) = Self::velocity_system(data);
+        let (bm, phit) = Self::velocity_system(&data.ev);
         bm * DVector::from_column_slice(w) + phit
     }
 
     /// q̇ = H(q)·w.
     fn qdot(data: &MechanismData, q: &[f64], w: &[f64]) -> Vec<f64> {
-        let nb = data.ev.layout.nb;
+        let nb = data.ev.layout.bodies();
         let mut qd = vec![0.0; 7 * nb];
         for b in 0..nb {
             let p = nalgebra::Vector4::new(q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]);
@@ -331,12 +346,13 @@ impl Analysis {
         q: &[f64],
         w: &[f64],
     ) -> Result<(Vec<f64>, Vec<f64>), ModelError> {
+        model.check_data(data)?;
         let lay = data.ev.layout.clone();
-        if lay.m == 0 {
+        if lay.constraints() == 0 {
             // Free bodies: Newton–Euler per body, no global system.
             data.ev.set_state(q, w);
             data.ev.eval_loads(model, t);
-            let mut wdot = vec![0.0; 6 * lay.nb];
+            let mut wdot = vec![0.0; 6 * lay.bodies()];
             for (b, body) in model.bodies().bodies.iter().enumerate() {
                 let st = &data.ev.states[b];
                 let ld = &data.ev.loads[b];
@@ -354,10 +370,10 @@ impl Analysis {
         data.ev.set_state(q, w);
         data.ev.eval_constraints(t);
         data.ev.eval_loads(model, t);
-        let (bm, _) = Self::velocity_system(data);
-        let n = 6 * lay.nb;
-        let mut k = DMatrix::zeros(n + lay.m, n + lay.m);
-        let mut rhs = DVector::zeros(n + lay.m);
+        let (bm, _) = Self::velocity_system(&data.ev);
+        let n = 6 * lay.bodies();
+        let mut k = DMatrix::zeros(n + lay.constraints(), n + lay.constraints());
+        let mut rhs = DVector::zeros(n + lay.constraints());
         for (b, body) in model.bodies().bodies.iter().enumerate() {
             let st = &data.ev.states[b];
             for c in 0..3 {
@@ -372,9 +388,10 @@ impl Analysis {
                 rhs[6 * b + 3 + c] = ld.torque[c] - gyro[c];
             }
         }
-        k.view_mut((0, n), (n, lay.m)).copy_from(&bm.transpose());
-        k.view_mut((n, 0), (lay.m, n)).copy_from(&bm);
-        rhs.rows_mut(n, lay.m).copy_from(&gamma);
+        k.view_mut((0, n), (n, lay.constraints()))
+            .copy_from(&bm.transpose());
+        k.view_mut((n, 0), (lay.constraints(), n)).copy_from(&bm);
+        rhs.rows_mut(n, lay.constraints()).copy_from(&gamma);
         let sol = match k.clone().lu().solve(&rhs) {
             Some(s) if s.iter().all(|v| v.is_finite()) => s,
             _ => k
@@ -384,7 +401,7 @@ impl Analysis {
         };
         Ok((
             sol.rows(0, n).iter().copied().collect(),
-            sol.rows(n, lay.m).iter().copied().collect(),
+            sol.rows(n, lay.constraints()).iter().copied().collect(),
         ))
     }
 
@@ -446,17 +463,31 @@ impl Analysis {
 
     /// Smallest singular value of the row-normalised velocity Jacobian B at (q, t), divided by
     /// the largest: 1 for a well-conditioned constraint set, 0 at a singular configuration.
-    pub fn singularity_measure(&self, model: &Mechanism, data: &mut MechanismData, t: f64, q: &[f64]) -> f64 {
-        debug_assert_eq!(data.ev.layout.nb, model.bodies().len(), "data of another model");
-        if data.ev.layout.m == 0 {
+    /// Read-only: evaluates in a scratch copy of `data`'s (an allocation per call, as the
+    /// SVD here is anyway). Fails for data made for another model.
+    pub fn singularity_measure(
+        &self,
+        model: &Mechanism,
+        data: &MechanismData,
+        t: f64,
+        q: &[f64],
+    ) -> Result<f64, ModelError> {
+        model.check_data(data)?;
+        Ok(self.singularity_in(&mut data.ev.clone(), t, q))
+    }
+
+    /// [`singularity_measure`](Self::singularity_measure) in the given scratch (the
+    /// simulation's own, without a copy per output sample).
+    pub(crate) fn singularity_in(&self, ev: &mut Evaluator, t: f64, q: &[f64]) -> f64 {
+        if ev.layout.constraints() == 0 {
             return 1.0;
         }
-        let zeros = vec![0.0; 6 * data.ev.layout.nb];
-        data.ev.set_state(q, &zeros);
-        data.ev.eval_constraints(t);
-        let (mut bm, _) = Self::velocity_system(data);
+        let zeros = vec![0.0; 6 * ev.layout.bodies()];
+        ev.set_state(q, &zeros);
+        ev.eval_constraints(t);
+        let (mut bm, _) = Self::velocity_system(ev);
         // Angular-velocity columns in units of a velocity at the model's length scale.
-        for b in 0..data.ev.layout.nb {
+        for b in 0..ev.layout.bodies() {
             for c in 3..6 {
                 let mut col = bm.column_mut(6 * b + c);
                 col /= self.length_scale;

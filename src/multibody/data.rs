@@ -25,7 +25,7 @@ use std::sync::Arc;
 
 /// State and scratch of one mechanism: what changes while the model ([`Mechanism`]) stays
 /// constant. Made from a complete model ([`MechanismData::new`]); make a new one after
-/// changing the model. The analyses ([`Analysis`](super::Analysis)) fill it; the typed
+/// changing the model (the analyses refuse stale data with [`ModelError::StaleData`]). The analyses ([`Analysis`](super::Analysis)) fill it; the typed
 /// accessors read it.
 #[derive(Debug, Clone)]
 pub struct MechanismData {
@@ -41,6 +41,8 @@ pub struct MechanismData {
     pub lambda: Vec<f64>,
     /// Compiled constraints and evaluation scratch.
     pub(crate) ev: Evaluator,
+    /// The [`Mechanism::version`] this data was made for.
+    pub(crate) model_version: u64,
 }
 
 impl MechanismData {
@@ -52,10 +54,11 @@ impl MechanismData {
         Self {
             t: 0.0,
             wdot: vec![0.0; w.len()],
-            lambda: vec![0.0; ev.layout.m],
+            lambda: vec![0.0; ev.layout.constraints()],
             q,
             w,
             ev,
+            model_version: model.version(),
         }
     }
 
@@ -156,7 +159,8 @@ fn reaction_at(
 ) -> Option<Reaction> {
     let j = model.joint(h)?;
     let k0 = lay.joint_lambda(h).start;
-    (lambda.len() >= lay.m && q.len() >= lay.q_len()).then(|| joint_reaction(j, k0, t, q, lambda).0)
+    (lambda.len() >= lay.constraints() && q.len() >= lay.q_len())
+        .then(|| joint_reaction(j, k0, t, q, lambda).0)
 }
 
 fn effort(lay: &Layout, lambda: &[f64], h: DriverHandle) -> Option<f64> {
@@ -240,13 +244,13 @@ macro_rules! force_accessors {
             /// The reaction of joint `h` of `model` on its side-j body (at the joint origin,
             /// base frame); `None` for a removed joint.
             pub fn reaction(&self, model: &Mechanism, h: JointHandle) -> Option<Reaction> {
-                reaction_at(model, &model.layout(), h, self.t, &self.q, &self.lambda)
+                reaction_at(model, model.layout(), h, self.t, &self.q, &self.lambda)
             }
             /// The effort of driver `h` of `model`: torque (N·m) or force (N) it applies on
             /// its joint coordinate, positive towards increasing coordinate (see
             /// [`data`](crate::multibody::data) for the convention).
             pub fn driver_effort(&self, model: &Mechanism, h: DriverHandle) -> Option<f64> {
-                effort(&model.layout(), &self.lambda, h)
+                effort(model.layout(), &self.lambda, h)
             }
         }
     };

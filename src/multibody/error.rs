@@ -40,6 +40,10 @@ pub enum ModelError {
         /// Context.
         detail: String,
     },
+    /// A [`MechanismData`](super::MechanismData) used with a model other than the one (or
+    /// the version of it) it was made for.
+    #[error("data made for a different version of the model (bodies, joints, drivers or force elements changed since); make a new MechanismData")]
+    StaleData,
     /// The integrator failed.
     #[error("integration failed: {0}")]
     Integration(#[from] DaeError),

@@ -27,11 +27,11 @@ pub(crate) struct Evaluator {
 impl Evaluator {
     pub(crate) fn new(model: &Mechanism) -> Self {
         let blocks = model.constraint_blocks();
-        let layout = Layout::of(model);
-        let nb = layout.nb;
-        let driver_block0 = blocks.len() - layout.nd;
+        let layout = model.layout().clone();
+        let nb = layout.bodies();
+        let driver_block0 = blocks.len() - layout.drivers();
         Self {
-            rows: vec![Row::default(); layout.m],
+            rows: vec![Row::default(); layout.constraints()],
             poses: vec![Pose::ground(); nb],
             states: vec![BodyState::ground(); nb],
             loads: vec![BodyLoad::default(); nb],
@@ -50,7 +50,7 @@ impl Evaluator {
 
     /// Sets poses and velocities from q = (r, p) per body and w = (v, ω') per body.
     pub(crate) fn set_state(&mut self, q: &[f64], w: &[f64]) {
-        for b in 0..self.layout.nb {
+        for b in 0..self.layout.bodies() {
             let r = Vector3::new(q[7 * b], q[7 * b + 1], q[7 * b + 2]);
             let p = Vector4::new(q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]);
             self.poses[b] = Pose::new(r, p);

@@ -76,7 +76,7 @@ impl MultibodyOde {
             .iter()
             .map(|b| b.inertia.try_inverse().unwrap_or_else(Matrix3::zeros))
             .collect();
-        let n = 13 * ev.layout.nb;
+        let n = 13 * ev.layout.bodies();
         Ok(Self {
             model,
             ev,
@@ -109,7 +109,7 @@ impl MultibodyOde {
     }
 
     fn qdot(&self, q: &[f64], w: &[f64], out: &mut [f64]) {
-        for b in 0..self.ev.layout.nb {
+        for b in 0..self.ev.layout.bodies() {
             let p = Vector4::new(q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]);
             let om = Vector3::new(w[6 * b + 3], w[6 * b + 4], w[6 * b + 5]);
             let pd = 0.5 * l_matrix(&p).transpose() * om - self.gains.kappa * (p.norm_squared() - 1.0) * p;
@@ -120,7 +120,7 @@ impl MultibodyOde {
 
     /// γ by Richardson-extrapolated central differences of B·w + Φ_t along (q̇, 1).
     fn gamma(&mut self, t: f64, q: &[f64], w: &[f64]) -> Vec<f64> {
-        let m = self.ev.layout.m;
+        let m = self.ev.layout.constraints();
         let mut qd = vec![0.0; q.len()];
         self.qdot(q, w, &mut qd);
         let scale = 1.0 + qd.iter().fold(0.0f64, |a, b| a.max(b.abs()));
@@ -149,14 +149,18 @@ impl MultibodyOde {
 
 impl OdeSystem for MultibodyOde {
     fn dim(&self) -> usize {
-        13 * self.ev.layout.nb
+        13 * self.ev.layout.bodies()
     }
 
     fn rhs(&mut self, t: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) -> Result<(), EvalError> {
         let lay = self.ev.layout.clone();
-        let nb = lay.nb;
+        let nb = lay.bodies();
         let (q, w) = (&y[..7 * nb], &y[7 * nb..13 * nb]);
-        let gamma = if lay.m > 0 { self.gamma(t, q, w) } else { vec![] };
+        let gamma = if lay.constraints() > 0 {
+            self.gamma(t, q, w)
+        } else {
+            vec![]
+        };
         self.ev.set_state(q, w);
         self.ev.eval_constraints(t);
         self.ev.eval_loads(&self.model, t);
@@ -171,11 +175,11 @@ impl OdeSystem for MultibodyOde {
             wdot[6 * b..6 * b + 3].copy_from_slice(a.as_slice());
             wdot[6 * b + 3..6 * b + 6].copy_from_slice(al.as_slice());
         }
-        if lay.m == 0 {
+        if lay.constraints() == 0 {
             return check_finite(t, dy);
         }
         // Constraint rows restricted to their bodies: (body, translational, rotational).
-        let m = lay.m;
+        let m = lay.constraints();
         let mut brows: Vec<[Option<BodyRow>; 2]> = Vec::with_capacity(m);
         for (k, &(si, sj)) in self.sides.iter().enumerate() {
             let mut r = [None, None];
@@ -243,10 +247,10 @@ impl OdeSystem for MultibodyOde {
 /// body), velocities w (6 per body), q' = H(q)·w.
 impl SecondOrderSystem for MultibodyOde {
     fn npos(&self) -> usize {
-        7 * self.ev.layout.nb
+        7 * self.ev.layout.bodies()
     }
     fn nvel(&self) -> usize {
-        6 * self.ev.layout.nb
+        6 * self.ev.layout.bodies()
     }
     fn position_rate(&mut self, _t: f64, q: &[f64], v: &[f64], qdot: &mut [f64]) {
         self.qdot(q, v, qdot);

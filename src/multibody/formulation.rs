@@ -19,6 +19,7 @@
 //! bodies sharing a joint or force element with it.
 
 use super::constraints::{Hess14, Pose};
+use super::error::ModelError;
 use super::evaluator::Evaluator;
 use super::forces::BodyLoad;
 pub use super::layout::Layout;
@@ -90,13 +91,15 @@ fn lt_omega_derivative(om: &Vector3<f64>) -> Matrix4<f64> {
 }
 
 impl MultibodyDae {
-    /// Builds the DAE of a validated model with the default [`FormulationOptions`].
-    pub fn new(model: Arc<Mechanism>) -> Self {
+    /// Checks the model and builds its DAE with the default [`FormulationOptions`].
+    pub fn new(model: Arc<Mechanism>) -> Result<Self, ModelError> {
         Self::with_options(model, FormulationOptions::default())
     }
 
-    /// Builds the DAE of a validated model.
-    pub fn with_options(model: Arc<Mechanism>, options: FormulationOptions) -> Self {
+    /// Checks the model ([`Mechanism::validate`]: e.g. a force element naming a body the
+    /// model does not have) and builds its DAE.
+    pub fn with_options(model: Arc<Mechanism>, options: FormulationOptions) -> Result<Self, ModelError> {
+        model.validate()?;
         let ev = Evaluator::new(&model);
         let sides = ev.row_sides();
         let names = ev.blocks.iter().flat_map(|b| b.names.clone()).collect();
@@ -111,7 +114,7 @@ impl MultibodyDae {
         };
         s.pattern = Some(s.build_pattern());
         s.slots = s.pattern.as_ref().map(SlotIndex::new);
-        s
+        Ok(s)
     }
 
     /// The index layout.
@@ -139,7 +142,7 @@ impl DaeSystem for MultibodyDae {
         res: &mut [f64],
     ) -> Result<(), EvalError> {
         let lay = self.ev.layout.clone();
-        let nb = lay.nb;
+        let nb = lay.bodies();
         let (q, w) = (&y[..7 * nb], &y[7 * nb..13 * nb]);
         self.ev.set_state(q, w);
         self.ev.eval_constraints(t);
@@ -226,7 +229,7 @@ impl DaeSystem for MultibodyDae {
         let lay = self.ev.layout.clone();
         (0..lay.dim())
             .map(|i| {
-                if i < 13 * lay.nb {
+                if i < 13 * lay.bodies() {
                     VarKind::Differential
                 } else {
                     VarKind::Algebraic
@@ -243,7 +246,7 @@ impl DaeSystem for MultibodyDae {
         let lay = self.ev.layout.clone();
         (0..lay.dim())
             .map(|i| {
-                if self.options.velocities_index2 && (7 * lay.nb..13 * lay.nb).contains(&i) {
+                if self.options.velocities_index2 && (7 * lay.bodies()..13 * lay.bodies()).contains(&i) {
                     2
                 } else {
                     1
@@ -256,7 +259,7 @@ impl DaeSystem for MultibodyDae {
 impl MultibodyDae {
     fn build_pattern(&self) -> CscPattern {
         let lay = self.ev.layout.clone();
-        let nb = lay.nb;
+        let nb = lay.bodies();
         // Which columns a body's dynamics rows (w rows) depend on, per other body: a constraint
         // between two bodies couples them through its Hessian (G(q)ᵀλ: positions only); a force
         // element through its load, which may depend on positions and velocities. A body's
@@ -347,11 +350,11 @@ impl MultibodyDae {
     fn name_of(&self, i: usize) -> String {
         let lay = self.ev.layout.clone();
         let body = |b: usize| self.model.bodies().bodies[b].name.clone();
-        if i < 7 * lay.nb {
+        if i < 7 * lay.bodies() {
             let c = ["x", "y", "z", "e0", "e1", "e2", "e3"][i % 7];
             format!("body '{}' {c}", body(i / 7))
-        } else if i < 13 * lay.nb {
-            let j = i - 7 * lay.nb;
+        } else if i < 13 * lay.bodies() {
+            let j = i - 7 * lay.bodies();
             let c = ["vx", "vy", "vz", "wx'", "wy'", "wz'"][j % 6];
             format!("body '{}' {c}", body(j / 6))
         } else if i < lay.mu() {
@@ -372,7 +375,7 @@ impl MultibodyDae {
         values: &mut [f64],
     ) -> Result<(), EvalError> {
         let lay = self.ev.layout.clone();
-        let nb = lay.nb;
+        let nb = lay.bodies();
         self.ev.set_state(&y[..7 * nb], &y[7 * nb..13 * nb]);
         self.ev.eval_constraints(t);
         values.iter_mut().for_each(|v| *v = 0.0);

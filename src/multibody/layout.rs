@@ -16,21 +16,34 @@ use std::ops::Range;
 ///   [`Sample`](super::Sample) and [`MechanismData`](super::MechanismData): addressed with
 ///   [`body_q`](Self::body_q), [`body_w`](Self::body_w), [`joint_lambda`](Self::joint_lambda),
 ///   [`driver_lambda`](Self::driver_lambda);
-/// * the DAE unknowns y = (q, w, λ, μ, ν) of [`MultibodyDae`]: [`y_q`](Self::y_q),
+/// * the DAE unknowns y = (q, w, λ, μ, ν) of [`MultibodyDae`](super::MultibodyDae): [`y_q`](Self::y_q),
 ///   [`y_w`](Self::y_w), [`y_lambda`](Self::y_lambda) and the offsets [`q`](Self::q),
 ///   [`w`](Self::w), [`lambda`](Self::lambda), [`mu`](Self::mu), [`nu`](Self::nu).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Layout {
     /// Bodies.
-    pub nb: usize,
+    nb: usize,
     /// Constraint equations (joints and drivers).
-    pub m: usize,
+    m: usize,
     /// (first row, rows) of each joint slot (removed joints: no rows).
     joints: std::sync::Arc<[(usize, usize)]>,
     /// Row of the first driver.
     drivers0: usize,
     /// Drivers.
-    pub(crate) nd: usize,
+    nd: usize,
+}
+
+impl Default for Layout {
+    /// The layout of an empty model.
+    fn default() -> Self {
+        Self {
+            nb: 0,
+            m: 0,
+            joints: Vec::new().into(),
+            drivers0: 0,
+            nd: 0,
+        }
+    }
 }
 
 impl Layout {
@@ -67,13 +80,27 @@ impl Layout {
         }
     }
 
+    /// Number of bodies.
+    pub fn bodies(&self) -> usize {
+        self.nb
+    }
+    /// Number of scalar constraint equations (joints and drivers; not the Euler-parameter
+    /// normalisations): the length of a λ vector.
+    pub fn constraints(&self) -> usize {
+        self.m
+    }
+    /// Number of drivers (whose joints are present).
+    pub fn drivers(&self) -> usize {
+        self.nd
+    }
+
     /// Range of body `h`'s positions (r, p) in a q vector (and in the DAE unknowns y).
     pub fn body_q(&self, h: BodyHandle) -> Range<usize> {
         let o = Self::Q_PER_BODY * h.index();
         o..o + Self::Q_PER_BODY
     }
     /// Position (m, base frame) of body `h`'s centre of mass read from a vector that starts
-    /// with the positions q: a q vector, or the unknowns y of [`MultibodyDae`] or of the
+    /// with the positions q: a q vector, or the unknowns y of [`MultibodyDae`](super::MultibodyDae) or of the
     /// explicit [`MultibodyOde`](super::MultibodyOde).
     pub fn position_of(q: &[f64], h: BodyHandle) -> [f64; 3] {
         let o = Self::Q_PER_BODY * h.index();
@@ -116,26 +143,27 @@ impl Layout {
     }
     /// Offset of body b's position coordinates (r, p) in y.
     pub fn q(&self, b: usize) -> usize {
-        7 * b
+        Self::Q_PER_BODY * b
     }
     /// Offset of body b's velocities (v, ω') in y.
     pub fn w(&self, b: usize) -> usize {
-        7 * self.nb + 6 * b
+        self.q_len() + Self::W_PER_BODY * b
     }
     /// Offset of the constraint forces λ in y.
     pub fn lambda(&self) -> usize {
-        13 * self.nb
+        self.q_len() + self.w_len()
     }
     /// Offset of the stabilisation multipliers μ in y.
     pub fn mu(&self) -> usize {
-        13 * self.nb + self.m
+        self.lambda() + self.m
     }
     /// Offset of the normalisation multipliers ν in y.
     pub fn nu(&self) -> usize {
-        13 * self.nb + 2 * self.m
+        self.lambda() + 2 * self.m
     }
     /// Total number of unknowns of the DAE.
     pub fn dim(&self) -> usize {
-        14 * self.nb + 2 * self.m
+        // (q, w, λ, μ, ν): one normalisation multiplier ν per body.
+        self.nu() + self.nb
     }
 }

@@ -12,6 +12,7 @@ use super::joints::{Joint, JointFrame, JointHandle, JointKind};
 use super::layout::Layout;
 use super::rotation::rotation;
 use nalgebra::{Matrix3, Vector3};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Standard gravity, m/s² (along −z by default).
 pub const STANDARD_GRAVITY: f64 = 9.81;
@@ -83,7 +84,16 @@ pub struct Mechanism {
     /// Force-element slots (`None`: removed).
     forces: Vec<Option<Box<dyn ForceElement>>>,
     gravity: Vector3<f64>,
+    /// The index layout of the state vectors (kept up to date by every change of the model).
+    layout: Layout,
+    /// Identifies this version of the model (0: empty; a fresh number on every change of
+    /// bodies, joints, drivers or force elements), so analyses can refuse a stale
+    /// [`MechanismData`](super::MechanismData).
+    version: u64,
 }
+
+/// Source of model versions, unique within the process.
+static NEXT_VERSION: AtomicU64 = AtomicU64::new(1);
 
 /// True for the joint kinds a driver can drive.
 fn drivable(k: JointKind) -> bool {
@@ -116,9 +126,34 @@ impl Mechanism {
         }
     }
 
+    /// Records a change of bodies, joints, drivers or force elements: the layout is
+    /// recomputed and the model gets a new version (data made before become stale).
+    fn changed(&mut self) {
+        self.layout = Layout::of(self);
+        self.version = NEXT_VERSION.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// This version of the model: a number that changes with every change of bodies,
+    /// joints, drivers or force elements (not with gravity, markers or a body's mass
+    /// properties, which no [`MechanismData`](super::MechanismData) holds).
+    pub fn version(&self) -> u64 {
+        self.version
+    }
+
+    /// Checks that `data` was made for this version of the model.
+    pub fn check_data(&self, data: &super::MechanismData) -> Result<(), ModelError> {
+        if data.model_version == self.version && data.layout() == &self.layout {
+            Ok(())
+        } else {
+            Err(ModelError::StaleData)
+        }
+    }
+
     /// Adds a body.
     pub fn add_body(&mut self, b: RigidBody) -> BodyHandle {
-        self.bodies.insert(b)
+        let h = self.bodies.insert(b);
+        self.changed();
+        h
     }
 
     /// Adds a marker at base-frame `point` with z axis `z` on side `a` (from its initial pose).
@@ -143,6 +178,7 @@ impl Mechanism {
     /// Adds a force element.
     pub fn add_force(&mut self, f: Box<dyn ForceElement>) -> ForceHandle {
         self.forces.push(Some(f));
+        self.changed();
         ForceHandle(self.forces.len() - 1)
     }
 
@@ -152,24 +188,30 @@ impl Mechanism {
         h: ForceHandle,
         f: Box<dyn ForceElement>,
     ) -> Result<Box<dyn ForceElement>, ModelError> {
-        match self.forces.get_mut(h.0) {
-            Some(slot @ Some(_)) => Ok(slot.replace(f).expect("slot checked to be occupied")),
-            _ => Err(missing("force", h.0)),
-        }
+        let old = match self.forces.get_mut(h.0) {
+            Some(slot @ Some(_)) => slot.replace(f).expect("slot checked to be occupied"),
+            _ => return Err(missing("force", h.0)),
+        };
+        self.changed();
+        Ok(old)
     }
 
     /// Removes a force element, returning it; its slot stays empty, so other handles stay
     /// valid.
     pub fn remove_force(&mut self, h: ForceHandle) -> Result<Box<dyn ForceElement>, ModelError> {
-        self.forces
+        let old = self
+            .forces
             .get_mut(h.0)
             .and_then(Option::take)
-            .ok_or_else(|| missing("force", h.0))
+            .ok_or_else(|| missing("force", h.0))?;
+        self.changed();
+        Ok(old)
     }
 
     /// Adds a joint given by frames in each side's body frame.
     pub fn add_joint(&mut self, joint: Joint) -> JointHandle {
         self.joints.push(Some(joint));
+        self.changed();
         JointHandle(self.joints.len() - 1)
     }
 
@@ -191,9 +233,11 @@ impl Mechanism {
                 });
             }
         }
-        Ok(self.joints[h.0]
+        let old = self.joints[h.0]
             .replace(joint)
-            .expect("slot checked to be occupied"))
+            .expect("slot checked to be occupied");
+        self.changed();
+        Ok(old)
     }
 
     /// Removes a joint, returning it; its slot stays empty, so other handles stay valid. A
@@ -210,7 +254,9 @@ impl Mechanism {
                 ),
             });
         }
-        Ok(self.joints[h.0].take().expect("slot checked to be occupied"))
+        let old = self.joints[h.0].take().expect("slot checked to be occupied");
+        self.changed();
+        Ok(old)
     }
 
     /// The bodies.
@@ -285,8 +331,8 @@ impl Mechanism {
     }
 
     /// The index layout of this model's state vectors (see [`Layout`]).
-    pub fn layout(&self) -> Layout {
-        Layout::of(self)
+    pub fn layout(&self) -> &Layout {
+        &self.layout
     }
 
     /// The bodies' initial positions q = (r, p) and velocities w = (v, ω') as given in the
@@ -489,6 +535,7 @@ impl Mechanism {
             law,
             reference,
         });
+        self.changed();
         Ok(DriverHandle(self.drivers.len() - 1))
     }
 

@@ -126,11 +126,9 @@ pub fn dynamic_envelope(
         .map(|k| ex.settle + (ex.end() - ex.settle) * k as f64 / n as f64)
         .collect();
     let traj = sim.run(&times, |_| {})?;
-    let lay = sim.layout();
     let mut r = [(f64::INFINITY, f64::NEG_INFINITY); 6];
     for s in &traj.samples {
-        let qq = &s.q[lay.body_q(platform)];
-        widen(&mut r, &pose_errors(qq, &m));
+        widen(&mut r, &pose_errors(s, platform, &m));
     }
     Ok((r, sim.stats().steps))
 }
@@ -270,8 +268,7 @@ pub fn static_envelope(
         let traj = sim.run(&[RELAXATION_TIME], |_| {})?;
         steps += sim.stats().steps;
         let s = traj.samples.last().expect("one sample");
-        let qq = &s.q[sim.layout().body_q(platform)];
-        widen(&mut r, &pose_errors(qq, &m));
+        widen(&mut r, &pose_errors(s, platform, &m));
     }
     Ok((r, steps))
 }

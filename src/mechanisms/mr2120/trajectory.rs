@@ -9,8 +9,10 @@ use super::ideal::{ideal_model, Mr2120Error};
 use super::kinematics::inverse_z_derivatives;
 use super::paper::{TABLE2, TRAJECTORY_T_M2, TRAJECTORY_T_M3};
 use crate::multibody::rotation::rotation_vector;
-use crate::multibody::{MotionLaw, Profile, RunEnd, Simulation, SimulationOptions, SingularityEvent};
-use nalgebra::{Matrix3, Vector3, Vector4};
+use crate::multibody::{
+    BodyHandle, MotionLaw, Profile, RunEnd, Sample, Simulation, SimulationOptions, SingularityEvent,
+};
+use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -155,15 +157,17 @@ pub struct ErrorSample {
     pub delta: [f64; 3],
 }
 
-/// Errors of eq. (4.1) of a platform pose `q` = (r, p) against the ideal pose (centre
-/// `m_ideal`, base-frame orientation): (d_xM, d_yM, d_zM) in m, then (δx, δy, δz) in rad.
-pub fn pose_errors(q: &[f64], m_ideal: &Vector3<f64>) -> [f64; 6] {
-    let a = crate::multibody::rotation::rotation(&Vector4::new(q[3], q[4], q[5], q[6]));
+/// Errors of eq. (4.1) of the pose of body `platform` in sample `s` against the ideal pose
+/// (centre `m_ideal`, m; base-frame orientation): (d_xM, d_yM, d_zM) in m, then (δx, δy, δz)
+/// in rad.
+pub fn pose_errors(s: &Sample, platform: BodyHandle, m_ideal: &Vector3<f64>) -> [f64; 6] {
+    let a = s.body_rotation(platform);
     let rv = rotation_vector(&a, &Matrix3::identity());
+    let r = s.body_position(platform);
     [
-        q[0] - m_ideal.x,
-        q[1] - m_ideal.y,
-        q[2] - m_ideal.z,
+        r.x - m_ideal.x,
+        r.y - m_ideal.y,
+        r.z - m_ideal.z,
         rv.x,
         rv.y,
         rv.z,
@@ -217,7 +221,6 @@ pub fn run_clearance(
     let model = clearance_model(g, mp, m1, Some(drive_laws(g)), &bearing_design(set, damping))?;
     let platform = model.platform;
     let mut sim = Simulation::new(Arc::new(model.mechanism), 0.0, opts)?;
-    let lay = sim.layout().clone();
     let n = (t_end / dt).round() as usize;
     let times: Vec<f64> = (1..=n).map(|k| k as f64 * dt).collect();
     let traj = sim.run(&times, progress)?;
@@ -226,7 +229,7 @@ pub fn run_clearance(
         .samples
         .iter()
         .map(|s| {
-            let e = pose_errors(&s.q[lay.body_q(platform)], &Vector3::new(0.0, 0.0, zl.value(s.t)));
+            let e = pose_errors(s, platform, &Vector3::new(0.0, 0.0, zl.value(s.t)));
             ErrorSample {
                 t: s.t,
                 d: [e[0], e[1], e[2]],
