@@ -29,8 +29,9 @@
 //! measure the accuracy of the motion and would only shrink the steps, so they stay out of
 //! the error test. `max_steps` counts the steps of one call of the integrator (between two
 //! output samples), so a run that crawls stops with an error sooner. 8 Newton iterations
-//! (IDA: 4) and two matrix rebuilds within a step suit stiff contact: a contact that switches on within the step makes the iteration crawl, and failing
-//! the step costs more than a few iterations. Measured on the MR2120 clearance model (L1,
+//! (IDA: 4) and two matrix rebuilds within a step suit stiff contact: a contact that
+//! switches on within the step makes the iteration crawl, and failing the step costs more
+//! than a few iterations. Measured on the MR2120 clearance model (L1,
 //! first 1.5 s, `lash bench mr2120`): 25–45 % less wall time at rtol 1e-4…1e-7 than 4
 //! iterations without rebuilds.
 
