@@ -855,4 +855,39 @@ mod tests {
         assert_eq!(o.lash_setting, "1e-7");
         assert!((o.time_ratio - 40.0 / 3.7).abs() < 1e-12);
     }
+
+    #[test]
+    fn settings_are_checked_before_anything_runs() {
+        let ok = Mr2120BenchOptions::default();
+        assert!(ok.validate().is_ok());
+        assert_eq!(ok.t_end, trajectory::DURATION);
+        assert_eq!(ok.damping, BENCH_DAMPING);
+        let late = Mr2120BenchOptions {
+            t_end: trajectory::DURATION + 1.0,
+            ..ok.clone()
+        };
+        let e = bench_mr2120(&late, |_, _| {}).unwrap_err();
+        assert!(matches!(e, BenchError::Invalid(_)), "{e}");
+        let bad = Mr2120BenchOptions {
+            bdf_rtols: vec![1e-4, -1.0],
+            ..ok.clone()
+        };
+        assert!(bad.validate().unwrap_err().to_string().contains("bdf_rtols"));
+        let unknown = Mr2120BenchOptions {
+            set: "L7".into(),
+            ..ok.clone()
+        };
+        assert!(unknown.validate().unwrap_err().to_string().contains("L7"));
+        let diffsol = Mr2120BenchOptions {
+            diffsol_rtols: vec![1e-4],
+            ..ok
+        };
+        if cfg!(feature = "peers") {
+            assert!(diffsol.validate().is_ok());
+        } else {
+            let e = diffsol.validate().unwrap_err();
+            assert!(matches!(e, BenchError::PeersDisabled(_)), "{e}");
+            assert!(e.to_string().contains("peers"), "{e}");
+        }
+    }
 }

@@ -188,7 +188,7 @@ fn record(a: &RecordArgs) -> Result<Output, CliError> {
         })?;
     let files = &truth.recordings;
     if a.json {
-        println!("{}", json(&truth));
+        println!("{}", truth.json());
         return Ok(Output::OK);
     }
     println!(

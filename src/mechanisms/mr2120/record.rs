@@ -549,6 +549,15 @@ pub struct Truth {
     pub seed: u64,
 }
 
+impl Truth {
+    /// The truth as pretty JSON, every object's keys in alphabetical order (the text of
+    /// `truth.json`).
+    pub fn json(&self) -> String {
+        let value = serde_json::to_value(self).expect("the truth serialises");
+        serde_json::to_string_pretty(&value).expect("a JSON value prints")
+    }
+}
+
 /// Name of the truth file [`write_recordings`] writes.
 pub const TRUTH_FILE: &str = "truth.json";
 
@@ -592,7 +601,6 @@ pub fn write_recordings(
         seed,
     };
     let path = dir.join(TRUTH_FILE);
-    let text = serde_json::to_string_pretty(&truth).expect("the truth serialises");
-    std::fs::write(&path, text).map_err(|e| io(&path, e))?;
+    std::fs::write(&path, truth.json()).map_err(|e| io(&path, e))?;
     Ok((truth, path))
 }
