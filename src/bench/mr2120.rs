@@ -135,7 +135,9 @@ impl Mr2120BenchOptions {
         ];
         for (name, list) in lists {
             if let Some(x) = list.iter().find(|x| !positive(**x)) {
-                return Err(BenchError::Invalid(format!("{name}: {x} is not a positive number")));
+                return Err(BenchError::Invalid(format!(
+                    "{name}: {x} is not a positive number"
+                )));
             }
         }
         if let Some(x) = self.reference_check_rtol.filter(|x| !positive(*x)) {

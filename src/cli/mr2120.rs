@@ -64,7 +64,10 @@ pub struct Sets(Vec<paper::ClearanceSet>);
 fn parse_methods(s: &str) -> Result<Methods, String> {
     match s {
         "both" => Ok(Methods(vec![accuracy::Method::Dynamic, accuracy::Method::Static])),
-        m => m.parse().map(|m| Methods(vec![m])).map_err(|e| format!("{e} or both")),
+        m => m
+            .parse()
+            .map(|m| Methods(vec![m]))
+            .map_err(|e| format!("{e} or both")),
     }
 }
 
@@ -270,7 +273,12 @@ fn kinematics(as_json: bool) -> Result<Output, CliError> {
     Ok(Output::OK)
 }
 
-fn accuracy_cmd(points: &str, sets: &str, methods: &[accuracy::Method], as_json: bool) -> Result<Output, CliError> {
+fn accuracy_cmd(
+    points: &str,
+    sets: &str,
+    methods: &[accuracy::Method],
+    as_json: bool,
+) -> Result<Output, CliError> {
     let pts = points
         .split(',')
         .map(str::trim)
@@ -323,7 +331,12 @@ fn accuracy_cmd(points: &str, sets: &str, methods: &[accuracy::Method], as_json:
     Ok(Output::OK)
 }
 
-fn trajectory_cmd(sets: &[paper::ClearanceSet], out: &Path, dt: f64, as_json: bool) -> Result<Output, CliError> {
+fn trajectory_cmd(
+    sets: &[paper::ClearanceSet],
+    out: &Path,
+    dt: f64,
+    as_json: bool,
+) -> Result<Output, CliError> {
     if !(dt > 0.0 && dt <= 0.5) {
         return Err(CliError::Input(format!("--dt must be in (0, 0.5] s, got {dt}")));
     }

@@ -3,8 +3,8 @@
 //! for the models it knows by name.
 
 use super::data::{model_roles, role_kind, RoleKind};
-pub use super::model::{ColumnDefaults, DEFAULT_DERIVATIVE_WINDOWS, DFKI_COLUMNS};
 use super::model::InverseDynamicsModel;
+pub use super::model::{ColumnDefaults, DEFAULT_DERIVATIVE_WINDOWS, DFKI_COLUMNS};
 use super::recording::{parse_pairs, RecordingError};
 use std::path::Path;
 
