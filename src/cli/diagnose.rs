@@ -58,7 +58,7 @@ pub struct Args {
     time_column: String,
     /// Column mapping role=column for the model's roles (q1.., qd1.., tau1.., outputs).
     /// Default for double-pendulum: the DFKI recordings' columns
-    /// (q1=pos_filt1,q2=pos_filt2,qd1=vel_filt1,qd2=vel_filt2,tau1=tau_meas1,tau2=tau_meas2);
+    /// (lash::diagnose::columns::DFKI_COLUMNS, e.g. q1=pos_filt1);
     /// for mr2120 each role reads the column of its own name (torques and tracker when
     /// present), and a mapping renames some of them.
     #[arg(long)]
