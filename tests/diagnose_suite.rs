@@ -31,3 +31,21 @@ fn nothing_hidden_gives_no_significant_mismatch() {
     let r = run("null");
     assert!(r.no_mismatch && r.pass, "{r:?}");
 }
+
+#[test]
+fn only_names_no_case_is_refused_before_anything_runs() {
+    use lash::diagnose::suite::{run_suite, SuiteError};
+    let opts = SuiteOptions {
+        only: vec!["clearance".into(), "gremlins".into()],
+        ..SuiteOptions::reduced()
+    };
+    let e = run_suite(&opts, None, |_, _| {}).unwrap_err();
+    assert!(
+        matches!(&e, SuiteError::NoSuchCase { name, .. } if name == "gremlins"),
+        "{e}"
+    );
+    assert!(
+        e.to_string().contains("tilt-under-payload"),
+        "the message lists the cases: {e}"
+    );
+}

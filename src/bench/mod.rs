@@ -13,6 +13,7 @@
 pub mod charts;
 pub mod exudyn;
 pub mod mr2120;
+mod mr2120_options;
 pub mod scaling;
 
 use crate::dae::explicit::{Dopri5, Dopri5Options, SymplecticEuler};

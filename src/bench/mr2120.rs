@@ -9,7 +9,7 @@
 //! ([`MultibodyOde`]), the formulation explicit multibody codes step. Both start from the
 //! same consistent initial state.
 
-use crate::contact::Damping;
+pub use super::mr2120_options::{BenchError, Mr2120BenchOptions, BENCH_ALPHA, BENCH_DAMPING};
 use crate::dae::explicit::{Dopri5, Dopri5Options, SymplecticEuler};
 use crate::dae::{Integrator, IntegratorError, WorkStats};
 use crate::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clearance_set};
@@ -23,75 +23,6 @@ use nalgebra::Vector3;
 use serde::Serialize;
 use std::sync::Arc;
 use std::time::Instant;
-
-/// Why the MR2120 benchmark could not run.
-#[derive(Debug, thiserror::Error)]
-pub enum BenchError {
-    /// The model could not be built.
-    #[error(transparent)]
-    Model(#[from] Mr2120Error),
-    /// The tight-tolerance reference run failed, so no accuracy can be measured.
-    #[error("the reference run failed: {0}")]
-    Reference(String),
-}
-
-/// Settings of the MR2120 benchmark.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Mr2120BenchOptions {
-    /// Clearance set (L1, L2, L3).
-    pub set: String,
-    /// End of the trajectory, s (the paper's trajectory ends at 4 s).
-    pub t_end: f64,
-    /// Interval of the output samples at which accuracy is measured, s.
-    pub dt: f64,
-    /// Target accuracy: largest platform-centre distance from the reference, m.
-    pub target: f64,
-    /// Relative tolerance of the reference run (lash BDF; atol = rtol/100 m).
-    pub reference_rtol: f64,
-    /// Relative tolerances swept for lash's BDF (atol = rtol/100).
-    pub bdf_rtols: Vec<f64>,
-    /// Relative tolerances swept for Dormand–Prince (atol = rtol/100).
-    pub dopri_rtols: Vec<f64>,
-    /// Fixed steps swept for symplectic Euler, s.
-    pub symplectic_steps: Vec<f64>,
-    /// Relative tolerances swept for diffsol's BDF on the index-1 ODE (atol = rtol/100).
-    pub diffsol_rtols: Vec<f64>,
-    /// Also check the reference with Dormand–Prince at this tolerance (None: skip).
-    pub reference_check_rtol: Option<f64>,
-    /// Contact damping of the bearings (see [`BENCH_DAMPING`]).
-    pub damping: Damping,
-    /// Wall-time budget of each explicit run, s: a run that exhausts it stops and reports
-    /// how far it got, and the time ratio becomes a lower bound.
-    pub explicit_budget_s: f64,
-}
-
-/// Contact damping of the benchmark: Hunt–Crossley α = 300 s/m (lubricated steel joints;
-/// impacts above ~5 mm/s are fully damped). With the studies' near-elastic default
-/// ([`DEFAULT_DAMPING`](crate::mechanisms::mr2120::clearance::DEFAULT_DAMPING), α = 1 s/m) the 63-DOF model rattles inside its clearances for the
-/// whole run and the motion is chaotic: BDF runs at rtol 1e-4, 1e-5 and 1e-6 differ from each
-/// other by 20–40 µm at every time (measured over the first second), so no run is within 1 µm
-/// of any "reference" and equal-accuracy timing has no meaning. With α = 300 s/m runs at
-/// 1e-5 and 1e-6 agree to ~1 µm.
-pub const BENCH_DAMPING: Damping = Damping::HuntCrossley(300.0);
-
-impl Default for Mr2120BenchOptions {
-    fn default() -> Self {
-        Self {
-            set: "L1".into(),
-            t_end: 4.0,
-            dt: 0.01,
-            target: 1e-6,
-            reference_rtol: 1e-8,
-            bdf_rtols: vec![1e-4, 1e-5, 1e-6, 1e-7],
-            dopri_rtols: vec![1e-5],
-            symplectic_steps: vec![5e-7],
-            diffsol_rtols: vec![1e-4, 1e-6],
-            reference_check_rtol: None,
-            damping: BENCH_DAMPING,
-            explicit_budget_s: 600.0,
-        }
-    }
-}
 
 /// One run of one solver at one setting.
 #[derive(Debug, Clone, Serialize)]
@@ -556,10 +487,12 @@ fn distance(a: &Path, b: &Path) -> f64 {
 }
 
 /// Runs the benchmark. `progress` receives (what is running, fraction of that run done).
+/// Settings are checked first ([`Mr2120BenchOptions::validate`]).
 pub fn bench_mr2120(
     opts: &Mr2120BenchOptions,
     mut progress: impl FnMut(&str, f64),
 ) -> Result<Mr2120Bench, BenchError> {
+    opts.validate()?;
     let m = build(opts)?;
     let t_end = opts.t_end;
     let label = format!("reference: lash BDF rtol {:.0e}", opts.reference_rtol);
@@ -788,5 +721,40 @@ mod tests {
         assert_eq!(o.setting, "1e-6");
         assert_eq!(o.lash_setting, "1e-7");
         assert!((o.time_ratio - 40.0 / 3.7).abs() < 1e-12);
+    }
+
+    #[test]
+    fn settings_are_checked_before_anything_runs() {
+        let ok = Mr2120BenchOptions::default();
+        assert!(ok.validate().is_ok());
+        assert_eq!(ok.t_end, crate::mechanisms::mr2120::trajectory::DURATION);
+        assert_eq!(ok.damping, BENCH_DAMPING);
+        let late = Mr2120BenchOptions {
+            t_end: crate::mechanisms::mr2120::trajectory::DURATION + 1.0,
+            ..ok.clone()
+        };
+        let e = bench_mr2120(&late, |_, _| {}).unwrap_err();
+        assert!(matches!(e, BenchError::Invalid(_)), "{e}");
+        let bad = Mr2120BenchOptions {
+            bdf_rtols: vec![1e-4, -1.0],
+            ..ok.clone()
+        };
+        assert!(bad.validate().unwrap_err().to_string().contains("bdf_rtols"));
+        let unknown = Mr2120BenchOptions {
+            set: "L7".into(),
+            ..ok.clone()
+        };
+        assert!(unknown.validate().unwrap_err().to_string().contains("L7"));
+        let diffsol = Mr2120BenchOptions {
+            diffsol_rtols: vec![1e-4],
+            ..ok
+        };
+        if cfg!(feature = "peers") {
+            assert!(diffsol.validate().is_ok());
+        } else {
+            let e = diffsol.validate().unwrap_err();
+            assert!(matches!(e, BenchError::PeersDisabled(_)), "{e}");
+            assert!(e.to_string().contains("peers"), "{e}");
+        }
     }
 }

@@ -3,6 +3,7 @@
 use super::progress::Progress;
 use super::{items, json, CliError, Output};
 use lash::bench::charts;
+use lash::bench::mr2120::{bench_mr2120, Mr2120BenchOptions, BENCH_ALPHA};
 use std::path::{Path, PathBuf};
 
 /// The benchmarks.
@@ -37,51 +38,83 @@ pub enum BenchWhat {
         #[arg(long)]
         json: bool,
     },
-    /// The 63-DOF MR2120 clearance model along the 4 s trajectory: lash's BDF against
+    /// The 63-DOF MR2120 clearance model along the trajectory M1 → M2 → M3: lash's BDF against
     /// Dormand–Prince, symplectic Euler and diffsol's BDF at equal accuracy (platform centre
     /// within --target of a tight reference).
     Mr2120(Mr2120BenchArgs),
 }
 
-/// Options of `lash bench mr2120`.
+/// A comma-separated list of positive numbers (empty: none), shown as it is parsed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Numbers(pub Vec<f64>);
+
+impl std::fmt::Display for Numbers {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s: Vec<String> = self.0.iter().map(|x| format!("{x:e}")).collect();
+        f.write_str(&s.join(","))
+    }
+}
+
+impl std::str::FromStr for Numbers {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        items(s)
+            .map(|x| {
+                x.parse::<f64>()
+                    .ok()
+                    .filter(|v| *v > 0.0 && v.is_finite())
+                    .ok_or_else(|| format!("'{x}' is not a positive number"))
+            })
+            .collect::<Result<_, _>>()
+            .map(Numbers)
+    }
+}
+
+/// The library's default benchmark settings (every default below is one of them).
+fn defaults() -> Mr2120BenchOptions {
+    Mr2120BenchOptions::default()
+}
+
+/// Options of `lash bench mr2120`; every default is `Mr2120BenchOptions::default()`'s.
 #[derive(clap::Args, Debug)]
 pub struct Mr2120BenchArgs {
     /// Clearance set (L1, L2, L3).
-    #[arg(long, default_value = "L1")]
+    #[arg(long, default_value_t = defaults().set)]
     set: String,
-    /// End of the trajectory, s.
-    #[arg(long, default_value_t = 4.0)]
+    /// End of the trajectory, s (at most the trajectory's duration).
+    #[arg(long, default_value_t = defaults().t_end)]
     t_end: f64,
     /// Target accuracy of the platform centre, m.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = defaults().target)]
     target: f64,
     /// Relative tolerance of the reference run (lash BDF).
-    #[arg(long, default_value_t = 1e-8)]
+    #[arg(long, default_value_t = defaults().reference_rtol)]
     reference_rtol: f64,
     /// Relative tolerances swept for lash's BDF, comma-separated.
-    #[arg(long, default_value = "1e-4,1e-5,1e-6,1e-7")]
-    bdf_rtols: String,
+    #[arg(long, default_value_t = Numbers(defaults().bdf_rtols))]
+    bdf_rtols: Numbers,
     /// Relative tolerances swept for Dormand–Prince, comma-separated (empty: none).
-    #[arg(long, default_value = "1e-5")]
-    dopri_rtols: String,
+    #[arg(long, default_value_t = Numbers(defaults().dopri_rtols))]
+    dopri_rtols: Numbers,
     /// Fixed steps swept for symplectic Euler, s, comma-separated (empty: none).
-    #[arg(long, default_value = "5e-7")]
-    symplectic_steps: String,
+    #[arg(long, default_value_t = Numbers(defaults().symplectic_steps))]
+    symplectic_steps: Numbers,
     /// Relative tolerances swept for diffsol's BDF on the index-1 ODE, comma-separated
-    /// (empty: none).
-    #[arg(long, default_value = "1e-4,1e-6")]
-    diffsol_rtols: String,
+    /// (empty: none; needs the `peers` feature).
+    #[arg(long, default_value_t = Numbers(defaults().diffsol_rtols))]
+    diffsol_rtols: Numbers,
     /// Hunt–Crossley contact damping α of the bearings, s/m (the studies use 1; see
-    /// lash::bench::mr2120::BENCH_DAMPING for why the benchmark uses 300).
-    #[arg(long, default_value_t = 300.0)]
+    /// lash::bench::mr2120::BENCH_DAMPING for why the benchmark uses more).
+    #[arg(long, default_value_t = BENCH_ALPHA)]
     alpha: f64,
     /// Wall-time budget of each explicit run, s (the time ratio is then a lower bound).
-    #[arg(long, default_value_t = 600.0)]
+    #[arg(long, default_value_t = defaults().explicit_budget_s)]
     explicit_budget: f64,
-    /// Relative tolerance of an extra Dormand–Prince run that checks the reference (0: skip;
-    /// every Dormand–Prince run of the sweep is already an independent check).
-    #[arg(long, default_value_t = 0.0)]
-    check_rtol: f64,
+    /// Relative tolerance of an extra Dormand–Prince run that checks the reference (not
+    /// given or 0: skip; every Dormand–Prince run of the sweep is already an independent
+    /// check).
+    #[arg(long)]
+    check_rtol: Option<f64>,
     /// Output folder for the work-precision diagram.
     #[arg(long, default_value = "out/bench-mr2120")]
     out: PathBuf,
@@ -206,21 +239,9 @@ fn scaling(links: &str, t_end: f64, out: &Path, as_json: bool) -> Result<Output,
     Ok(Output::OK)
 }
 
-/// Positive finite numbers of a comma-separated list (empty: none).
-fn positive_list(s: &str, what: &str) -> Result<Vec<f64>, CliError> {
-    items(s)
-        .map(|x| {
-            x.parse::<f64>()
-                .ok()
-                .filter(|v| *v > 0.0 && v.is_finite())
-                .ok_or_else(|| CliError::Input(format!("{what}: '{x}' is not a positive number")))
-        })
-        .collect()
-}
-
 /// Writes the MR2120 clearance model of the benchmark as `dir/model.json` for the Exudyn
 /// comparison.
-fn export_mr2120_model(opts: &lash::bench::mr2120::Mr2120BenchOptions, dir: &Path) -> Result<(), CliError> {
+fn export_mr2120_model(opts: &Mr2120BenchOptions, dir: &Path) -> Result<(), CliError> {
     let model = lash::bench::exudyn::export_mr2120(opts).map_err(CliError::run)?;
     std::fs::create_dir_all(dir)
         .map_err(|e| CliError::Run(format!("cannot create {}: {e}", dir.display())))?;
@@ -235,32 +256,24 @@ fn export_mr2120_model(opts: &lash::bench::mr2120::Mr2120BenchOptions, dir: &Pat
 }
 
 fn mr2120(a: &Mr2120BenchArgs) -> Result<Output, CliError> {
-    use lash::bench::mr2120::{bench_mr2120, Mr2120BenchOptions};
-    lash::mechanisms::mr2120::clearance::clearance_set(&a.set).map_err(CliError::input)?;
-    let bdf_rtols = positive_list(&a.bdf_rtols, "--bdf-rtols")?;
-    let dopri_rtols = positive_list(&a.dopri_rtols, "--dopri-rtols")?;
-    let symplectic_steps = positive_list(&a.symplectic_steps, "--symplectic-steps")?;
-    let diffsol_rtols = positive_list(&a.diffsol_rtols, "--diffsol-rtols")?;
-    let valid = a.t_end > 0.0 && a.t_end <= 4.0 && a.target > 0.0 && a.reference_rtol > 0.0 && a.alpha >= 0.0;
-    if !valid {
-        return Err(CliError::input(
-            "need 0 < --t-end <= 4, --target > 0, --reference-rtol > 0 and --alpha >= 0",
-        ));
-    }
     let opts = Mr2120BenchOptions {
         set: a.set.clone(),
         t_end: a.t_end,
         target: a.target,
         reference_rtol: a.reference_rtol,
-        bdf_rtols,
-        dopri_rtols,
-        symplectic_steps,
-        diffsol_rtols,
-        reference_check_rtol: (a.check_rtol > 0.0).then_some(a.check_rtol),
+        bdf_rtols: a.bdf_rtols.0.clone(),
+        dopri_rtols: a.dopri_rtols.0.clone(),
+        symplectic_steps: a.symplectic_steps.0.clone(),
+        diffsol_rtols: a.diffsol_rtols.0.clone(),
+        reference_check_rtol: a
+            .check_rtol
+            .filter(|r| *r != 0.0)
+            .or(defaults().reference_check_rtol),
         damping: lash::contact::Damping::HuntCrossley(a.alpha),
         explicit_budget_s: a.explicit_budget,
-        ..Default::default()
+        ..defaults()
     };
+    opts.validate().map_err(CliError::input)?;
     if let Some(dir) = &a.export {
         export_mr2120_model(&opts, dir)?;
     }

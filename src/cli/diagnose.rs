@@ -3,14 +3,11 @@
 
 use super::progress::Progress;
 use super::{items, json, CliError, Output};
-use lash::diagnose::columns::{csv_header, resolve_columns};
+use lash::diagnose::columns::{csv_header, resolve_columns, DFKI_RECORDINGS};
 use lash::diagnose::model::{DoublePendulumModel, InverseDynamicsModel, Mr2120Model};
 use lash::diagnose::recording::{read_csv, Recording};
 use lash::diagnose::{diagnose_recordings, format::number, DiagnoseOptions};
 use std::path::{Path, PathBuf};
-
-const DFKI_FIT: &str = "../shared/data/dfki-double-pendulum/recordings/trajectory_00.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_01.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_02.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_03.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_04.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_05.csv";
-const DFKI_HOLDOUT: &str = "../shared/data/dfki-double-pendulum/recordings/trajectory_12.csv,../shared/data/dfki-double-pendulum/recordings/trajectory_13.csv";
 
 /// Report folder of a single diagnosis unless `--report` names one.
 const REPORT: &str = "out/diagnose";
@@ -46,18 +43,22 @@ pub struct Args {
     /// README with the model's parameter table.
     #[arg(long, default_value = lash::mechanisms::double_pendulum::DFKI_README)]
     params: PathBuf,
-    /// Recordings to fit on, comma-separated CSV paths.
-    #[arg(long, default_value = DFKI_FIT)]
-    fit: String,
-    /// Recordings held out (never fitted), comma-separated CSV paths.
-    #[arg(long, default_value = DFKI_HOLDOUT)]
-    holdout: String,
+    /// Recordings to fit on, comma-separated CSV paths [default: the model's default
+    /// recordings from the library: for double-pendulum the DFKI trajectories 0-5
+    /// (lash::diagnose::columns::DFKI_RECORDINGS); mr2120 has none, so --fit is required].
+    #[arg(long)]
+    fit: Option<String>,
+    /// Recordings held out (never fitted), comma-separated CSV paths [default: the model's
+    /// default recordings: for double-pendulum the DFKI trajectories 12 and 13; for mr2120
+    /// none].
+    #[arg(long)]
+    holdout: Option<String>,
     /// Time column.
     #[arg(long, default_value = "time")]
     time_column: String,
     /// Column mapping role=column for the model's roles (q1.., qd1.., tau1.., outputs).
     /// Default for double-pendulum: the DFKI recordings' columns
-    /// (q1=pos_filt1,q2=pos_filt2,qd1=vel_filt1,qd2=vel_filt2,tau1=tau_meas1,tau2=tau_meas2);
+    /// (lash::diagnose::columns::DFKI_COLUMNS, e.g. q1=pos_filt1);
     /// for mr2120 each role reads the column of its own name (torques and tracker when
     /// present), and a mapping renames some of them.
     #[arg(long)]
@@ -93,18 +94,18 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     }
     let dp;
     let mr;
-    let model: &dyn InverseDynamicsModel = match a.model.as_str() {
+    let (model, defaults): (&dyn InverseDynamicsModel, _) = match a.model.as_str() {
         "double-pendulum" => {
             let params = lash::mechanisms::double_pendulum::DoublePendulumParams::from_readme(&a.params)
                 .map_err(CliError::input)?;
             dp = DoublePendulumModel { params };
-            &dp
+            (&dp, Some(DFKI_RECORDINGS))
         }
         "mr2120" => {
             mr = Mr2120Model {
                 nominal: lash::mechanisms::mr2120::record::nominal_model(),
             };
-            &mr
+            (&mr, None)
         }
         other => {
             return Err(CliError::Input(format!(
@@ -112,8 +113,23 @@ pub fn run(a: Args) -> Result<Output, CliError> {
             )))
         }
     };
-    let first = items(&a.fit)
-        .next()
+    let fit_files: Vec<String> = match (&a.fit, defaults) {
+        (Some(list), _) => items(list).map(String::from).collect(),
+        (None, Some(d)) => d.fit.iter().map(|f| f.to_string()).collect(),
+        (None, None) => {
+            return Err(CliError::Input(format!(
+                "--model {} has no default recordings: name the recordings to fit on with --fit (e.g. written by `lash mr2120 record`)",
+                a.model
+            )))
+        }
+    };
+    let holdout_files: Vec<String> = match (&a.holdout, defaults) {
+        (Some(list), _) => items(list).map(String::from).collect(),
+        (None, Some(d)) => d.holdout.iter().map(|f| f.to_string()).collect(),
+        (None, None) => vec![],
+    };
+    let first = fit_files
+        .first()
         .ok_or_else(|| CliError::input("--fit names no recording"))?;
     let header = csv_header(Path::new(first)).map_err(CliError::input)?;
     let mapping = resolve_columns(model, a.map.as_deref(), &header).map_err(CliError::input)?;
@@ -121,13 +137,13 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         Window::Auto => model.derivative_windows(),
         Window::Fixed(w) => vec![w],
     };
-    let load = |list: &str| -> Result<Vec<Recording>, CliError> {
-        items(list)
+    let load = |list: &[String]| -> Result<Vec<Recording>, CliError> {
+        list.iter()
             .map(|f| read_csv(Path::new(f), &a.time_column, &mapping).map_err(CliError::input))
             .collect()
     };
-    let fit = load(&a.fit)?;
-    let held = load(&a.holdout)?;
+    let fit = load(&fit_files)?;
+    let held = load(&holdout_files)?;
     let mut progress = Progress::new("diagnose", 1.0);
     let d = diagnose_recordings(
         model,
@@ -177,37 +193,22 @@ pub fn run(a: Args) -> Result<Output, CliError> {
 }
 
 fn suite(reduced: bool, only: &str, dir: &Path, as_json: bool) -> Result<Output, CliError> {
-    use lash::diagnose::suite::{run_suite, SuiteOptions};
+    use lash::diagnose::suite::{run_suite, SuiteError, SuiteOptions, SCOREBOARD_FILE};
     let mut opts = if reduced {
         SuiteOptions::reduced()
     } else {
         SuiteOptions::default()
     };
     opts.only = items(only).map(String::from).collect();
-    let names: Vec<String> = lash::diagnose::suite::cases()
-        .into_iter()
-        .map(|c| c.name)
-        .collect();
-    if let Some(o) = opts
-        .only
-        .iter()
-        .find(|o| !names.iter().any(|n| n.contains(o.as_str())))
-    {
-        return Err(CliError::Input(format!(
-            "--only: no case name contains '{o}' (cases: {})",
-            names.join(", ")
-        )));
-    }
     let mut progress = Progress::new("diagnose --suite", 1.0);
     let board = run_suite(&opts, Some(dir), |_, f| progress.update(f));
     progress.finish();
-    let board = board.map_err(CliError::run)?;
-    let text = json(&board);
-    std::fs::create_dir_all(dir)
-        .and_then(|_| std::fs::write(dir.join("scoreboard.json"), &text))
-        .map_err(|e| CliError::Run(format!("{}: {e}", dir.display())))?;
+    let board = board.map_err(|e| match e {
+        SuiteError::NoSuchCase { .. } => CliError::Input(format!("--only: {e}")),
+        e => CliError::run(e),
+    })?;
     if as_json {
-        println!("{text}");
+        println!("{}", json(&board));
         return Ok(Output::checked(board.targets_met));
     }
     let (f, h, d, r) = board.design;
@@ -265,7 +266,7 @@ fn suite(reduced: bool, only: &str, dir: &Path, as_json: bool) -> Result<Output,
     println!(
         "targets {}; scoreboard: {}; one diagnosis report per case in {}/<case>/",
         if board.targets_met { "met" } else { "NOT met" },
-        dir.join("scoreboard.json").display(),
+        dir.join(SCOREBOARD_FILE).display(),
         dir.display()
     );
     Ok(Output::checked(board.targets_met))

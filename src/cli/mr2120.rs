@@ -3,6 +3,7 @@
 
 use super::progress::Progress;
 use super::{items, json, CliError, Output};
+use lash::mechanisms::mr2120::record::RecordOptions;
 use lash::mechanisms::mr2120::{accuracy, clearance, output, paper, trajectory, Geometry, MassProperties};
 use std::path::{Path, PathBuf};
 
@@ -28,8 +29,8 @@ pub enum Mr2120What {
         #[arg(long, default_value = "L1,L2,L3")]
         sets: String,
         /// Method: dynamic (the paper's excitation), static (envelope of equilibria) or both.
-        #[arg(long, default_value = "dynamic")]
-        method: String,
+        #[arg(long, default_value = "dynamic", value_parser = parse_methods)]
+        method: Methods,
         /// Print the rows as JSON.
         #[arg(long)]
         json: bool,
@@ -37,8 +38,8 @@ pub enum Mr2120What {
     /// Trajectory M1 → M2 → M3 (paper §4.1): drive angles, platform path, drive torques.
     Trajectory {
         /// Clearance set: none (ideal model), L1, L2, L3 or all.
-        #[arg(long, default_value = "none")]
-        clearance: String,
+        #[arg(long, default_value = "none", value_parser = parse_clearance)]
+        clearance: Sets,
         /// Output folder for CSV and plots.
         #[arg(long, default_value = "out/mr2120-trajectory")]
         out: PathBuf,
@@ -49,6 +50,37 @@ pub enum Mr2120What {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// The methods `--method` names.
+#[derive(Debug, Clone)]
+pub struct Methods(Vec<accuracy::Method>);
+
+/// The clearance sets `--clearance` names (none: the ideal model).
+#[derive(Debug, Clone)]
+pub struct Sets(Vec<paper::ClearanceSet>);
+
+/// `--method`: one of the library's methods by name, or "both".
+fn parse_methods(s: &str) -> Result<Methods, String> {
+    match s {
+        "both" => Ok(Methods(vec![accuracy::Method::Dynamic, accuracy::Method::Static])),
+        m => m
+            .parse()
+            .map(|m| Methods(vec![m]))
+            .map_err(|e| format!("{e} or both")),
+    }
+}
+
+/// `--clearance`: "none" (the ideal model, no set), "all" (every set of the paper's
+/// Table 1) or one set by the library's name.
+fn parse_clearance(s: &str) -> Result<Sets, String> {
+    match s {
+        "none" => Ok(Sets(vec![])),
+        "all" | "ALL" => Ok(Sets(paper::TABLE1.to_vec())),
+        name => clearance::clearance_set(name)
+            .map(|s| Sets(vec![s]))
+            .map_err(|e| e.to_string()),
+    }
 }
 
 /// Options of `lash mr2120 record`.
@@ -70,11 +102,11 @@ pub struct RecordArgs {
     /// Seed of paths and noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Duration of each recording, s.
-    #[arg(long, default_value_t = 8.0)]
+    /// Duration of each recording, s (default: the library's `RecordOptions::default()`).
+    #[arg(long, default_value_t = RecordOptions::default().duration)]
     duration: f64,
-    /// Sampling rate, Hz.
-    #[arg(long, default_value_t = 500.0)]
+    /// Sampling rate, Hz (default: the library's `RecordOptions::default()`).
+    #[arg(long, default_value_t = RecordOptions::default().rate)]
     rate: f64,
     /// Leave out the drive torques (tracker only).
     #[arg(long)]
@@ -97,19 +129,21 @@ pub fn run(what: Mr2120What) -> Result<Output, CliError> {
             sets,
             method,
             json,
-        } => accuracy_cmd(&points, &sets, &method, json),
+        } => accuracy_cmd(&points, &sets, &method.0, json),
         Mr2120What::Trajectory {
             clearance,
             out,
             dt,
             json,
-        } => trajectory_cmd(&clearance, &out, dt, json),
+        } => trajectory_cmd(&clearance.0, &out, dt, json),
     }
 }
 
 fn record(a: &RecordArgs) -> Result<Output, CliError> {
     use lash::diagnose::suite::{cases, excitation};
-    use lash::mechanisms::mr2120::record::{nominal_model, record, HiddenEffects, RecordOptions};
+    use lash::mechanisms::mr2120::record::{
+        nominal_model, write_recordings, HiddenEffects, RecordError, WrittenRecording,
+    };
     let mut hidden = HiddenEffects::default();
     let mut torques = !a.no_torques;
     if let Some(name) = &a.case {
@@ -149,47 +183,27 @@ fn record(a: &RecordArgs) -> Result<Output, CliError> {
         ..RecordOptions::default()
     };
     let out = &a.out;
-    std::fs::create_dir_all(out).map_err(|e| CliError::Run(format!("{}: {e}", out.display())))?;
-    let nominal = nominal_model();
-    let mut files = vec![];
-    for r in 0..a.recordings {
-        let ex = excitation(a.seed, r);
-        let rec =
-            record(&nominal, &hidden, &ex, &opts, a.seed.wrapping_add(r as u64)).map_err(CliError::run)?;
-        let path = out.join(format!("recording-{:02}.csv", r + 1));
-        rec.write(&path).map_err(CliError::run)?;
-        files.push(serde_json::json!({
-            "file": path.display().to_string(),
-            "samples": rec.t.len(),
-            "min_direct_measure": rec.min_direct_measure,
-            "torque_reversals": rec.torque_reversals,
-            "forearm_force_reversals": rec.tension_reversals,
-            "velocity_reversals": rec.velocity_reversals,
-        }));
-    }
-    let truth = serde_json::json!({
-        "effects": hidden,
-        "noise": opts.noise,
-        "seed": a.seed,
-        "recordings": files,
-    });
-    let text = json(&truth);
-    let tpath = out.join("truth.json");
-    std::fs::write(&tpath, &text).map_err(|e| CliError::Run(format!("{}: {e}", tpath.display())))?;
+    let excitations: Vec<_> = (0..a.recordings).map(|r| excitation(a.seed, r)).collect();
+    let (truth, tpath) = write_recordings(out, &nominal_model(), &hidden, &excitations, &opts, a.seed)
+        .map_err(|e| match e {
+            RecordError::Invalid(_) => CliError::input(e),
+            _ => CliError::run(e),
+        })?;
+    let files = &truth.recordings;
     if a.json {
-        println!("{text}");
+        println!("{}", truth.json());
         return Ok(Output::OK);
     }
     println!(
         "{} recordings of {} s at {} Hz in {} (columns: time, q1..q3 [rad], qd1..qd3 [rad/s]{}, x, y, z [m]); truth in {}",
         a.recordings,
-        a.duration,
-        a.rate,
+        opts.duration,
+        opts.rate,
         out.display(),
         if torques { ", tau1..tau3 [N m]" } else { "" },
         tpath.display()
     );
-    let file = |f: &serde_json::Value| f["file"].as_str().unwrap_or_default().to_string();
+    let file = |f: &WrittenRecording| f.file.clone();
     println!(
         "diagnose them: lash diagnose --model mr2120 --fit {} --holdout {}",
         files
@@ -259,7 +273,12 @@ fn kinematics(as_json: bool) -> Result<Output, CliError> {
     Ok(Output::OK)
 }
 
-fn accuracy_cmd(points: &str, sets: &str, method: &str, as_json: bool) -> Result<Output, CliError> {
+fn accuracy_cmd(
+    points: &str,
+    sets: &str,
+    methods: &[accuracy::Method],
+    as_json: bool,
+) -> Result<Output, CliError> {
     let pts = points
         .split(',')
         .map(str::trim)
@@ -276,16 +295,6 @@ fn accuracy_cmd(points: &str, sets: &str, method: &str, as_json: bool) -> Result
         .map(str::trim)
         .map(|name| clearance::clearance_set(name).map_err(CliError::input))
         .collect::<Result<Vec<_>, _>>()?;
-    let methods = match method {
-        "dynamic" => vec![accuracy::Method::Dynamic],
-        "static" => vec![accuracy::Method::Static],
-        "both" => vec![accuracy::Method::Dynamic, accuracy::Method::Static],
-        other => {
-            return Err(CliError::Input(format!(
-                "unknown method '{other}'; expected dynamic, static or both"
-            )))
-        }
-    };
     let ex = accuracy::Excitation::default();
     let mut progress = Progress::new("mr2120 accuracy", (pts.len() * ss.len() * methods.len()) as f64);
     let rows = accuracy::table3(
@@ -293,7 +302,7 @@ fn accuracy_cmd(points: &str, sets: &str, method: &str, as_json: bool) -> Result
         &MassProperties::default(),
         &pts,
         &ss,
-        &methods,
+        methods,
         &ex,
         |i, _| progress.update(i as f64),
     );
@@ -322,29 +331,29 @@ fn accuracy_cmd(points: &str, sets: &str, method: &str, as_json: bool) -> Result
     Ok(Output::OK)
 }
 
-fn trajectory_cmd(clearance: &str, out: &Path, dt: f64, as_json: bool) -> Result<Output, CliError> {
+fn trajectory_cmd(
+    sets: &[paper::ClearanceSet],
+    out: &Path,
+    dt: f64,
+    as_json: bool,
+) -> Result<Output, CliError> {
     if !(dt > 0.0 && dt <= 0.5) {
         return Err(CliError::Input(format!("--dt must be in (0, 0.5] s, got {dt}")));
     }
-    let sets: Vec<paper::ClearanceSet> = match clearance {
-        "none" => vec![],
-        "all" | "ALL" => paper::TABLE1.to_vec(),
-        name => vec![clearance::clearance_set(name).map_err(CliError::input)?],
-    };
     if sets.is_empty() {
         ideal_trajectory(out, dt, as_json)
     } else {
-        clearance_trajectory(&sets, out, dt, as_json)
+        clearance_trajectory(sets, out, dt, as_json)
     }
 }
 
 fn ideal_trajectory(out: &Path, dt: f64, as_json: bool) -> Result<Output, CliError> {
-    let mut progress = Progress::new("mr2120 ideal trajectory", 4.0);
+    let mut progress = Progress::new("mr2120 ideal trajectory", trajectory::DURATION);
     let run = trajectory::run_ideal(
         &Geometry::default(),
         &MassProperties::default(),
         dt,
-        4.0,
+        trajectory::DURATION,
         Default::default(),
         |t| progress.update(t),
     );
@@ -352,7 +361,7 @@ fn ideal_trajectory(out: &Path, dt: f64, as_json: bool) -> Result<Output, CliErr
     let run = run.map_err(CliError::run)?;
     let csv_path = output::write_ideal(&run, out).map_err(CliError::run)?;
     let end = match &run.end {
-        lash::multibody::RunEnd::Completed => "completed to t = 4 s".to_string(),
+        lash::multibody::RunEnd::Completed => format!("completed to t = {} s", trajectory::DURATION),
         lash::multibody::RunEnd::StoppedAtSingularity { t, measure, error } => format!(
             "stopped at the direct-kinematics singularity M3: last good sample t = {t:.3} s (measure {measure:.2e}); the integrator then failed: {error}"
         ),
@@ -371,7 +380,11 @@ fn ideal_trajectory(out: &Path, dt: f64, as_json: bool) -> Result<Output, CliErr
         println!("{}", json(&summary));
         return Ok(Output::OK);
     }
-    println!("MR2120 ideal model along M1 (t = 0) -> M2 (2 s) -> M3 (4 s), quintic rest-to-rest legs on the z axis");
+    println!(
+        "MR2120 ideal model along M1 (t = 0) -> M2 ({} s) -> M3 ({} s), quintic rest-to-rest legs on the z axis",
+        paper::TRAJECTORY_T_M2,
+        trajectory::DURATION
+    );
     println!("samples: {}  integrator steps: {}", run.samples.len(), run.steps);
     println!(
         "largest deviation from the kinematic path where regular: {:.2e} m",
@@ -402,14 +415,14 @@ fn clearance_trajectory(
     output::create_dir(out).map_err(CliError::run)?;
     let mut runs = vec![];
     for set in sets {
-        let mut progress = Progress::new(&format!("mr2120 trajectory {}", set.name), 4.0);
+        let mut progress = Progress::new(&format!("mr2120 trajectory {}", set.name), trajectory::DURATION);
         let r = trajectory::run_clearance(
             &Geometry::default(),
             &MassProperties::default(),
             set,
             clearance::DEFAULT_DAMPING,
             dt,
-            4.0,
+            trajectory::DURATION,
             trajectory::clearance_options(),
             |t| progress.update(t),
         );
@@ -421,11 +434,10 @@ fn clearance_trajectory(
         let rows: Vec<_> = runs
             .iter()
             .map(|r| {
-                let w: Vec<_> = output::ERROR_WINDOWS
+                let w: Vec<_> = output::window_errors(r)
                     .iter()
-                    .map(|(label, a, b)| {
-                        let m = trajectory::max_errors(&r.samples, *a, *b);
-                        serde_json::json!({"window": label, "max_abs_d_m": [m[0], m[1], m[2]], "max_abs_delta_rad": [m[3], m[4], m[5]]})
+                    .map(|e| {
+                        serde_json::json!({"window": e.window, "max_abs_d_m": e.d, "max_abs_delta_rad": e.delta})
                     })
                     .collect();
                 serde_json::json!({"set": r.set, "steps": r.steps, "wall_s": r.wall_s, "end": r.end, "windows": w})
@@ -440,18 +452,17 @@ fn clearance_trajectory(
         "set", "window", "|dxM| mm", "|dyM| mm", "|dzM| mm", "|dx| deg", "|dy| deg", "|dz| deg"
     );
     for r in &runs {
-        for (label, a, b) in output::ERROR_WINDOWS {
-            let m = trajectory::max_errors(&r.samples, a, b);
+        for e in output::window_errors(r) {
             println!(
                 "{:<4} {:<20} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>9.4}",
                 r.set,
-                label,
-                m[0] * 1e3,
-                m[1] * 1e3,
-                m[2] * 1e3,
-                m[3].to_degrees(),
-                m[4].to_degrees(),
-                m[5].to_degrees()
+                e.window,
+                e.d[0] * 1e3,
+                e.d[1] * 1e3,
+                e.d[2] * 1e3,
+                e.delta[0].to_degrees(),
+                e.delta[1].to_degrees(),
+                e.delta[2].to_degrees()
             );
         }
         println!(

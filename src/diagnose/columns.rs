@@ -2,56 +2,38 @@
 //! and the derivative windows tried when none is given: the defaults `lash diagnose` applies
 //! for the models it knows by name.
 
-use super::data::model_roles;
+use super::data::{model_roles, role_kind, RoleKind};
 use super::model::InverseDynamicsModel;
-use super::recording::RecordingError;
+pub use super::model::{ColumnDefaults, DEFAULT_DERIVATIVE_WINDOWS, DFKI_COLUMNS};
+use super::recording::{parse_pairs, RecordingError};
 use std::path::Path;
 
-/// The columns of the DFKI double pendulum's recordings for q1, q2, qd1, qd2, tau1, tau2
-/// (filtered positions in rad, filtered rates in rad/s, measured torques in N·m).
-pub const DFKI_COLUMNS: &str =
-    "q1=pos_filt1,q2=pos_filt2,qd1=vel_filt1,qd2=vel_filt2,tau1=tau_meas1,tau2=tau_meas2";
-
-/// Half-widths (samples) of the rate differentiation tried by cross-validation when a model
-/// states no grid of its own ([`InverseDynamicsModel::derivative_windows`]).
-pub const DEFAULT_DERIVATIVE_WINDOWS: [usize; 11] = [2, 3, 5, 8, 12, 16, 20, 25, 30, 40, 50];
-
-/// How the roles of a model find their columns when the user maps none or only some.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum ColumnDefaults {
-    /// Without a user mapping, this "role=column,…" mapping; a user mapping replaces it and
-    /// must then name every role.
-    Fixed(String),
-    /// Each role reads the column of its own name unless the user maps it; torque and output
-    /// roles whose column the recording's header lacks are left out (they are optional
-    /// measurements), motion roles (q, qd) are always read.
-    RoleNames,
+/// Recordings a model is diagnosed on when the user names none (paths relative to the
+/// working directory).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DefaultRecordings {
+    /// Recordings to fit on.
+    pub fit: &'static [&'static str],
+    /// Recordings held out (never fitted).
+    pub holdout: &'static [&'static str],
 }
 
-/// Parses "role=column,role=column" into pairs, checking every role against `roles`.
-fn parse_pairs(text: &str, roles: &[String]) -> Result<Vec<(String, String)>, RecordingError> {
-    let mut map = vec![];
-    for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let Some((role, col)) = item.split_once('=') else {
-            return Err(RecordingError::Unmapped {
-                role: item.into(),
-                hint: "role=column pairs, e.g. q1=pos_filt1".into(),
-            });
-        };
-        let role = role.trim().to_string();
-        if !roles.contains(&role) {
-            return Err(RecordingError::Unmapped {
-                role: format!(
-                    "'{role}' (not an input or output of this model; it has {})",
-                    roles.join(", ")
-                ),
-                hint: "one of the model's roles".into(),
-            });
-        }
-        map.push((role, col.trim().to_string()));
-    }
-    Ok(map)
-}
+/// The DFKI double pendulum's default recordings: trajectories 0–5 fitted, 12 and 13 held
+/// out (beside [`DFKI_README`](crate::mechanisms::double_pendulum::DFKI_README)).
+pub const DFKI_RECORDINGS: DefaultRecordings = DefaultRecordings {
+    fit: &[
+        "../shared/data/dfki-double-pendulum/recordings/trajectory_00.csv",
+        "../shared/data/dfki-double-pendulum/recordings/trajectory_01.csv",
+        "../shared/data/dfki-double-pendulum/recordings/trajectory_02.csv",
+        "../shared/data/dfki-double-pendulum/recordings/trajectory_03.csv",
+        "../shared/data/dfki-double-pendulum/recordings/trajectory_04.csv",
+        "../shared/data/dfki-double-pendulum/recordings/trajectory_05.csv",
+    ],
+    holdout: &[
+        "../shared/data/dfki-double-pendulum/recordings/trajectory_12.csv",
+        "../shared/data/dfki-double-pendulum/recordings/trajectory_13.csv",
+    ],
+};
 
 /// The column of every role of `model` that will be read: `user` ("role=column,…", `None`
 /// when not given) applied to the model's [`column_defaults`]; `header` is the first
@@ -79,7 +61,7 @@ pub fn resolve_columns(
                         .unwrap_or(r.clone());
                     (r.clone(), col)
                 })
-                .filter(|(r, c)| header.contains(c) || r.starts_with('q'))
+                .filter(|(r, c)| header.contains(c) || role_kind(model, r) == Some(RoleKind::Motion))
                 .collect())
         }
     }

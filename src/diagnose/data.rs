@@ -42,6 +42,30 @@ pub fn model_roles(model: &dyn InverseDynamicsModel) -> Vec<String> {
     r
 }
 
+/// What a role of a model reads: joint motion (q, qd), a joint torque, or an output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RoleKind {
+    /// A joint position or rate (q1.., qd1..): always read.
+    Motion,
+    /// A measured joint torque (tau1..).
+    Torque,
+    /// A model output (e.g. a tracked position).
+    Output,
+}
+
+/// The kind of `role` among the [`model_roles`] of `model`; `None` when it is not one of them.
+pub fn role_kind(model: &dyn InverseDynamicsModel, role: &str) -> Option<RoleKind> {
+    let n = model.joints();
+    let k = model_roles(model).iter().position(|r| r == role)?;
+    Some(if k < 2 * n {
+        RoleKind::Motion
+    } else if k < 3 * n {
+        RoleKind::Torque
+    } else {
+        RoleKind::Output
+    })
+}
+
 /// One residual channel: a joint torque or a model output.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Channel {

@@ -7,6 +7,27 @@ use crate::mechanisms::mr2120::lumped::{tilted_gravity, LumpedModel, LumpedState
 use nalgebra::Vector3;
 use serde::Serialize;
 
+/// The columns of the DFKI double pendulum's recordings for q1, q2, qd1, qd2, tau1, tau2
+/// (filtered positions in rad, filtered rates in rad/s, measured torques in N·m).
+pub const DFKI_COLUMNS: &str =
+    "q1=pos_filt1,q2=pos_filt2,qd1=vel_filt1,qd2=vel_filt2,tau1=tau_meas1,tau2=tau_meas2";
+
+/// Half-widths (samples) of the rate differentiation tried by cross-validation when a model
+/// states no grid of its own ([`InverseDynamicsModel::derivative_windows`]).
+pub const DEFAULT_DERIVATIVE_WINDOWS: [usize; 11] = [2, 3, 5, 8, 12, 16, 20, 25, 30, 40, 50];
+
+/// How the roles of a model find their columns when the user maps none or only some.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ColumnDefaults {
+    /// Without a user mapping, this "role=column,…" mapping; a user mapping replaces it and
+    /// must then name every role.
+    Fixed(String),
+    /// Each role reads the column of its own name unless the user maps it; torque and output
+    /// roles whose column the recording's header lacks are left out (they are optional
+    /// measurements), motion roles (q, qd) are always read.
+    RoleNames,
+}
+
 /// What a model parameter stands for (names the candidate and the experiment that
 /// separates it from others).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -88,14 +109,14 @@ pub trait InverseDynamicsModel {
     }
     /// Half-widths (samples) of the local line that differentiates rates into accelerations,
     /// tried by cross-validation when the user gives none. Default:
-    /// [`DEFAULT_DERIVATIVE_WINDOWS`](super::columns::DEFAULT_DERIVATIVE_WINDOWS).
+    /// [`DEFAULT_DERIVATIVE_WINDOWS`].
     fn derivative_windows(&self) -> Vec<usize> {
-        super::columns::DEFAULT_DERIVATIVE_WINDOWS.to_vec()
+        DEFAULT_DERIVATIVE_WINDOWS.to_vec()
     }
     /// How its roles find their recording columns when the user maps none or only some.
-    /// Default: [`ColumnDefaults::RoleNames`](super::columns::ColumnDefaults::RoleNames).
-    fn column_defaults(&self) -> super::columns::ColumnDefaults {
-        super::columns::ColumnDefaults::RoleNames
+    /// Default: [`ColumnDefaults::RoleNames`].
+    fn column_defaults(&self) -> ColumnDefaults {
+        ColumnDefaults::RoleNames
     }
     /// Torques and outputs at one sample. `y` holds, on entry, the previous sample's outputs
     /// (zeros at the first) as a starting guess for iterative kinematics; a configuration the
@@ -166,9 +187,9 @@ impl InverseDynamicsModel for DoublePendulumModel {
     fn name(&self) -> String {
         "DFKI double pendulum (nominal rigid model of its README)".into()
     }
-    /// The DFKI recordings' column names ([`DFKI_COLUMNS`](super::columns::DFKI_COLUMNS)).
-    fn column_defaults(&self) -> super::columns::ColumnDefaults {
-        super::columns::ColumnDefaults::Fixed(super::columns::DFKI_COLUMNS.into())
+    /// The DFKI recordings' column names ([`DFKI_COLUMNS`]).
+    fn column_defaults(&self) -> ColumnDefaults {
+        ColumnDefaults::Fixed(DFKI_COLUMNS.into())
     }
     fn joints(&self) -> usize {
         2

@@ -228,9 +228,9 @@ pub fn parse_csv(
     })
 }
 
-/// Parses a column mapping "role=column,role=column" and checks that every role in `roles`
-/// is mapped (unknown roles are errors too).
-pub fn parse_mapping(text: &str, roles: &[String]) -> Result<Vec<(String, String)>, RecordingError> {
+/// Parses "role=column,role=column" into pairs, checking every role against `roles` (roles
+/// left out are not an error here; [`parse_mapping`] requires all).
+pub fn parse_pairs(text: &str, roles: &[String]) -> Result<Vec<(String, String)>, RecordingError> {
     let mut map = vec![];
     for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let Some((role, col)) = item.split_once('=') else {
@@ -251,6 +251,13 @@ pub fn parse_mapping(text: &str, roles: &[String]) -> Result<Vec<(String, String
         }
         map.push((role, col.trim().to_string()));
     }
+    Ok(map)
+}
+
+/// Parses a column mapping "role=column,role=column" and checks that every role in `roles`
+/// is mapped (unknown roles are errors too).
+pub fn parse_mapping(text: &str, roles: &[String]) -> Result<Vec<(String, String)>, RecordingError> {
+    let map = parse_pairs(text, roles)?;
     for r in roles {
         if !map.iter().any(|(m, _)| m == r) {
             return Err(RecordingError::Unmapped {

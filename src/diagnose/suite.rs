@@ -486,6 +486,41 @@ pub enum SuiteError {
         /// Cause (boxed: a diagnosis error carries several names).
         source: Box<DiagnoseError>,
     },
+    /// A name of [`SuiteOptions::only`] is part of no case's name.
+    #[error("no case name contains '{name}' (cases: {cases})")]
+    NoSuchCase {
+        /// The name asked for.
+        name: String,
+        /// The cases there are, comma-separated.
+        cases: String,
+    },
+    /// The scoreboard could not be written.
+    #[error("{path}: {message}")]
+    Write {
+        /// Folder or file.
+        path: std::path::PathBuf,
+        /// The operating system's message.
+        message: String,
+    },
+}
+
+/// Name of the file [`Scoreboard::write`] writes.
+pub const SCOREBOARD_FILE: &str = "scoreboard.json";
+
+impl Scoreboard {
+    /// Writes the scoreboard as pretty JSON to `dir/scoreboard.json` ([`SCOREBOARD_FILE`]),
+    /// creating `dir`; returns the file's path.
+    pub fn write(&self, dir: &std::path::Path) -> Result<std::path::PathBuf, SuiteError> {
+        let path = dir.join(SCOREBOARD_FILE);
+        let text = serde_json::to_string_pretty(self).expect("the scoreboard serialises");
+        std::fs::create_dir_all(dir)
+            .and_then(|_| std::fs::write(&path, text))
+            .map_err(|e| SuiteError::Write {
+                path: dir.into(),
+                message: e.to_string(),
+            })?;
+        Ok(path)
+    }
 }
 
 fn motion(rec: &Recorded, name: String, window: usize, torques: bool) -> MotionData {
@@ -635,13 +670,26 @@ pub fn run_case(
 }
 
 /// Runs the suite; `progress` receives (case name, fraction done). With `reports`, each
-/// case's diagnosis report (Markdown, JSON, plots) goes to `reports/<case>/`.
+/// case's diagnosis report (Markdown, JSON, plots) goes to `reports/<case>/` and the
+/// scoreboard to `reports/scoreboard.json` ([`Scoreboard::write`]). A name in
+/// [`SuiteOptions::only`] that no case's name contains is an error
+/// ([`SuiteError::NoSuchCase`]), before anything runs.
 pub fn run_suite(
     opts: &SuiteOptions,
     reports: Option<&std::path::Path>,
     mut progress: impl FnMut(&str, f64),
 ) -> Result<Scoreboard, SuiteError> {
     let all = cases();
+    if let Some(o) = opts
+        .only
+        .iter()
+        .find(|o| !all.iter().any(|c| c.name.contains(o.as_str())))
+    {
+        return Err(SuiteError::NoSuchCase {
+            name: o.clone(),
+            cases: all.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "),
+        });
+    }
     let chosen: Vec<(usize, &Case)> = all
         .iter()
         .enumerate()
@@ -681,7 +729,7 @@ pub fn run_suite(
             .all(|r| r.estimate_ok && r.holdout_ok)
         && null_ok
         && pair_ok;
-    Ok(Scoreboard {
+    let board = Scoreboard {
         cases: results,
         ranked_first: (ranked, n),
         estimates_within_25pct: (est, n),
@@ -696,5 +744,9 @@ pub fn run_suite(
             opts.record.rate,
         ),
         noise: opts.record.noise,
-    })
+    };
+    if let Some(dir) = reports {
+        board.write(dir)?;
+    }
+    Ok(board)
 }

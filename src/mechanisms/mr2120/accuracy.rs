@@ -160,6 +160,23 @@ pub enum Method {
     Static,
 }
 
+/// A method name that is neither "dynamic" nor "static".
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown method '{0}'; expected dynamic or static")]
+pub struct UnknownMethod(pub String);
+
+impl std::str::FromStr for Method {
+    type Err = UnknownMethod;
+    /// "dynamic" or "static" (the names it serialises as).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "dynamic" => Ok(Method::Dynamic),
+            "static" => Ok(Method::Static),
+            other => Err(UnknownMethod(other.into())),
+        }
+    }
+}
+
 /// The given methods for the given points and sets, beside the paper's Table 3.
 #[allow(clippy::too_many_arguments)]
 pub fn table3(

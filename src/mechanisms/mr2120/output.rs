@@ -41,6 +41,34 @@ pub const ERROR_WINDOWS: [(&str, f64, f64); 4] = [
     ("near M3, > 3.4 s", 3.4, 4.0),
 ];
 
+/// The largest absolute positioning errors of eq. (4.1) of one clearance run over one of
+/// the [`ERROR_WINDOWS`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindowErrors {
+    /// The window's label.
+    pub window: &'static str,
+    /// Largest |d_xM|, |d_yM|, |d_zM|, m.
+    pub d: [f64; 3],
+    /// Largest |δx|, |δy|, |δz|, rad.
+    pub delta: [f64; 3],
+}
+
+/// The error table of one clearance run: its largest errors over each of the
+/// [`ERROR_WINDOWS`], in order.
+pub fn window_errors(run: &ClearanceRun) -> Vec<WindowErrors> {
+    ERROR_WINDOWS
+        .iter()
+        .map(|&(window, a, b)| {
+            let m = super::trajectory::max_errors(&run.samples, a, b);
+            WindowErrors {
+                window,
+                d: [m[0], m[1], m[2]],
+                delta: [m[3], m[4], m[5]],
+            }
+        })
+        .collect()
+}
+
 /// Names of the six positioning errors of eq. (4.1), in the order of
 /// [`ErrorSample`](super::trajectory::ErrorSample)'s `d` then `delta`.
 pub const ERROR_NAMES: [&str; 6] = ["d_xM", "d_yM", "d_zM", "delta_x", "delta_y", "delta_z"];

@@ -518,3 +518,89 @@ impl Recorded {
 pub fn nominal_model() -> LumpedModel {
     LumpedModel::nominal(&Geometry::default(), &MassProperties::default())
 }
+
+/// One recording written by [`write_recordings`], as `truth.json` lists it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WrittenRecording {
+    /// The CSV file.
+    pub file: String,
+    /// Sign changes of each forearm's force ([`Recorded::tension_reversals`]).
+    pub forearm_force_reversals: [usize; 3],
+    /// Smallest direct-singularity measure along the path.
+    pub min_direct_measure: f64,
+    /// Number of samples.
+    pub samples: usize,
+    /// Sign changes of each drive's torque.
+    pub torque_reversals: [usize; 3],
+    /// Velocity reversals of each drive.
+    pub velocity_reversals: [usize; 3],
+}
+
+/// The truth behind a set of recordings (`truth.json`; the diagnosis never reads it).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Truth {
+    /// The hidden effects.
+    pub effects: HiddenEffects,
+    /// The sensor noise.
+    pub noise: SensorNoise,
+    /// The recordings, in order.
+    pub recordings: Vec<WrittenRecording>,
+    /// Seed of the first recording (recording r uses seed + r).
+    pub seed: u64,
+}
+
+impl Truth {
+    /// The truth as pretty JSON, every object's keys in alphabetical order (the text of
+    /// `truth.json`).
+    pub fn json(&self) -> String {
+        let value = serde_json::to_value(self).expect("the truth serialises");
+        serde_json::to_string_pretty(&value).expect("a JSON value prints")
+    }
+}
+
+/// Name of the truth file [`write_recordings`] writes.
+pub const TRUTH_FILE: &str = "truth.json";
+
+/// Records one recording per excitation (recording r with noise seed `seed + r`), writes
+/// them as `dir/recording-01.csv`, `-02`, … and the [`Truth`] as `dir/truth.json`
+/// ([`TRUTH_FILE`]), creating `dir`. Returns the truth and the path of its file.
+pub fn write_recordings(
+    dir: &Path,
+    nominal: &LumpedModel,
+    hidden: &HiddenEffects,
+    excitations: &[Excitation],
+    opts: &RecordOptions,
+    seed: u64,
+) -> Result<(Truth, std::path::PathBuf), RecordError> {
+    if excitations.is_empty() {
+        return Err(RecordError::Invalid("no recording asked for".into()));
+    }
+    let io = |path: &Path, e: std::io::Error| RecordError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    };
+    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+    let mut recordings = vec![];
+    for (r, ex) in excitations.iter().enumerate() {
+        let rec = record(nominal, hidden, ex, opts, seed.wrapping_add(r as u64))?;
+        let path = dir.join(format!("recording-{:02}.csv", r + 1));
+        rec.write(&path)?;
+        recordings.push(WrittenRecording {
+            file: path.display().to_string(),
+            forearm_force_reversals: rec.tension_reversals,
+            min_direct_measure: rec.min_direct_measure,
+            samples: rec.t.len(),
+            torque_reversals: rec.torque_reversals,
+            velocity_reversals: rec.velocity_reversals,
+        });
+    }
+    let truth = Truth {
+        effects: *hidden,
+        noise: opts.noise,
+        recordings,
+        seed,
+    };
+    let path = dir.join(TRUTH_FILE);
+    std::fs::write(&path, truth.json()).map_err(|e| io(&path, e))?;
+    Ok((truth, path))
+}

@@ -16,6 +16,9 @@ use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use std::sync::Arc;
 
+/// Duration of the trajectory M1 → M2 → M3, s (it reaches M3 at this time).
+pub const DURATION: f64 = TRAJECTORY_T_M3;
+
 /// Platform height z_M(t), m.
 pub fn platform_law() -> MotionLaw {
     let (z1, z2, z3) = (TABLE2[0].m[2], TABLE2[1].m[2], TABLE2[2].m[2]);
