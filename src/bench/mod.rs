@@ -5,6 +5,7 @@
 //! |---|---|
 //! | `mod.rs` | `lash bench dae`: the validation problems, lash against diffsol and explicit stepping |
 //! | `mr2120.rs` | `lash bench mr2120`: the 63-DOF clearance model at equal accuracy, every solver through [`Integrator`] |
+//! | `mr2120_options.rs` | its settings, their defaults and their check ([`mr2120::Mr2120BenchOptions`]) |
 //! | `scaling.rs` | `lash bench scaling`: cost per step of a clearance chain against its length |
 //! | `exudyn.rs` | the MR2120 model exported for the Exudyn comparison (`benches/exudyn/`) |
 //! | `charts.rs` | work-precision and log-log diagrams (feature `plot`) |
