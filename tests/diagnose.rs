@@ -254,6 +254,24 @@ fn an_empty_fit_set_is_an_error_not_a_panic() {
 }
 
 #[test]
+fn derivative_windows_that_are_empty_or_zero_are_an_error() {
+    let model = DoublePendulumModel { params: params() };
+    for windows in [&[][..], &[0][..], &[3, 0][..]] {
+        let e = lash::diagnose::diagnose_recordings(
+            &model,
+            &[],
+            &[],
+            windows,
+            &DiagnoseOptions::default(),
+            |_, _| {},
+        )
+        .unwrap_err();
+        assert!(matches!(e, DiagnoseError::DerivativeWindows { .. }), "{e}");
+        assert!(e.to_string().contains("half-width of 1 sample or more"), "{e}");
+    }
+}
+
+#[test]
 fn a_held_out_recording_with_fewer_channels_is_an_error_naming_it_and_the_channels() {
     let (fit, mut held) = runs(&|_, _, _| 0.0);
     held[0].tau.truncate(1);

@@ -8,6 +8,13 @@ use super::recording::RecordingError;
 /// (`q1`, `qd2`, `tau1`, output roles such as `x`).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DiagnoseError {
+    /// The derivative-window candidates are empty or contain 0 (a half-width of 0 samples
+    /// would differentiate nothing and leave the accelerations at zero).
+    #[error("derivative windows [{given}]: give at least one half-width of 1 sample or more")]
+    DerivativeWindows {
+        /// The half-widths given, comma-separated.
+        given: String,
+    },
     /// The fit set is empty.
     #[error("no fit recording: the diagnosis needs at least one recording to fit the candidate physics on")]
     NoFitRecordings,

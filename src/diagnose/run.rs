@@ -183,6 +183,9 @@ fn diagnose_once(
 /// play no part), then diagnoses with it. Short windows pass acceleration noise into the
 /// inertial regressors; long ones bias fast motion: the cross-validated torque prediction
 /// error measures both.
+///
+/// Errors: `windows` empty or containing 0 ([`DiagnoseError::DerivativeWindows`]), and those
+/// of [`diagnose`].
 pub fn diagnose_recordings(
     model: &dyn InverseDynamicsModel,
     fit: &[Recording],
@@ -191,6 +194,12 @@ pub fn diagnose_recordings(
     opts: &DiagnoseOptions,
     mut progress: impl FnMut(&str, f64),
 ) -> Result<Diagnosis, DiagnoseError> {
+    if windows.is_empty() || windows.contains(&0) {
+        let given: Vec<String> = windows.iter().map(usize::to_string).collect();
+        return Err(DiagnoseError::DerivativeWindows {
+            given: given.join(", "),
+        });
+    }
     let nj = model.joints();
     let load = |recs: &[Recording], w: usize| -> Result<Vec<MotionData>, _> {
         recs.iter()
@@ -218,7 +227,7 @@ pub fn diagnose_recordings(
         .iter()
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|s| s.0)
-        .unwrap_or(windows.first().copied().unwrap_or(5));
+        .unwrap_or(windows[0]);
     let mut d = diagnose(model, &load(fit, w)?, &load(holdout, w)?, opts, |s, f| {
         progress(s, 0.5 + 0.5 * f)
     })?;
