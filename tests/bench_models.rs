@@ -64,6 +64,44 @@ fn mr2120_bench_measures_both_integrators_against_one_reference() {
     let dp = b.points.iter().find(|p| p.solver.starts_with("Dormand")).unwrap();
     assert!(dp.error < 1e-7, "Dormand-Prince vs reference {}", dp.error);
     assert_eq!(b.comparison.len(), 4);
+    // The Dormand-Prince run of the sweep measured the horizon, and the output says so.
+    assert_eq!(b.horizon_s, Some(0.02));
+    assert!(b.horizon_source.as_deref().unwrap().starts_with("Dormand-Prince"));
+    assert!(b
+        .horizon_statement()
+        .contains("agree within 1e-6 m up to t = 0.02 s"));
+}
+
+/// Without an independent run no horizon is claimed: the output says nothing checked the
+/// reference, and every accuracy holds over the whole run.
+#[test]
+fn mr2120_bench_without_an_independent_run_claims_no_horizon() {
+    let opts = Mr2120BenchOptions {
+        t_end: 0.02,
+        dt: 0.01,
+        reference_rtol: 1e-7,
+        bdf_rtols: vec![1e-4],
+        dopri_rtols: vec![],
+        symplectic_steps: vec![],
+        diffsol_rtols: vec![],
+        reference_check_rtol: None,
+        ..Default::default()
+    };
+    let b = lash::bench::mr2120::bench_mr2120(&opts, |_, _| {}).unwrap();
+    assert_eq!(b.horizon_s, None);
+    assert_eq!(b.horizon_source, None);
+    assert_eq!(b.compared_until(), 0.02);
+    let s = b.horizon_statement();
+    assert!(s.contains("no independent check in this run"), "{s}");
+    assert!(!s.contains("agree within"), "{s}");
+    let json = serde_json::to_value(&b).unwrap();
+    assert!(json["horizon_s"].is_null());
+    // lash's run is still measured against the reference, over the whole run.
+    let p = &b.points[0];
+    assert!(
+        p.error_to_horizon.is_finite() && p.error_to_horizon == p.error,
+        "{p:?}"
+    );
 }
 
 /// The model exported for the Exudyn comparison carries everything the Python side needs,

@@ -116,8 +116,14 @@ pub fn mr2120_work_precision_chart(b: &Mr2120Bench, dir: &Path) -> String {
         .collect();
     let chart = LineChart {
         title: format!(
-            "MR2120 {} trajectory to the agreement horizon t = {:.2} s: work-precision",
-            b.set, b.horizon_s
+            "MR2120 {} trajectory to {} t = {:.2} s: work-precision",
+            b.set,
+            if b.horizon_s.is_some() {
+                "the agreement horizon"
+            } else {
+                "the end (no independent check)"
+            },
+            b.compared_until()
         ),
         x_label: "wall time to the horizon [s]".into(),
         y_label: "largest platform-centre error vs reference [m]".into(),

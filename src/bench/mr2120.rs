@@ -128,17 +128,44 @@ pub struct Mr2120Bench {
     pub times: Vec<f64>,
     /// Platform centre of the reference run at the output times, m.
     pub reference_path: Vec<[f64; 3]>,
-    /// Time up to which the reference and an independent run (the tightest Dormand–Prince
-    /// of the sweep: another formulation and integrator) agree within the target, s. Past it
-    /// the motion near the direct-kinematics singularity is too sensitive for any solver to be
-    /// checked to the target: accuracy is compared up to here.
-    pub horizon_s: f64,
+    /// Time up to which the reference and an independent run (the reference check run, or
+    /// else the tightest Dormand–Prince of the sweep: another formulation and integrator)
+    /// agree within the target, s; `None` when this run made no independent run, and then
+    /// nothing was checked against the reference. Past the horizon the motion near the
+    /// direct-kinematics singularity is too sensitive for any solver to be checked to the
+    /// target: accuracy is compared up to here, or over the whole run when it is `None`.
+    pub horizon_s: Option<f64>,
+    /// The independent run that measured the horizon (e.g. "Dormand-Prince rtol 1e-5"), or
+    /// `None` when there was none.
+    pub horizon_source: Option<String>,
     /// Distance between the reference and the Dormand–Prince check run, m (None if skipped).
     pub reference_check: Option<f64>,
     /// Every run of the sweep.
     pub points: Vec<WorkPoint>,
     /// Per solver, the cheapest setting at the target accuracy, with ratios to lash's BDF.
     pub comparison: Vec<Comparison>,
+}
+
+impl Mr2120Bench {
+    /// End of the interval every accuracy figure "to the horizon" holds over, s: the
+    /// agreement horizon when an independent run measured it, else the whole run.
+    pub fn compared_until(&self) -> f64 {
+        self.horizon_s.unwrap_or(self.t_end)
+    }
+
+    /// One sentence on the agreement horizon that says only what this run measured.
+    pub fn horizon_statement(&self) -> String {
+        match (&self.horizon_s, &self.horizon_source) {
+            (Some(h), Some(src)) => format!(
+                "agreement horizon: the reference and the independent run ({src}) agree within {:.0e} m up to t = {h:.2} s",
+                self.target
+            ),
+            _ => format!(
+                "agreement horizon: no independent check in this run (no Dormand-Prince run); accuracies are distances from the reference over the whole run, t = 0 to {:.2} s, and nothing checked the reference itself",
+                self.t_end
+            ),
+        }
+    }
 }
 
 pub(crate) struct Model {
@@ -547,19 +574,24 @@ pub fn bench_mr2120(
         traces.push(path);
     }
     // The agreement horizon: as long as an independent run stays within the target.
-    let independent = check.as_ref().or_else(|| {
-        points
+    let independent = match (&check, opts.reference_check_rtol) {
+        (Some(c), Some(rtol)) => Some((c, format!("Dormand-Prince check run rtol {rtol:.0e}"))),
+        _ => points
             .iter()
             .zip(&traces)
             .filter(|(p, t)| p.solver == DOPRI && t.is_some())
             .min_by(|a, b| a.0.rtol.total_cmp(&b.0.rtol))
-            .and_then(|(_, t)| t.as_ref())
-    });
-    let n_h = match independent {
-        Some(c) => leading_within(&c.path, &ref_path.path, opts.target),
+            .and_then(|(p, t)| Some((t.as_ref()?, format!("{DOPRI} rtol {:.0e}", p.rtol)))),
+    };
+    // Without an independent run nothing bounds the comparison: it covers the whole run.
+    let n_h = match &independent {
+        Some((c, _)) => leading_within(&c.path, &ref_path.path, opts.target),
         None => m.times.len(),
     };
-    let horizon_s = if n_h > 0 { m.times[n_h - 1] } else { 0.0 };
+    let horizon_s = independent
+        .as_ref()
+        .map(|_| if n_h > 0 { m.times[n_h - 1] } else { 0.0 });
+    let horizon_source = independent.map(|(_, s)| s);
     let windows: Vec<(f64, f64)> = [(0.0f64, 1.0f64), (1.0, 2.0), (2.0, 3.0), (3.0, 3.5), (3.5, 4.0)]
         .into_iter()
         .filter(|w| w.0 < t_end)
@@ -592,6 +624,7 @@ pub fn bench_mr2120(
         times: m.times.clone(),
         reference_path: ref_path.path.clone(),
         horizon_s,
+        horizon_source,
         reference_check,
         points,
         comparison,

@@ -318,10 +318,7 @@ fn print_mr2120(b: &lash::bench::mr2120::Mr2120Bench) {
             .map(|d| format!("; Dormand-Prince check run differs by {d:.2e} m"))
             .unwrap_or_default()
     );
-    println!(
-        "agreement horizon: the reference and the independent Dormand-Prince run agree within {:.0e} m up to t = {:.2} s",
-        b.target, b.horizon_s
-    );
+    println!("{}", b.horizon_statement());
     println!(
         "\n{:<44} {:>9} {:>10} {:>10} {:>8} {:>8} {:>9} {:>8} {:>7} {:>8} {:>9} {:>6}",
         "solver",
@@ -384,29 +381,33 @@ fn print_mr2120(b: &lash::bench::mr2120::Mr2120Bench) {
         println!("  {:<44} {}: {}", p.solver, p.setting(), w.join(", "));
     }
     println!(
-        "\nat equal accuracy (platform within {:.0e} m of the reference up to the horizon), cheapest setting per solver:",
-        b.target
+        "\nat equal accuracy (platform within {:.0e} m of the reference over t = 0 to {:.2} s{}), cheapest setting per solver:",
+        b.target,
+        b.compared_until(),
+        if b.horizon_s.is_some() { ", the horizon" } else { ", the whole run: no independent check" }
     );
     for c in &b.comparison {
         match &c.chosen {
             Some(p) => {
                 println!(
-                "  {:<44} {}: {:.2} s to the horizon ({:.2} s for the whole run, {} steps); time {:.1}x lash",
-                c.solver, p.setting(), p.wall_to_horizon_s, p.wall_s, p.steps, c.time_ratio
+                "  {:<44} {}: {:.2} s to t = {:.2} s ({:.2} s for the whole run, {} steps); time {:.1}x lash",
+                c.solver, p.setting(), p.wall_to_horizon_s, b.compared_until(), p.wall_s, p.steps, c.time_ratio
             )
             }
             None => match c.time_ratio_at_least {
                 Some(r) => println!(
-                    "  {:<44} ran out of its wall-time budget before the horizon: time >= {r:.1}x lash",
-                    c.solver
+                    "  {:<44} ran out of its wall-time budget before t = {:.2} s: time >= {r:.1}x lash",
+                    c.solver,
+                    b.compared_until()
                 ),
                 None => println!("  {:<44} no setting in the sweep reached the target", c.solver),
             },
         }
         if let Some(o) = &c.at_own_accuracy {
             println!(
-                "  {:<44}   at its own best accuracy, {:.2e} m ({}, {:.2} s to the horizon): lash {} reaches {:.2e} m in {:.2} s; time {:.1}x lash",
+                "  {:<44}   at its own best accuracy over t = 0 to {:.2} s, {:.2e} m ({}, {:.2} s): lash {} reaches {:.2e} m in {:.2} s; time {:.1}x lash",
                 "",
+                b.compared_until(),
                 o.accuracy_m,
                 o.setting,
                 o.wall_to_horizon_s,
