@@ -453,16 +453,10 @@ fn clearance_trajectory(
     );
     for r in &runs {
         for e in output::window_errors(r) {
+            let [a, b, c, x, y, z] = output::in_mm_and_degrees(&e.d, &e.delta);
             println!(
-                "{:<4} {:<20} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>9.4}",
-                r.set,
-                e.window,
-                e.d[0] * 1e3,
-                e.d[1] * 1e3,
-                e.d[2] * 1e3,
-                e.delta[0].to_degrees(),
-                e.delta[1].to_degrees(),
-                e.delta[2].to_degrees()
+                "{:<4} {:<20} {a:>9.4} {b:>9.4} {c:>9.4} {x:>9.4} {y:>9.4} {z:>9.4}",
+                r.set, e.window
             );
         }
         println!(

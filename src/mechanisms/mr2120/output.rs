@@ -99,21 +99,26 @@ pub fn ideal_csv(run: &IdealRun) -> String {
     csv
 }
 
+/// Positioning errors in the units lash prints them in: d_xM, d_yM, d_zM in mm (from `d`,
+/// m), then δx, δy, δz in degrees (from `delta`, rad).
+pub fn in_mm_and_degrees(d: &[f64; 3], delta: &[f64; 3]) -> [f64; 6] {
+    [
+        d[0] * 1e3,
+        d[1] * 1e3,
+        d[2] * 1e3,
+        delta[0].to_degrees(),
+        delta[1].to_degrees(),
+        delta[2].to_degrees(),
+    ]
+}
+
 /// A clearance run's positioning errors as CSV: time (s), d_xM, d_yM, d_zM (mm), δx, δy,
 /// δz (deg).
 pub fn clearance_csv(run: &ClearanceRun) -> String {
     let mut csv = String::from("t_s,dxM_mm,dyM_mm,dzM_mm,dx_deg,dy_deg,dz_deg\n");
     for s in &run.samples {
-        csv.push_str(&format!(
-            "{},{},{},{},{},{},{}\n",
-            s.t,
-            s.d[0] * 1e3,
-            s.d[1] * 1e3,
-            s.d[2] * 1e3,
-            s.delta[0].to_degrees(),
-            s.delta[1].to_degrees(),
-            s.delta[2].to_degrees()
-        ));
+        let [a, b, c, x, y, z] = in_mm_and_degrees(&s.d, &s.delta);
+        csv.push_str(&format!("{},{a},{b},{c},{x},{y},{z}\n", s.t));
     }
     csv
 }
@@ -262,16 +267,7 @@ mod charts {
                     points: r
                         .samples
                         .iter()
-                        .map(|s| {
-                            (
-                                s.t,
-                                if k < 3 {
-                                    s.d[k] * 1e3
-                                } else {
-                                    s.delta[k - 3].to_degrees()
-                                },
-                            )
-                        })
+                        .map(|s| (s.t, super::in_mm_and_degrees(&s.d, &s.delta)[k]))
                         .collect(),
                 })
                 .collect();
