@@ -11,7 +11,7 @@
 //! numerical damping.
 
 use super::geometry::{Geometry, MassProperties};
-use super::ideal::{add_links, Mr2120Error, ELBOW_JOINTS, PLATFORM_JOINTS};
+use super::ideal::{add_links, LinkSpec, Mr2120Error, ELBOW_JOINTS, PLATFORM_JOINTS};
 use super::paper::{ClearanceSet, STEEL_E, TABLE1};
 use crate::contact::{universal_with_clearance, BearingDesign, Damping, Material};
 use crate::multibody::{BodyHandle, JointHandle, Mechanism, MotionLaw};
@@ -65,7 +65,7 @@ pub fn clearance_model(
     design: &BearingDesign,
 ) -> Result<ClearanceModel, Mr2120Error> {
     let mut mech = Mechanism::new();
-    let l = add_links(&mut mech, g, mp, m_build, laws)?;
+    let l = add_links(&mut mech, g, mp, &LinkSpec::nominal(g), m_build, laws)?;
     let mut crosses = [l.platform; 6];
     for i in 0..3 {
         let d = universal_with_clearance(

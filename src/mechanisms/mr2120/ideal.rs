@@ -48,6 +48,42 @@ pub enum Mr2120Error {
     UnknownClearanceSet(String),
 }
 
+/// What an MR2120 model is built from beyond the geometry's layout: each branch's own link
+/// lengths, a payload carried at the platform centre and the gravity vector (a tilted base).
+/// [`LinkSpec::nominal`] is the geometry's lengths, no payload, a level base.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkSpec {
+    /// Arm length |A_i D_i| per branch A, B, C, m.
+    pub arm_length: [f64; 3],
+    /// Forearm length |D_i P_i| per branch, m.
+    pub forearm_length: [f64; 3],
+    /// Payload at the platform centre (a point mass added to the platform), kg.
+    pub payload: f64,
+    /// Gravity in the base frame, m/s² (−9.81 e_z for a level base).
+    pub gravity: Vector3<f64>,
+}
+
+impl LinkSpec {
+    /// The geometry's lengths on every branch, no payload, level base (standard gravity).
+    pub fn nominal(g: &Geometry) -> Self {
+        Self {
+            arm_length: [g.arm_length; 3],
+            forearm_length: [g.forearm_length; 3],
+            payload: 0.0,
+            gravity: Vector3::new(0.0, 0.0, -crate::multibody::STANDARD_GRAVITY),
+        }
+    }
+
+    /// The geometry of branch `i` (its own arm and forearm lengths).
+    pub fn branch_geometry(&self, g: &Geometry, i: usize) -> Geometry {
+        Geometry {
+            arm_length: self.arm_length[i],
+            forearm_length: self.forearm_length[i],
+            ..*g
+        }
+    }
+}
+
 /// Orthonormal frame with x along `x` and z along `z` (made perpendicular to x).
 fn frame(x: Vector3<f64>, z: Vector3<f64>) -> Matrix3<f64> {
     let x = x.normalize();
@@ -75,10 +111,16 @@ pub(crate) fn add_links(
     mech: &mut Mechanism,
     g: &Geometry,
     mp: &MassProperties,
+    spec: &LinkSpec,
     m_build: Vector3<f64>,
     laws: Option<[MotionLaw; 3]>,
 ) -> Result<Links, Mr2120Error> {
-    let q = inverse(g, m_build)?;
+    // Each branch assembled with its own lengths (their drive angles differ slightly).
+    let mut q = [0.0; 3];
+    for (i, qi) in q.iter_mut().enumerate() {
+        *qi = inverse(&spec.branch_geometry(g, i), m_build)?[i];
+    }
+    mech.set_gravity(spec.gravity);
     let br = g.branches();
     let a = mp.platform_thickness;
     let side = 3f64.sqrt() * g.platform_radius;
@@ -86,7 +128,7 @@ pub(crate) fn add_links(
     let platform = mech.add_body(
         RigidBody::new(
             "platform",
-            mp.platform,
+            mp.platform + spec.payload,
             Matrix3::from_diagonal(&Vector3::new(ixx, ixx, mp.platform * side * side / 12.0)),
         )
         .at(m_build),
@@ -105,12 +147,13 @@ pub(crate) fn add_links(
     let mut laws = laws.map(|l| l.into_iter());
     for i in 0..3 {
         let b = &br[i];
-        let d = g.elbow(b, q[i]);
+        let gi = spec.branch_geometry(g, i);
+        let d = gi.elbow(b, q[i]);
         let p = m_build + b.platform_joint;
         let f = p - d;
         let cross_axis = b.axis.cross(&f).normalize();
         let arm = mech.add_body(
-            RigidBody::rod(format!("arm {}", DRIVE_JOINTS[i]), mp.arm, g.arm_length)
+            RigidBody::rod(format!("arm {}", DRIVE_JOINTS[i]), mp.arm, gi.arm_length)
                 .at((b.arm_centre + d) / 2.0)
                 .oriented(&frame(d - b.arm_centre, b.axis)),
         );
@@ -118,7 +161,7 @@ pub(crate) fn add_links(
             RigidBody::rod(
                 format!("forearm {}{}", ELBOW_JOINTS[i], PLATFORM_JOINTS[i]),
                 mp.forearm,
-                g.forearm_length,
+                gi.forearm_length,
             )
             .at((d + p) / 2.0)
             .oriented(&frame(f, cross_axis)),
@@ -148,8 +191,21 @@ pub fn ideal_model(
     m_build: Vector3<f64>,
     laws: Option<[MotionLaw; 3]>,
 ) -> Result<IdealModel, Mr2120Error> {
+    ideal_model_with(g, mp, &LinkSpec::nominal(g), m_build, laws)
+}
+
+/// [`ideal_model`] with each branch's own link lengths, a payload and a gravity direction
+/// ([`LinkSpec`]). The drive angles of the build configuration come from each branch's own
+/// inverse kinematics.
+pub fn ideal_model_with(
+    g: &Geometry,
+    mp: &MassProperties,
+    spec: &LinkSpec,
+    m_build: Vector3<f64>,
+    laws: Option<[MotionLaw; 3]>,
+) -> Result<IdealModel, Mr2120Error> {
     let mut mech = Mechanism::new();
-    let l = add_links(&mut mech, g, mp, m_build, laws)?;
+    let l = add_links(&mut mech, g, mp, spec, m_build, laws)?;
     for i in 0..3 {
         mech.universal_at(
             ELBOW_JOINTS[i],

@@ -24,7 +24,7 @@ pub mod record;
 pub mod trajectory;
 
 pub use geometry::{Geometry, MassProperties};
-pub use ideal::{ideal_model, IdealModel, Mr2120Error};
+pub use ideal::{ideal_model, ideal_model_with, IdealModel, LinkSpec, Mr2120Error};
 
 use nalgebra::Vector3;
 use serde::Serialize;
