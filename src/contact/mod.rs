@@ -10,6 +10,7 @@
 //! | `stiffness.rs` | Hertz stiffness from geometry and materials (ball in bore, ball on flat, ball in socket) |
 //! | `bearing.rs` | a ball end in a cylindrical socket with radial and axial clearance (force element) |
 //! | `joints.rs` | clearance pairs: universal (cross + four bearings), revolute, spherical |
+//! | `play.rs` | the quasi-static play of a clearance joint: where the load pushes it within its clearance |
 //!
 //! All quantities SI: N, m, Pa, s.
 //!
@@ -31,6 +32,7 @@ pub mod bearing;
 mod dual;
 pub mod joints;
 pub mod laws;
+pub mod play;
 pub mod stiffness;
 
 pub use bearing::{BallInSocket, ClearanceBearing};

@@ -39,15 +39,20 @@ pub struct LibraryOptions {
     pub coulomb_velocity: f64,
     /// Stribeck velocities tried, rad/s (one candidate each).
     pub stribeck_velocities: Vec<f64>,
+    /// Load scales over which a joint with play moves across its clearance, N (one
+    /// candidate each per joint and direction; cross-validation picks among them).
+    pub play_load_scales: Vec<f64>,
 }
 
 impl Default for LibraryOptions {
     /// v_c = 0.05 rad/s (well above the rate noise of encoder-differentiated velocities,
-    /// well below typical motion); Stribeck velocities 0.1, 0.3 and 1 rad/s.
+    /// well below typical motion); Stribeck velocities 0.1, 0.3 and 1 rad/s; play load
+    /// scales 1, 5 and 20 N.
     fn default() -> Self {
         Self {
             coulomb_velocity: 0.05,
             stribeck_velocities: vec![0.1, 0.3, 1.0],
+            play_load_scales: vec![1.0, 5.0, 20.0],
         }
     }
 }
@@ -83,6 +88,17 @@ pub enum Effect {
         /// Site index.
         site: usize,
     },
+    /// Clearance in a joint with play (index into the model's play sites), in one direction,
+    /// m; the joint sits where its load pushes it ([`crate::contact::play`]).
+    Play {
+        /// Play-site index.
+        site: usize,
+        /// Radial clearance (shift across the trunnion axes and the tilt it allows) or
+        /// axial play (along them).
+        direction: PlayDirection,
+        /// Load scale over which the joint moves across its clearance, N.
+        load_scale: f64,
+    },
     /// Offset of an output sensor (index of the output), in its unit.
     OutputOffset {
         /// Output index.
@@ -100,6 +116,17 @@ pub enum Effect {
         /// Family.
         family: ParameterFamily,
     },
+}
+
+/// Which clearance of a joint with play a candidate fits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PlayDirection {
+    /// Radial clearance h of the bearings: the shift across the trunnion axes and the tilt
+    /// 4h/s it allows.
+    Radial,
+    /// Axial play h_a of the bearings: the shift along the trunnion axes.
+    Axial,
 }
 
 /// One candidate: an effect, where it acts, and its parameter names/units.
@@ -214,6 +241,30 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
             grid_parameters: 0,
             bounds: vec![(0.0, 0.01)],
         });
+    }
+    if model.outputs() > 0 {
+        let grid = usize::from(opts.play_load_scales.len() > 1);
+        for (site, joint) in model.play_sites().iter().enumerate() {
+            for (direction, what) in [
+                (PlayDirection::Radial, "radial clearance"),
+                (PlayDirection::Axial, "axial play"),
+            ] {
+                for &load_scale in &opts.play_load_scales {
+                    out.push(Candidate {
+                        name: format!("{what} in joint {joint} (load scale {load_scale} N)"),
+                        effect: Effect::Play {
+                            site,
+                            direction,
+                            load_scale,
+                        },
+                        joint: None,
+                        parameters: vec!["h [m]".into()],
+                        grid_parameters: grid,
+                        bounds: vec![(0.0, 0.01)],
+                    });
+                }
+            }
+        }
     }
     for k in 0..model.outputs() {
         out.push(Candidate {
@@ -365,7 +416,7 @@ pub fn columns(
         .iter()
         .map(|c| match (c.effect, c.joint) {
             (Effect::Parameter { index, .. }, _) => {
-                let h = 1e-6 * params[index].scale.max(1e-12);
+                let h = model.parameter_step(index);
                 let (mut tp, mut tm) = (theta0.clone(), theta0.clone());
                 tp[index] += h;
                 tm[index] -= h;
@@ -405,6 +456,31 @@ pub fn columns(
                         .unwrap_or(0.0)
                 })]
             }
+            (
+                Effect::Play {
+                    site,
+                    direction,
+                    load_scale,
+                },
+                _,
+            ) => vec![outputs_only(&|k, s, _| {
+                let Some(p) = s.play.get(site) else { return 0.0 };
+                let sh = p.play.shift(&p.z_i, &p.z_j, &p.force, &p.moment, load_scale);
+                let v = match direction {
+                    PlayDirection::Radial => {
+                        (0..3)
+                            .map(|c| p.dy_dshift[c][k] * sh.radial_translation[c])
+                            .sum::<f64>()
+                            + p.dy_dtilt[k] * sh.radial_tilt
+                    }
+                    PlayDirection::Axial => (0..3).map(|c| p.dy_dshift[c][k] * sh.axial_translation[c]).sum(),
+                };
+                if v.is_finite() {
+                    v
+                } else {
+                    0.0
+                }
+            })],
             (Effect::OutputDelay { output }, _) => {
                 let mut col = vec![0.0; nc * n];
                 if let Some(r) = chans.iter().position(|&c| c == Channel::Output(output)) {
@@ -481,7 +557,7 @@ pub fn separating_experiment(a: &Candidate, b: &Candidate) -> String {
             .unwrap_or("the joints".into())
     };
     let friction = |e: Effect| matches!(e, Viscous | Coulomb | Stribeck { .. } | AsymmetricFriction);
-    let play = |e: Effect| matches!(e, Backlash | Clearance { .. });
+    let play = |e: Effect| matches!(e, Backlash | Clearance { .. } | Play { .. });
     match (a.effect, b.effect) {
         (x, y) if (friction(x) && play(y)) || (play(x) && friction(y)) => format!(
             "a slow motion that reverses the velocity of {} while the loads keep their sign, then one that reverses the loads at constant velocity (friction flips with the velocity, play with the load)",

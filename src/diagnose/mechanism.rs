@@ -13,6 +13,21 @@
 //! [`MechanismData`] ([`MechanismData::prescribe_driver`]), and the torques are the drivers'
 //! efforts ([`MechanismData::driver_effort`]).
 //!
+//! **Sensors are declared, not assumed** ([`Sensors`]): where each joint's encoder sits
+//! ([`EncoderPlacement`]: on the joint, or on the motor behind a compliant transmission whose
+//! compliance is a model parameter, with the motor's reflected rotor inertia), and which body
+//! points a tracker measures ([`PointSensor`], the output channels). With a motor-side
+//! encoder the joint lags its encoder by the transmission's wind-up c·τ under the joint-side
+//! torque τ (quasi-static: solved at every sample by fixed-point passes, warm-started from
+//! the previous sample), and the torque sensor (the motor current) reads τ + J·q̈.
+//!
+//! **Joints with play** ([`MechanismModel::with_play`]): for each declared universal joint
+//! the model gives the diagnosis how its outputs move when the joint sits off-centre in its
+//! clearance — the first-order sensitivities of the assembled configuration to offsets of
+//! the joint's constraints ([`Analysis::constraint_offset_sensitivity`]) — and the joint's
+//! force and moment, from which the play model of the contact layer
+//! ([`crate::contact::play`]) tells which way the clearance lets it sit.
+//!
 //! ```
 //! use lash::diagnose::mechanism::MechanismModel;
 //! use lash::diagnose::model::{InverseDynamicsModel, ModelParameter, ParameterFamily};
@@ -49,14 +64,73 @@
 //! ```
 
 use super::error::DiagnoseError;
-use super::model::{InverseDynamicsModel, ModelParameter};
-use crate::multibody::{Analysis, DriverHandle, Mechanism, MechanismData, ModelError, MotionLaw};
+use super::model::{InverseDynamicsModel, ModelParameter, OutputSensitivities, PlayData};
+use crate::contact::play::UniversalPlay;
+use crate::multibody::{
+    Analysis, BodyHandle, DriverHandle, JointHandle, JointKind, Mechanism, MechanismData, ModelError,
+    MotionLaw,
+};
+use nalgebra::Vector3;
 use std::cell::RefCell;
 use std::sync::Arc;
 
 /// Builds the mechanism for parameter values `theta`, attaching one driver per measured
 /// joint with the laws given (in channel order).
 pub type MechanismBuilder = Arc<dyn Fn(&[f64], &[MotionLaw]) -> Result<Mechanism, ModelError> + Send + Sync>;
+
+/// Tags a sample's configuration for the localisation (e.g. "near the direct-kinematics
+/// singularity"), from the joint positions and the outputs.
+pub type ConfigurationTagger = Arc<dyn Fn(&[f64], &[f64]) -> Option<String> + Send + Sync>;
+
+/// Where a joint's position sensor sits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EncoderPlacement {
+    /// On the joint itself: the recorded position is the joint's.
+    JointSide,
+    /// On the motor, behind a compliant transmission: the joint lags the encoder by c·τ (c
+    /// the value of parameter `compliance`, rad/(N·m); τ the joint-side torque, N·m) and the
+    /// torque sensor reads τ + J·q̈ (J the rotor inertia reflected to the joint, kg·m²).
+    MotorSide {
+        /// Index of the transmission's compliance among the model's parameters.
+        compliance: usize,
+        /// Reflected rotor inertia, kg·m².
+        rotor_inertia: f64,
+    },
+}
+
+/// An output channel: one coordinate of a body point in the base frame (a tracker).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointSensor {
+    /// Name for reports, e.g. "platform x".
+    pub name: String,
+    /// Recording role (the column name `--map` uses), e.g. "x".
+    pub role: String,
+    /// The body's name in the mechanism.
+    pub body: String,
+    /// The point, body frame, m.
+    pub point: Vector3<f64>,
+    /// Base-frame axis measured: 0, 1 or 2 (x, y, z).
+    pub axis: usize,
+}
+
+/// The sensors of a mechanism model: one encoder placement per torque channel, and the
+/// output channels.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Sensors {
+    /// Per torque channel (driver order); empty: every encoder on its joint.
+    pub encoders: Vec<EncoderPlacement>,
+    /// Output channels.
+    pub outputs: Vec<PointSensor>,
+}
+
+/// A universal joint whose clearance the diagnosis may test.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlaySite {
+    /// The joint's name in the mechanism.
+    pub joint: String,
+    /// Its play geometry (bearing spacing).
+    pub play: UniversalPlay,
+}
 
 struct Built {
     theta: Vec<f64>,
@@ -65,15 +139,37 @@ struct Built {
     analysis: Analysis,
     /// The drivers, in channel order.
     drivers: Vec<DriverHandle>,
+    /// The play sites' joints.
+    play_joints: Vec<JointHandle>,
+    /// The output sensors' bodies.
+    sensor_bodies: Vec<BodyHandle>,
     q: Vec<f64>,
     w: Vec<f64>,
     /// Joint positions of the last assembled configuration.
     last: Vec<f64>,
+    /// Transmission wind-up (encoder − joint, rad) at the last two samples evaluated (the
+    /// warm start extrapolates them).
+    windup: [Vec<f64>; 2],
+    /// Encoder positions of the last sample evaluated.
+    last_encoder: Vec<f64>,
 }
 
 /// Largest joint-position change (rad or m) assembled in one Newton solve; larger jumps
 /// between samples are walked in steps (continuation), so assembly stays on its branch.
 pub const CONTINUATION_STEP: f64 = 0.1;
+
+/// Full inverse-dynamics passes of the transmission wind-up continue until it changes by
+/// less than this, rad; a last position-only pass then places the joints (see
+/// [`MechanismModel`]'s sample evaluation).
+pub const WINDUP_REFINE: f64 = 1e-6;
+
+/// Central-difference step of the parameter sensitivities, relative to each parameter's
+/// scale: large against the assembly tolerance (1e-12), small
+/// enough that the truncation error (∝ step²) stays below 1e-8 relative.
+pub const PARAMETER_STEP: f64 = 1e-4;
+
+/// At most this many wind-up passes per sample.
+pub const WINDUP_PASSES: usize = 30;
 
 /// A mechanism built with the multibody API, seen by the diagnosis.
 pub struct MechanismModel {
@@ -81,6 +177,10 @@ pub struct MechanismModel {
     joints: Vec<String>,
     parameters: Vec<ModelParameter>,
     builder: MechanismBuilder,
+    sensors: Sensors,
+    play: Vec<PlaySite>,
+    tagger: Option<ConfigurationTagger>,
+    windows: Option<Vec<usize>>,
     /// The mechanism built for the last parameter values, with its data (a cache: the
     /// diagnosis asks for torques through `&self`).
     built: RefCell<Option<Built>>,
@@ -92,15 +192,18 @@ impl std::fmt::Debug for MechanismModel {
             .field("name", &self.name)
             .field("joints", &self.joints)
             .field("parameters", &self.parameters)
+            .field("sensors", &self.sensors)
+            .field("play", &self.play)
             .finish_non_exhaustive()
     }
 }
 
 impl MechanismModel {
     /// A model named `name` with torque channels `joints` (names, one per driver), the
-    /// perturbable `parameters` and the `builder`. Builds the mechanism with the nominal
-    /// parameter values; fails ([`DiagnoseError::Model`], naming the cause) if the builder
-    /// fails, the mechanism is invalid or it has not one driver per torque channel.
+    /// perturbable `parameters` and the `builder`; every encoder on its joint, no outputs.
+    /// Builds the mechanism with the nominal parameter values; fails
+    /// ([`DiagnoseError::Model`], naming the cause) if the builder fails, the mechanism is
+    /// invalid or it has not one driver per torque channel.
     pub fn new(
         name: &str,
         joints: Vec<String>,
@@ -112,14 +215,126 @@ impl MechanismModel {
             joints,
             parameters,
             builder,
+            sensors: Sensors::default(),
+            play: vec![],
+            tagger: None,
+            windows: None,
             built: RefCell::new(None),
         };
-        let nominal: Vec<f64> = m.parameters.iter().map(|p| p.nominal).collect();
-        m.ensure(&nominal).map_err(|message| DiagnoseError::Model {
-            model: m.name.clone(),
-            message: format!("with the nominal parameters: {message}"),
-        })?;
+        m.ensure(&m.nominal())
+            .map_err(|message| m.error(format!("with the nominal parameters: {message}")))?;
         Ok(m)
+    }
+
+    fn nominal(&self) -> Vec<f64> {
+        self.parameters.iter().map(|p| p.nominal).collect()
+    }
+
+    fn error(&self, message: String) -> DiagnoseError {
+        DiagnoseError::Model {
+            model: self.name.clone(),
+            message,
+        }
+    }
+
+    /// Declares the sensors. Fails ([`DiagnoseError::Model`]) for an encoder list whose
+    /// length is not the number of torque channels, a compliance that names no parameter, a
+    /// negative or non-finite rotor inertia, a sensor on a body the mechanism does not have,
+    /// or an axis other than 0, 1, 2.
+    pub fn with_sensors(mut self, sensors: Sensors) -> Result<Self, DiagnoseError> {
+        if !sensors.encoders.is_empty() && sensors.encoders.len() != self.joints.len() {
+            return Err(self.error(format!(
+                "{} encoder placements for {} torque channels (one per channel, in channel order)",
+                sensors.encoders.len(),
+                self.joints.len()
+            )));
+        }
+        for (j, e) in sensors.encoders.iter().enumerate() {
+            if let EncoderPlacement::MotorSide {
+                compliance,
+                rotor_inertia,
+            } = *e
+            {
+                if compliance >= self.parameters.len() {
+                    return Err(self.error(format!(
+                        "the encoder of {} names compliance parameter {compliance}, but the model has {} parameters",
+                        self.joints[j],
+                        self.parameters.len()
+                    )));
+                }
+                if !(rotor_inertia.is_finite() && rotor_inertia >= 0.0) {
+                    return Err(self.error(format!(
+                        "the rotor inertia of {} must be finite and ≥ 0 kg m², got {rotor_inertia}",
+                        self.joints[j]
+                    )));
+                }
+            }
+        }
+        {
+            for s in &sensors.outputs {
+                if s.axis > 2 || !s.point.iter().all(|v| v.is_finite()) {
+                    return Err(self.error(format!(
+                        "output sensor '{}': axis must be 0, 1 or 2 (x, y, z) and the point finite",
+                        s.name
+                    )));
+                }
+            }
+        }
+        self.sensors = sensors;
+        *self.built.borrow_mut() = None;
+        self.ensure(&self.nominal()).map_err(|m| self.error(m))?;
+        Ok(self)
+    }
+
+    /// Declares universal joints whose clearance the diagnosis may test. Fails
+    /// ([`DiagnoseError::Model`]) for a joint the mechanism does not have or that is not a
+    /// universal joint (the play of other kinds is not modelled yet), or a bearing spacing
+    /// that is not positive.
+    pub fn with_play(mut self, sites: Vec<PlaySite>) -> Result<Self, DiagnoseError> {
+        {
+            let b = self.built.borrow();
+            let Some(built) = b.as_ref() else {
+                return Err(self.error("the mechanism is not built".into()));
+            };
+            for s in &sites {
+                let Some((_, j)) = built.model.joints().find(|(_, j)| j.name == s.joint) else {
+                    return Err(self.error(format!("no joint named '{}' for a play site", s.joint)));
+                };
+                if j.kind != JointKind::Universal {
+                    return Err(self.error(format!(
+                        "joint '{}' is a {:?} joint: only the play of universal joints is modelled",
+                        s.joint, j.kind
+                    )));
+                }
+                if !(s.play.ball_spacing.is_finite() && s.play.ball_spacing > 0.0) {
+                    return Err(self.error(format!(
+                        "joint '{}': the bearing spacing must be positive, got {} m",
+                        s.joint, s.play.ball_spacing
+                    )));
+                }
+            }
+        }
+        self.play = sites;
+        *self.built.borrow_mut() = None;
+        self.ensure(&self.nominal()).map_err(|m| self.error(m))?;
+        Ok(self)
+    }
+
+    /// Tags configurations for the localisation.
+    pub fn with_tagger(mut self, tagger: ConfigurationTagger) -> Self {
+        self.tagger = Some(tagger);
+        self
+    }
+
+    /// The half-widths (samples) of rate differentiation the cross-validation tries.
+    pub fn with_derivative_windows(mut self, windows: Vec<usize>) -> Self {
+        self.windows = Some(windows);
+        self
+    }
+
+    /// The declared sensors.
+    pub fn sensors(&self) -> &Sensors {
+        &self.sensors
     }
 
     /// Builds (or reuses) the mechanism for `theta`; the error names the cause.
@@ -140,19 +355,186 @@ impl MechanismModel {
                 self.joints.len()
             ));
         }
+        let play_joints = self
+            .play
+            .iter()
+            .map(|s| {
+                model
+                    .joints()
+                    .find(|(_, j)| j.name == s.joint)
+                    .map(|(h, _)| h)
+                    .ok_or_else(|| format!("no joint named '{}' for a play site", s.joint))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let sensor_bodies = self
+            .sensors
+            .outputs
+            .iter()
+            .map(|s| {
+                model
+                    .bodies()
+                    .bodies
+                    .iter()
+                    .position(|b| b.name == s.body)
+                    .map(BodyHandle::from_index)
+                    .ok_or_else(|| {
+                        format!(
+                            "output sensor '{}' sits on body '{}', which the mechanism does not have",
+                            s.name, s.body
+                        )
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
         let (q, w) = model.initial_guess();
         let data = MechanismData::new(&model);
+        let n = self.joints.len();
         *b = Some(Built {
             theta: theta.to_vec(),
             model,
             data,
             analysis,
             drivers,
+            play_joints,
+            sensor_bodies,
             q,
             w,
-            last: vec![0.0; self.joints.len()],
+            last: vec![0.0; n],
+            windup: [vec![0.0; n], vec![0.0; n]],
+            last_encoder: vec![f64::NAN; n],
         });
         Ok(())
+    }
+
+    fn compliance(&self, theta: &[f64], j: usize) -> f64 {
+        match self.sensors.encoders.get(j) {
+            Some(EncoderPlacement::MotorSide { compliance, .. }) => theta[*compliance],
+            _ => 0.0,
+        }
+    }
+
+    /// The joint-side torques at joint positions `qa` (with rates and accelerations): the
+    /// drivers' efforts, the state left in `built`. None where the mechanism cannot be
+    /// assembled or its inverse dynamics is singular.
+    fn joint_torques(built: &mut Built, qa: &[f64], qd: &[f64], qdd: &[f64]) -> Option<Vec<f64>> {
+        let n = qa.len();
+        // Walk large jumps (the first sample, or a new recording) from the last assembled
+        // configuration (the built one at first: drive coordinates 0).
+        let jump = (0..n).map(|j| (qa[j] - built.last[j]).abs()).fold(0.0, f64::max);
+        let steps = (jump / CONTINUATION_STEP).ceil().min(1000.0) as usize;
+        for k in 1..steps {
+            let f = k as f64 / steps as f64;
+            for j in 0..n {
+                let x = built.last[j] + f * (qa[j] - built.last[j]);
+                // The sample's motion as a local quadratic in time about t = 0 (the analyses
+                // differentiate driver laws in time).
+                let _ = built.data.prescribe_driver(built.drivers[j], 0.0, [x, 0.0, 0.0]);
+            }
+            match built
+                .analysis
+                .assemble(&built.model, &mut built.data, 0.0, &built.q)
+            {
+                Ok(x) => built.q = x,
+                Err(_) => break,
+            }
+        }
+        for j in 0..n {
+            let _ = built
+                .data
+                .prescribe_driver(built.drivers[j], 0.0, [qa[j], qd[j], qdd[j]]);
+        }
+        // Continue from the previous sample (samples come in time order); fall back to the
+        // built configuration if that fails.
+        let Built {
+            model,
+            data,
+            analysis,
+            ..
+        } = built;
+        let snap = match analysis.state_at(model, data, 0.0, &built.q, &built.w) {
+            Ok(s) => Ok(s),
+            Err(_) => {
+                let (q0, w0) = model.initial_guess();
+                analysis.state_at(model, data, 0.0, &q0, &w0)
+            }
+        };
+        let s = snap.ok()?;
+        let tau: Vec<f64> = (0..n)
+            .map(|j| data.driver_effort(built.drivers[j]).unwrap_or(f64::NAN))
+            .collect();
+        built.q = s.q;
+        built.w = s.w;
+        built.last = qa.to_vec();
+        Some(tau)
+    }
+
+    /// The sample at encoder positions `q`: joint positions after the wind-up, torques as
+    /// the torque sensors read them; the state is left in the cache. None where the
+    /// mechanism cannot be evaluated.
+    fn sample(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64]) -> Option<Vec<f64>> {
+        self.ensure(theta).ok()?;
+        let n = self.joints.len();
+        let c: Vec<f64> = (0..n).map(|j| self.compliance(theta, j)).collect();
+        let mut b = self.built.borrow_mut();
+        let built = b.as_mut()?;
+        // Warm start from the previous samples' wind-up when this sample is near them
+        // (linear extrapolation: the wind-up follows the torque smoothly in time).
+        let near = (0..n).all(|j| (q[j] - built.last_encoder[j]).abs() < CONTINUATION_STEP);
+        if !near {
+            built.windup = [vec![0.0; n], vec![0.0; n]];
+        }
+        let mut qa: Vec<f64> = (0..n)
+            .map(|j| q[j] - (2.0 * built.windup[1][j] - built.windup[0][j]))
+            .collect();
+        let mut tau = Self::joint_torques(built, &qa, qd, qdd)?;
+        if c.iter().any(|&v| v != 0.0) {
+            // Full passes until the wind-up moves by less than WINDUP_REFINE (one pass from a
+            // warm start), then one position-only pass: the joints sit at q − c·τ with τ from
+            // the last full pass (its error, ∂τ/∂q times a change below WINDUP_REFINE, is far
+            // below any torque sensor's noise; the position error is c·∂τ/∂q smaller still).
+            for _ in 0..WINDUP_PASSES {
+                let next: Vec<f64> = (0..n).map(|j| q[j] - c[j] * tau[j]).collect();
+                let change = (0..n).map(|j| (next[j] - qa[j]).abs()).fold(0.0, f64::max);
+                qa = next;
+                if change < WINDUP_REFINE {
+                    break;
+                }
+                tau = Self::joint_torques(built, &qa, qd, qdd)?;
+            }
+            for j in 0..n {
+                let _ = built
+                    .data
+                    .prescribe_driver(built.drivers[j], 0.0, [qa[j], qd[j], qdd[j]]);
+            }
+            let q_new = built
+                .analysis
+                .assemble(&built.model, &mut built.data, 0.0, &built.q)
+                .ok()?;
+            built.data.q.clone_from(&q_new);
+            built.q = q_new;
+            built.last = qa.clone();
+        }
+        let now: Vec<f64> = (0..n).map(|j| q[j] - qa[j]).collect();
+        built.windup = [std::mem::take(&mut built.windup[1]), now];
+        if !near {
+            built.windup[0] = built.windup[1].clone();
+        }
+        built.last_encoder = q[..n].to_vec();
+        for (j, t) in tau.iter_mut().enumerate() {
+            if let Some(EncoderPlacement::MotorSide { rotor_inertia, .. }) = self.sensors.encoders.get(j) {
+                *t += rotor_inertia * qdd[j];
+            }
+        }
+        Some(tau)
+    }
+
+    /// The outputs at the state left in the cache.
+    fn outputs_now(&self, y: &mut [f64]) {
+        let b = self.built.borrow();
+        let Some(built) = b.as_ref() else { return };
+        for (k, (s, &h)) in self.sensors.outputs.iter().zip(&built.sensor_bodies).enumerate() {
+            let r = built.data.body_position(h) + built.data.body_rotation(h) * s.point;
+            y[k] = r[s.axis];
+        }
     }
 }
 
@@ -172,65 +554,123 @@ impl InverseDynamicsModel for MechanismModel {
     fn parameters(&self) -> Vec<ModelParameter> {
         self.parameters.clone()
     }
-    /// Driver torques (N·m, or N for a prismatic drive) at the sample; NaN where the
-    /// mechanism cannot be assembled, its inverse dynamics is singular or the builder fails
-    /// for perturbed parameter values (the nominal ones are checked by
-    /// [`MechanismModel::new`]).
+    /// [`PARAMETER_STEP`] of the parameter's scale.
+    fn parameter_step(&self, k: usize) -> f64 {
+        PARAMETER_STEP * self.parameters.get(k).map_or(1.0, |p| p.scale).max(1e-12)
+    }
+    /// Driver torques (N·m, or N for a prismatic drive) at the sample, as the torque
+    /// sensors read them; NaN where the mechanism cannot be assembled, its inverse dynamics
+    /// is singular or the builder fails for perturbed parameter values (the nominal ones are
+    /// checked by [`MechanismModel::new`]).
     fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
+        let mut y = vec![0.0; self.sensors.outputs.len()];
+        self.evaluate(theta, q, qd, qdd, tau, &mut y);
+    }
+    fn evaluate(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64], y: &mut [f64]) {
         let n = self.joints.len();
-        tau[..n].iter_mut().for_each(|v| *v = f64::NAN);
-        if self.ensure(theta).is_err() {
-            return;
+        match self.sample(theta, q, qd, qdd) {
+            Some(t) => {
+                tau[..n].copy_from_slice(&t);
+                self.outputs_now(y);
+            }
+            None => {
+                tau[..n].iter_mut().for_each(|v| *v = f64::NAN);
+                y.iter_mut().for_each(|v| *v = f64::NAN);
+            }
         }
+    }
+    fn outputs(&self) -> usize {
+        self.sensors.outputs.len()
+    }
+    fn output_name(&self, k: usize) -> String {
+        self.sensors
+            .outputs
+            .get(k)
+            .map_or_else(|| format!("output {}", k + 1), |s| s.name.clone())
+    }
+    fn output_role(&self, k: usize) -> String {
+        self.sensors
+            .outputs
+            .get(k)
+            .map_or_else(|| format!("y{}", k + 1), |s| s.role.clone())
+    }
+    fn derivative_windows(&self) -> Vec<usize> {
+        self.windows
+            .clone()
+            .unwrap_or_else(|| super::model::DEFAULT_DERIVATIVE_WINDOWS.to_vec())
+    }
+    fn drive_compliance(&self, theta: &[f64], j: usize) -> f64 {
+        self.compliance(theta, j)
+    }
+    fn play_sites(&self) -> Vec<String> {
+        self.play.iter().map(|s| s.joint.clone()).collect()
+    }
+    /// Per play site: how the outputs move when the joint's side j shifts along base x, y,
+    /// z or tilts about z_i × z_j (first order, from the assembled configuration of this
+    /// sample), the joint's axes, force and moment.
+    fn output_sensitivities(
+        &self,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        _y: &[f64],
+    ) -> Option<OutputSensitivities> {
+        if self.play.is_empty() || self.sensors.outputs.is_empty() {
+            return None;
+        }
+        self.sample(theta, q, qd, qdd)?;
         let mut b = self.built.borrow_mut();
-        let Some(built) = b.as_mut() else { return };
-        // Walk large jumps (the first sample, or a new recording) from the last assembled
-        // configuration (the built one at first: drive coordinates 0).
-        let jump = (0..n).map(|j| (q[j] - built.last[j]).abs()).fold(0.0, f64::max);
-        let steps = (jump / CONTINUATION_STEP).ceil().min(1000.0) as usize;
-        for k in 1..steps {
-            let f = k as f64 / steps as f64;
-            for j in 0..n {
-                let x = built.last[j] + f * (q[j] - built.last[j]);
-                // The sample's motion as a local quadratic in time about t = 0 (the analyses
-                // differentiate driver laws in time).
-                let _ = built.data.prescribe_driver(built.drivers[j], 0.0, [x, 0.0, 0.0]);
-            }
-            match built
-                .analysis
-                .assemble(&built.model, &mut built.data, 0.0, &built.q)
-            {
-                Ok(x) => built.q = x,
-                Err(_) => break,
-            }
+        let built = b.as_mut()?;
+        let lay = built.model.layout().clone();
+        let mut rows = vec![];
+        for &jh in &built.play_joints {
+            let r = lay.joint_lambda(jh);
+            rows.extend(r.start..r.start + 4);
         }
-        for j in 0..n {
-            let _ = built
-                .data
-                .prescribe_driver(built.drivers[j], 0.0, [q[j], qd[j], qdd[j]]);
-        }
-        // Continue from the previous sample (samples come in time order); fall back to the
-        // built configuration if that fails.
-        let Built {
-            model,
-            data,
-            analysis,
-            ..
-        } = built;
-        let snap = match analysis.state_at(model, data, 0.0, &built.q, &built.w) {
-            Ok(s) => Ok(s),
-            Err(_) => {
-                let (q0, w0) = model.initial_guess();
-                analysis.state_at(model, data, 0.0, &q0, &w0)
-            }
+        let q_now = built.data.q.clone();
+        let dq = built
+            .analysis
+            .constraint_offset_sensitivity(&built.model, &mut built.data, 0.0, &q_now, &rows)
+            .ok()?;
+        let outputs = &self.sensors.outputs;
+        let dy = |col: &[f64], sign: f64| -> Vec<f64> {
+            outputs
+                .iter()
+                .zip(&built.sensor_bodies)
+                .map(|(s, &h)| {
+                    sign * Analysis::point_variation(&built.model, &q_now, col, h, &s.point)[s.axis]
+                })
+                .collect()
         };
-        if let Ok(s) = snap {
-            for j in 0..n {
-                tau[j] = data.driver_effort(built.drivers[j]).unwrap_or(f64::NAN);
-            }
-            built.q = s.q;
-            built.w = s.w;
-            built.last = q[..n].to_vec();
+        let mut play = vec![];
+        for (k, (&jh, site)) in built.play_joints.iter().zip(&self.play).enumerate() {
+            let joint = built.model.joint(jh)?;
+            let reaction = built.data.reaction(&built.model, jh)?;
+            let axis = |side: crate::multibody::Attach, a: Vector3<f64>| match side {
+                crate::multibody::Attach::Ground => a,
+                crate::multibody::Attach::Body(h) => built.data.body_rotation(h) * a,
+            };
+            let z_i = axis(joint.body_i, joint.frame_i.axes.column(2).into());
+            let z_j = axis(joint.body_j, joint.frame_j.axes.column(2).into());
+            play.push(PlayData {
+                dy_dshift: [
+                    dy(&dq[4 * k], 1.0),
+                    dy(&dq[4 * k + 1], 1.0),
+                    dy(&dq[4 * k + 2], 1.0),
+                ],
+                // Offset ε of the perpendicularity row is −φ.
+                dy_dtilt: dy(&dq[4 * k + 3], -1.0),
+                z_i,
+                z_j,
+                force: Vector3::from(reaction.force),
+                moment: Vector3::from(reaction.torque),
+                play: site.play,
+            });
         }
+        Some(OutputSensitivities { sites: vec![], play })
+    }
+    fn configuration_tag(&self, _theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
+        self.tagger.as_ref().and_then(|t| t(q, y))
     }
 }

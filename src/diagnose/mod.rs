@@ -7,7 +7,8 @@
 //! | `columns.rs` | which column each role of a model reads by default; derivative-window grids |
 //! | `signal.rs` | noise floor, derivatives on irregular grids, autocorrelation |
 //! | `model.rs` | the nominal model (torques from measured motion, outputs such as a tracked platform position), its perturbable parameters; the DFKI pendulum and the MR2120 |
-//! | `mechanism.rs` | any mechanism built with the multibody API as a nominal model |
+//! | `mechanism.rs` | any mechanism built with the multibody API as a nominal model: declared sensors (encoder placement, trackers), joints with play |
+//! | `mr2120.rs` | the MR2120's multibody nominal model (the diagnosis' nominal for the MR2120) |
 //! | `data.rs` | measured motion and torques of one recording, checked against the model |
 //! | `candidates.rs` | the library of candidate physics and their regressors |
 //! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
@@ -64,6 +65,7 @@ pub mod format;
 pub mod locate;
 pub mod mechanism;
 pub mod model;
+pub mod mr2120;
 mod options;
 mod outcome;
 pub mod recording;

@@ -50,9 +50,34 @@ pub enum ParameterFamily {
 /// differences of the whole model.)
 #[derive(Debug, Clone, PartialEq)]
 pub struct OutputSensitivities {
-    /// Per clearance site: ∂y/∂(displacement of the site along its load), and that load
-    /// (its sign sets which side of the clearance the joint sits on).
+    /// Per clearance site of a closed-form model ([`InverseDynamicsModel::clearance_sites`]):
+    /// ∂y/∂(displacement of the site along its load), and that load (its sign sets which
+    /// side of the clearance the joint sits on).
     pub sites: Vec<(Vec<f64>, f64)>,
+    /// Per joint with play ([`InverseDynamicsModel::play_sites`]): its sensitivities, axes
+    /// and loads at this sample.
+    pub play: Vec<PlayData>,
+}
+
+/// A universal joint with play at one sample: how the outputs move when its side j shifts
+/// or tilts from side i, its axes, and the loads that set where it sits in its clearance
+/// ([`crate::contact::play`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlayData {
+    /// ∂y/∂(shift of side j along base x, y, z), per output (output unit per m).
+    pub dy_dshift: [Vec<f64>; 3],
+    /// ∂y/∂(tilt of side j about z_i × z_j), per output (output unit per rad).
+    pub dy_dtilt: Vec<f64>,
+    /// Axis of the side-i trunnions (unit, base frame).
+    pub z_i: Vector3<f64>,
+    /// Axis of the side-j trunnions (unit, base frame).
+    pub z_j: Vector3<f64>,
+    /// Force of the joint on side j, N (base frame).
+    pub force: Vector3<f64>,
+    /// Moment of the joint on side j about the joint centre, N·m (base frame).
+    pub moment: Vector3<f64>,
+    /// The play geometry.
+    pub play: crate::contact::play::UniversalPlay,
 }
 
 /// One perturbable parameter of a nominal model.
@@ -80,6 +105,12 @@ pub trait InverseDynamicsModel {
     fn joint_name(&self, j: usize) -> String;
     /// Parameters the candidate library may perturb (nominal values included).
     fn parameters(&self) -> Vec<ModelParameter>;
+    /// Step of the central difference that gives the sensitivities to parameter `k`, in its
+    /// unit. Default: 1e-6 of its scale (closed-form models, exact to rounding); a model
+    /// solved iteratively takes a larger step so that its iteration tolerance does not show.
+    fn parameter_step(&self, k: usize) -> f64 {
+        1e-6 * self.parameters().get(k).map_or(1.0, |p| p.scale).max(1e-12)
+    }
     /// Joint torques (N·m) with parameter values `theta` (same order as
     /// [`parameters`](Self::parameters)) at joint positions, rates and accelerations.
     fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]);
@@ -140,6 +171,11 @@ pub trait InverseDynamicsModel {
     /// the joint side (friction) winds it up and moves the arm against its encoder. Default 0.
     fn drive_compliance(&self, _theta: &[f64], _j: usize) -> f64 {
         0.0
+    }
+    /// Joints with play (names), in the order of [`OutputSensitivities::play`]. Default:
+    /// none.
+    fn play_sites(&self) -> Vec<String> {
+        vec![]
     }
     /// Clearance sites (names), in the order of [`OutputSensitivities::sites`].
     fn clearance_sites(&self) -> Vec<String> {
@@ -447,7 +483,7 @@ impl InverseDynamicsModel for Mr2120Model {
             let dy: Vec<f64> = (0..3).map(|k| s.jm[(k, i)] * s.f_dot_axis[i] / s.jq[i]).collect();
             (dy, s.axial_force[i])
         }));
-        Some(OutputSensitivities { sites })
+        Some(OutputSensitivities { sites, play: vec![] })
     }
     fn drive_compliance(&self, theta: &[f64], j: usize) -> f64 {
         theta[11 + j]

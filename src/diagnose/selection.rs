@@ -349,6 +349,15 @@ fn same_family(a: &Candidate, b: &Candidate) -> bool {
         Clearance { .. } => 10,
         OutputOffset { .. } => 11,
         OutputDelay { .. } => 12,
+        Play { .. } => 13,
     };
-    a.joint == b.joint && fam(a.effect) == fam(b.effect) && fam(a.effect) != 7
+    // Load scales of one joint's play are refinements; other joints are rivals.
+    let site = |e: Effect| match e {
+        Play { site, direction, .. } => Some((site, direction)),
+        _ => None,
+    };
+    a.joint == b.joint
+        && fam(a.effect) == fam(b.effect)
+        && fam(a.effect) != 7
+        && site(a.effect) == site(b.effect)
 }

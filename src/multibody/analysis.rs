@@ -9,6 +9,7 @@
 //! redundant constraints); they run once per output point, not in the integrator's loop.
 
 use super::body::Attach;
+use super::body::BodyHandle;
 use super::constraints::{Pose, Row};
 use super::data::MechanismData;
 use super::error::ModelError;
@@ -17,7 +18,7 @@ use super::joints::Joint;
 #[cfg(doc)]
 use super::layout::Layout;
 use super::model::Mechanism;
-use super::rotation::l_matrix;
+use super::rotation::{d_rot, l_matrix};
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
 
@@ -145,6 +146,24 @@ impl Analysis {
         (f, j)
     }
 
+    /// The solution of a square, regular system by LU; otherwise (more unknowns than
+    /// equations, redundant constraints, a singular configuration) the minimum-norm
+    /// least-squares solution by SVD. The LU result is used only when it is finite and
+    /// solves the system to 1e-9 of its right-hand side.
+    fn solve_square_or_min_norm(a: DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, ModelError> {
+        if a.is_square() {
+            if let Some(x) = a.clone().lu().solve(b) {
+                let res = (&a * &x - b).amax();
+                if x.iter().all(|v| v.is_finite()) && res <= 1e-9 * b.amax().max(1e-300) {
+                    return Ok(x);
+                }
+            }
+        }
+        a.svd(true, true)
+            .solve(b, 1e-12)
+            .map_err(|e| ModelError::Output(e.to_string()))
+    }
+
     /// Velocity Jacobian B (m × 6nb) and Φ_t at the state last set.
     fn velocity_system(ev: &Evaluator) -> (DMatrix<f64>, DVector<f64>) {
         let lay = &ev.layout;
@@ -238,10 +257,7 @@ impl Analysis {
             if norm <= self.options.tolerance {
                 return Ok(q);
             }
-            let step = j
-                .svd(true, true)
-                .solve(&f, 1e-12)
-                .map_err(|e| ModelError::Output(e.to_string()))?;
+            let step = Self::solve_square_or_min_norm(j, &f)?;
             let mut alpha = 1.0;
             // Damped step: halve while the residual grows a lot (far from the solution).
             for _ in 0..10 {
@@ -289,10 +305,7 @@ impl Analysis {
         let (bm, phit) = Self::velocity_system(&data.ev);
         let w0 = DVector::from_column_slice(guess);
         let r = &bm * &w0 + phit;
-        let dw = bm
-            .svd(true, true)
-            .solve(&r, 1e-12)
-            .map_err(|e| ModelError::Output(e.to_string()))?;
+        let dw = Self::solve_square_or_min_norm(bm, &r)?;
         Ok((w0 - dw).iter().copied().collect())
     }
 
@@ -388,6 +401,21 @@ impl Analysis {
                 rhs[6 * b + 3 + c] = ld.torque[c] - gyro[c];
             }
         }
+        // A driven mechanism without free degrees of freedom has a square, regular B: then
+        // B·ẇ = γ and λ = B⁻ᵀ(Q − M·ẇ) from LUs of B and Bᵀ (a fraction of the work of the
+        // augmented system below).
+        if lay.constraints() == n {
+            let lu = bm.clone().lu();
+            if let Some(wdot) = lu.solve(&gamma) {
+                let m = k.view((0, 0), (n, n)).clone_owned();
+                let r = rhs.rows(0, n) - m * &wdot;
+                if let Some(lambda) = bm.transpose().lu().solve(&r) {
+                    if wdot.iter().chain(lambda.iter()).all(|v| v.is_finite()) {
+                        return Ok((wdot.iter().copied().collect(), lambda.iter().copied().collect()));
+                    }
+                }
+            }
+        }
         k.view_mut((0, n), (n, lay.constraints()))
             .copy_from(&bm.transpose());
         k.view_mut((n, 0), (lay.constraints(), n)).copy_from(&bm);
@@ -439,6 +467,71 @@ impl Analysis {
         };
         data.store(&s);
         Ok(s)
+    }
+
+    /// How the assembled configuration `q` (at time `t`) of a mechanism without free degrees
+    /// of freedom moves when constraint equations are offset: for each row k of `rows`
+    /// (indices into the constraint vector, e.g. from [`Layout::joint_lambda`]), the change
+    /// dq/dε of the positions when Φ_k(q, t) = 0 becomes Φ_k(q, t) = ε — to first order, from
+    /// one LU of the assembly Jacobian. For a joint's point constraint (rows 0–2 of a
+    /// spherical, universal or revolute joint) ε is a displacement of the side-j point from
+    /// the side-i point along base x, y, z (m); for a universal joint's perpendicularity row
+    /// (row 3) ε = −φ, φ a rotation of side j about z_i × z_j (rad). Fails if the
+    /// mechanism has free degrees of freedom or is singular at `q` (the configuration is not
+    /// determined by its constraints).
+    pub fn constraint_offset_sensitivity(
+        &self,
+        model: &Mechanism,
+        data: &mut MechanismData,
+        t: f64,
+        q: &[f64],
+        rows: &[usize],
+    ) -> Result<Vec<Vec<f64>>, ModelError> {
+        model.check_data(data)?;
+        let (_, j) = Self::position_system(&mut data.ev, t, q);
+        if !j.is_square() {
+            return Err(ModelError::Output(format!(
+                "constraint-offset sensitivity needs a mechanism without free degrees of freedom ({} equations for {} coordinates)",
+                j.nrows(),
+                j.ncols()
+            )));
+        }
+        let nc = data.ev.layout.constraints();
+        if let Some(&k) = rows.iter().find(|&&k| k >= nc) {
+            return Err(ModelError::Output(format!(
+                "constraint row {k} out of range ({nc} constraint equations)"
+            )));
+        }
+        let lu = j.lu();
+        rows.iter()
+            .map(|&k| {
+                let mut e = DVector::zeros(lu.l().nrows());
+                e[k] = 1.0;
+                match lu.solve(&e) {
+                    Some(x) if x.iter().all(|v| v.is_finite()) => Ok(x.iter().copied().collect()),
+                    _ => Err(ModelError::Output(format!(
+                        "the assembly Jacobian is singular at t = {t} s: the configuration does not determine how constraint '{}' moves the mechanism",
+                        Self::constraint_name(model, data, k)
+                    ))),
+                }
+            })
+            .collect()
+    }
+
+    /// First-order displacement (m, base frame) of the point `s` (body frame, m) of body
+    /// `body` when the positions `q` change by `dq` (e.g. a column of
+    /// [`constraint_offset_sensitivity`](Self::constraint_offset_sensitivity)).
+    pub fn point_variation(
+        model: &Mechanism,
+        q: &[f64],
+        dq: &[f64],
+        body: BodyHandle,
+        s: &Vector3<f64>,
+    ) -> Vector3<f64> {
+        let r = model.layout().body_q(body);
+        let p = nalgebra::Vector4::new(q[r.start + 3], q[r.start + 4], q[r.start + 5], q[r.start + 6]);
+        let dp = nalgebra::Vector4::new(dq[r.start + 3], dq[r.start + 4], dq[r.start + 5], dq[r.start + 6]);
+        Vector3::new(dq[r.start], dq[r.start + 1], dq[r.start + 2]) + d_rot(&p, s) * dp
     }
 
     /// Kinematic analysis of a driven mechanism over `times`: positions by assembly

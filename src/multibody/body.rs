@@ -14,6 +14,10 @@ impl BodyHandle {
     pub fn index(self) -> usize {
         self.0
     }
+    /// The handle of the body at `index` in its set (for a body found by name).
+    pub fn from_index(index: usize) -> Self {
+        Self(index)
+    }
 }
 
 /// Where a marker or joint side is attached: the fixed ground frame or a body.

@@ -1,0 +1,135 @@
+//! The play of a joint with clearance, quasi-statically: how far, and which way, the
+//! clearance lets the joint's side j sit from side i under the load the joint carries. One
+//! play model: the diagnosis' clearance candidates use it, and so can linearised worst-case
+//! bounds (the loads set which side of each bearing a joint sits on).
+//!
+//! A universal joint with clearance ([`super::universal_with_clearance`]) is a cross in two
+//! trunnion pairs; each pair has two bearings ([`BearingDesign`]) a ball spacing s apart,
+//! with radial clearance h (the ball centre may move h off the bore axis) and axial play
+//! h_a (total, ±h_a/2). Pushed by a force F (the joint's force on side j), each pair's
+//! bearings sit against the bore wall opposite F's component across the pair's axis, and
+//! against the end opposite F's component along it; a moment M about n = z_i × z_j (the
+//! rotation a universal joint locks) tilts each pair by up to 2h/s. So side j sits, from
+//! side i,
+//!
+//! * across the axes: −h·(û_i + û_j), û_k the unit part of F perpendicular to axis z_k;
+//! * along the axes: −(h_a/2)·(sign(F·z_i) z_i + sign(F·z_j) z_j);
+//! * tilted about n by −(4h/s)·sign(M·n).
+//!
+//! Signs and unit vectors are smoothed over a load scale F_c (N): sign(x) → x/√(x² + F_c²),
+//! û → F⊥/√(|F⊥|² + F_c²) — below F_c the joint floats in its play. The moment enters as
+//! the force couple it makes on the bearings, M/s. F_c is not a property of the joint but
+//! of how firmly a load must press to move it across the play (friction, preload): the
+//! diagnosis chooses it by cross-validation. Units: m, rad, N, N·m.
+
+use super::BearingDesign;
+use nalgebra::Vector3;
+
+/// The play of a universal joint: two trunnion pairs with the same bearings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UniversalPlay {
+    /// Distance between the two bearings of a trunnion pair, m.
+    pub ball_spacing: f64,
+}
+
+impl UniversalPlay {
+    /// The play geometry of a universal joint built from `design`.
+    pub fn from_design(design: &BearingDesign) -> Self {
+        Self {
+            ball_spacing: design.ball_spacing,
+        }
+    }
+}
+
+/// Where a universal joint's side j sits from side i, per unit clearance: the part of a
+/// translation proportional to the radial clearance h, its tilt, and the part proportional
+/// to the axial play h_a.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlayShift {
+    /// Translation of side j per metre of radial clearance (base frame, m/m).
+    pub radial_translation: Vector3<f64>,
+    /// Rotation of side j about n = z_i × z_j per metre of radial clearance, rad/m.
+    pub radial_tilt: f64,
+    /// Translation of side j per metre of axial play (base frame, m/m).
+    pub axial_translation: Vector3<f64>,
+}
+
+/// x/√(x² + s²): a smooth sign over the scale s (exact sign for s = 0, 0 at x = 0).
+pub fn smooth_sign(x: f64, scale: f64) -> f64 {
+    let d = (x * x + scale * scale).sqrt();
+    if d > 0.0 {
+        x / d
+    } else {
+        0.0
+    }
+}
+
+impl UniversalPlay {
+    /// The shift of side j under the joint's force `force` on side j (N, base frame) and
+    /// moment `moment` on side j (N·m, base frame), with the axes `z_i`, `z_j` (unit, base
+    /// frame) at the current pose, smoothed over the load scale `load_scale` (N).
+    pub fn shift(
+        &self,
+        z_i: &Vector3<f64>,
+        z_j: &Vector3<f64>,
+        force: &Vector3<f64>,
+        moment: &Vector3<f64>,
+        load_scale: f64,
+    ) -> PlayShift {
+        let across = |z: &Vector3<f64>| {
+            let perp = force - z * force.dot(z);
+            let d = (perp.norm_squared() + load_scale * load_scale).sqrt();
+            if d > 0.0 {
+                perp / d
+            } else {
+                Vector3::zeros()
+            }
+        };
+        let n = z_i.cross(z_j);
+        let n = if n.norm() > 0.0 { n.normalize() } else { n };
+        let s = self.ball_spacing;
+        PlayShift {
+            radial_translation: -(across(z_i) + across(z_j)),
+            radial_tilt: -(4.0 / s) * smooth_sign(moment.dot(&n) / s, load_scale),
+            axial_translation: -0.5
+                * (z_i * smooth_sign(force.dot(z_i), load_scale)
+                    + z_j * smooth_sign(force.dot(z_j), load_scale)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::Damping;
+
+    #[test]
+    fn a_hanging_load_sits_on_the_far_side_of_the_play() {
+        let play = UniversalPlay::from_design(&BearingDesign::mr2120(1e-5, 2e-5, Damping::Elastic));
+        // Axes horizontal (x and y): a weight on side j pulled down by the joint's upward
+        // force sags by the radial clearance across both pairs.
+        let up = Vector3::new(0.0, 0.0, 100.0);
+        let s = play.shift(&Vector3::x(), &Vector3::y(), &up, &Vector3::zeros(), 1e-3);
+        assert!((s.radial_translation - Vector3::new(0.0, 0.0, -2.0)).norm() < 1e-6);
+        assert_eq!(s.axial_translation, Vector3::zeros());
+        // A load along z_i pushes that pair against its end: −h_a/2 along z_i; across z_j it
+        // sits h off.
+        let along = Vector3::new(50.0, 0.0, 0.0);
+        let s = play.shift(&Vector3::x(), &Vector3::y(), &along, &Vector3::zeros(), 1e-3);
+        assert!((s.axial_translation - Vector3::new(-0.5, 0.0, 0.0)).norm() < 1e-6);
+        assert!((s.radial_translation - Vector3::new(-1.0, 0.0, 0.0)).norm() < 1e-6);
+        // A moment about n = x × y = z tilts by 4h/s against it: 4/0.024 rad per metre.
+        let m = Vector3::new(0.0, 0.0, 2.0);
+        let s = play.shift(&Vector3::x(), &Vector3::y(), &Vector3::zeros(), &m, 1e-6);
+        assert!((s.radial_tilt + 4.0 / 0.024).abs() < 1e-6);
+        // Below the load scale the joint floats: half a load scale gives 1/√5 of the shift.
+        let s = play.shift(
+            &Vector3::x(),
+            &Vector3::y(),
+            &Vector3::new(0.0, 0.0, 0.5),
+            &Vector3::zeros(),
+            1.0,
+        );
+        assert!((s.radial_translation.z + 2.0 / 5f64.sqrt()).abs() < 1e-12);
+    }
+}

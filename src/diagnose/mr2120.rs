@@ -1,0 +1,171 @@
+//! The MR2120 as the diagnosis sees it, as a multibody model: the ideal 3-DOF mechanism
+//! ([`crate::mechanisms::mr2120::ideal_model_with`]: rigid arms, forearms as rigid rods,
+//! platform, universal joints) evaluated by the multibody inverse dynamics and forward
+//! kinematics at every sample ([`MechanismModel`]), with its sensors declared:
+//!
+//! * the drive encoders sit on the motors, behind compliant transmissions (compliance a model
+//!   parameter, nominal [`NOMINAL_COMPLIANCE`]; reflected rotor inertia
+//!   [`NOMINAL_ROTOR_INERTIA`]); the drive torques are read from the motor currents;
+//! * a laser tracker reads the platform centre (x, y, z);
+//! * the six universal joints D, E, F, P, Q, R may have play (bearing spacing of
+//!   [`BearingDesign::mr2120`]).
+//!
+//! Parameters, in this order: arm A, B, C lengths, forearm A, B, C lengths (m), arm and
+//! forearm masses, payload on the platform (kg), base tilt about x and y (rad), drive A, B, C
+//! compliances (rad/(N·m)). The closed-form lumped model
+//! ([`Mr2120Model`](super::model::Mr2120Model)) stays as a fast cross-check only.
+
+use super::mechanism::{EncoderPlacement, MechanismModel, PlaySite, PointSensor, Sensors};
+use super::model::{ModelParameter, ParameterFamily};
+use super::DiagnoseError;
+use crate::contact::play::UniversalPlay;
+use crate::contact::{BearingDesign, Damping};
+use crate::mechanisms::mr2120::ideal::{ELBOW_JOINTS, PLATFORM_JOINTS};
+use crate::mechanisms::mr2120::kinematics::singularity;
+use crate::mechanisms::mr2120::lumped::tilted_gravity;
+use crate::mechanisms::mr2120::{ideal_model_with, Geometry, LinkSpec, MassProperties};
+use crate::multibody::{ModelError, MotionLaw};
+use nalgebra::Vector3;
+use std::sync::Arc;
+
+pub use crate::mechanisms::mr2120::lumped::NOMINAL_COMPLIANCE;
+
+/// Nominal reflected rotor inertia of each drive, kg·m² (the nominal model declares none
+/// beyond the arm: a rotor-inertia error is a candidate).
+pub const NOMINAL_ROTOR_INERTIA: f64 = 0.0;
+
+/// Direct-singularity measure below which the localisation tags a configuration as near it.
+pub const NEAR_DIRECT: f64 = 0.3;
+
+/// Platform centre of the configuration the model is built in, m.
+pub const BUILD_POINT: [f64; 3] = [0.0, 0.0, 0.5];
+
+/// The parameters of the MR2120 model with their nominal values.
+pub fn parameters(g: &Geometry, mp: &MassProperties) -> Vec<ModelParameter> {
+    use ParameterFamily::*;
+    let mk = |name: String, unit: &str, nominal: f64, scale: f64, family| ModelParameter {
+        name,
+        unit: unit.into(),
+        nominal,
+        scale,
+        family,
+    };
+    let mut p = vec![];
+    for b in ["A", "B", "C"] {
+        p.push(mk(
+            format!("arm {b} length"),
+            "m",
+            g.arm_length,
+            g.arm_length,
+            LinkGeometry,
+        ));
+    }
+    for b in ["A", "B", "C"] {
+        p.push(mk(
+            format!("forearm {b} length"),
+            "m",
+            g.forearm_length,
+            g.forearm_length,
+            LinkGeometry,
+        ));
+    }
+    p.push(mk("arm mass".into(), "kg", mp.arm, mp.arm, MassProperties));
+    p.push(mk(
+        "forearm mass".into(),
+        "kg",
+        mp.forearm,
+        mp.forearm,
+        MassProperties,
+    ));
+    p.push(mk(
+        "payload on the platform".into(),
+        "kg",
+        0.0,
+        mp.platform,
+        Payload,
+    ));
+    p.push(mk("base tilt about x".into(), "rad", 0.0, 0.1, BaseTilt));
+    p.push(mk("base tilt about y".into(), "rad", 0.0, 0.1, BaseTilt));
+    for b in ["A", "B", "C"] {
+        p.push(mk(
+            format!("drive {b} compliance"),
+            "rad/(N m)",
+            NOMINAL_COMPLIANCE,
+            NOMINAL_COMPLIANCE,
+            DriveCompliance,
+        ));
+    }
+    p
+}
+
+/// The multibody MR2120 model for the diagnosis (see the module documentation).
+pub fn mr2120_model(g: &Geometry, mp: &MassProperties) -> Result<MechanismModel, DiagnoseError> {
+    let (g0, mp0) = (*g, *mp);
+    let builder = Arc::new(move |theta: &[f64], laws: &[MotionLaw]| {
+        let spec = LinkSpec {
+            arm_length: [theta[0], theta[1], theta[2]],
+            forearm_length: [theta[3], theta[4], theta[5]],
+            payload: theta[8],
+            gravity: tilted_gravity(theta[9], theta[10]),
+        };
+        let mp = MassProperties {
+            arm: theta[6],
+            forearm: theta[7],
+            ..mp0
+        };
+        let laws: [MotionLaw; 3] =
+            std::array::from_fn(|i| laws.get(i).cloned().unwrap_or(MotionLaw::Constant(0.0)));
+        ideal_model_with(&g0, &mp, &spec, Vector3::from(BUILD_POINT), Some(laws))
+            .map(|m| m.mechanism)
+            .map_err(|e| match e {
+                crate::mechanisms::mr2120::Mr2120Error::Model(m) => m,
+                other => ModelError::Output(other.to_string()),
+            })
+    });
+    let model = MechanismModel::new(
+        "WUT MR2120 (multibody ideal model, compliant drives with motor-side encoders, tracked platform centre)",
+        ["A", "B", "C"].iter().map(|b| format!("drive {b}")).collect(),
+        parameters(g, mp),
+        builder,
+    )?;
+    let sensors = Sensors {
+        encoders: (0..3)
+            .map(|j| EncoderPlacement::MotorSide {
+                compliance: 11 + j,
+                rotor_inertia: NOMINAL_ROTOR_INERTIA,
+            })
+            .collect(),
+        outputs: ["x", "y", "z"]
+            .iter()
+            .enumerate()
+            .map(|(axis, r)| PointSensor {
+                name: format!("platform {r}"),
+                role: (*r).into(),
+                body: "platform".into(),
+                point: Vector3::zeros(),
+                axis,
+            })
+            .collect(),
+    };
+    let play = UniversalPlay::from_design(&BearingDesign::mr2120(0.0, 0.0, Damping::Elastic));
+    let sites = ELBOW_JOINTS
+        .iter()
+        .chain(PLATFORM_JOINTS.iter())
+        .map(|j| PlaySite {
+            joint: (*j).into(),
+            play,
+        })
+        .collect();
+    Ok(model
+        .with_sensors(sensors)?
+        .with_play(sites)?
+        .with_derivative_windows(vec![4, 6, 8, 12, 16])
+        .with_tagger(Arc::new(move |q: &[f64], y: &[f64]| {
+            if q.len() < 3 || y.len() < 3 || !y.iter().all(|v| v.is_finite()) {
+                return None;
+            }
+            let s = singularity(&g0, [q[0], q[1], q[2]], Vector3::new(y[0], y[1], y[2]));
+            (s.direct_measure < NEAR_DIRECT)
+                .then(|| format!("near the direct-kinematics singularity (measure below {NEAR_DIRECT})"))
+        })))
+}
