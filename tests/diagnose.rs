@@ -303,11 +303,12 @@ fn a_held_out_recording_with_fewer_channels_is_an_error_naming_it_and_the_channe
 
 #[test]
 fn a_suite_case_without_fit_recordings_is_an_error() {
-    use lash::diagnose::suite::{cases, run_case, SuiteError, SuiteOptions};
+    use lash::diagnose::suite::lumped::{cases, run_case};
+    use lash::diagnose::suite::{SuiteError, SuiteOptions};
     let opts = SuiteOptions {
         fit_recordings: 0,
         holdout_recordings: 0,
-        ..SuiteOptions::reduced()
+        ..SuiteOptions::lumped_reduced()
     };
     let e = run_case(&cases()[0], &opts, 0).unwrap_err();
     assert!(

@@ -1,12 +1,13 @@
 //! The concealed-effects suite: a few of its cases end to end (the whole suite runs as
 //! `lash diagnose --suite --reduced` in CI).
 
-use lash::diagnose::suite::{cases, run_case, SuiteOptions};
+use lash::diagnose::suite::lumped::{cases, run_case};
+use lash::diagnose::suite::SuiteOptions;
 
 fn run(name: &str) -> lash::diagnose::suite::CaseResult {
     let all = cases();
     let i = all.iter().position(|c| c.name == name).unwrap();
-    run_case(&all[i], &SuiteOptions::reduced(), i).unwrap().0
+    run_case(&all[i], &SuiteOptions::lumped_reduced(), i).unwrap().0
 }
 
 #[test]
@@ -37,7 +38,7 @@ fn only_names_no_case_is_refused_before_anything_runs() {
     use lash::diagnose::suite::{run_suite, SuiteError};
     let opts = SuiteOptions {
         only: vec!["clearance".into(), "gremlins".into()],
-        ..SuiteOptions::reduced()
+        ..SuiteOptions::lumped_reduced()
     };
     let e = run_suite(&opts, None, |_, _| {}).unwrap_err();
     assert!(

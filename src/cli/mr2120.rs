@@ -140,7 +140,7 @@ pub fn run(what: Mr2120What) -> Result<Output, CliError> {
 }
 
 fn record(a: &RecordArgs) -> Result<Output, CliError> {
-    use lash::diagnose::suite::{cases, excitation};
+    use lash::diagnose::suite::lumped::{cases, excitation};
     use lash::mechanisms::mr2120::record::{
         nominal_model, write_recordings, HiddenEffects, RecordError, WrittenRecording,
     };

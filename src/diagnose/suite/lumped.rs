@@ -1,6 +1,9 @@
-//! The concealed-effects suite (`lash diagnose --suite`): synthetic MR2120 recordings from a
-//! truth with hidden effects ([`crate::mechanisms::mr2120::record`]), each diagnosed from the
-//! nominal model blind to the truth, then scored against it.
+//! The closed-form-truth cases (`lash diagnose --suite --truth lumped`): synthetic MR2120
+//! recordings from the closed-form lumped model with hidden effects
+//! ([`crate::mechanisms::mr2120::record`]), diagnosed from the lumped nominal model. The
+//! hidden effects here have the candidate library's own functional forms, so these cases
+//! test the selection machinery only (fast unit cases); the proof is the multibody suite
+//! ([`super::multibody`]).
 //!
 //! Twelve cases hide one effect — below the sensor noise over most of the record, showing only
 //! near the direct-kinematics singularity, at load or velocity reversals or at acceleration
@@ -19,37 +22,15 @@
 //! * pair case: the true effect ranked first, or the pair flagged as confounded with the
 //!   separating experiment named.
 
-use super::data::MotionData;
-use super::model::Mr2120Model;
-use super::signal::derivative_cubic;
-use super::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis};
+use super::super::model::Mr2120Model;
+use super::super::{diagnose, DiagnoseOptions, Diagnosis};
+use super::{motion, score, CaseKind, CaseResult, Concealment, SuiteError, SuiteOptions, Truth};
 use crate::mechanisms::mr2120::record::{
     nominal_model, record, Excitation, HiddenEffects, RecordError, RecordOptions, Recorded, SensorNoise,
 };
 use serde::Serialize;
 
-/// One true effect and its value in the candidate's unit.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Truth {
-    /// The candidate's name in the library.
-    pub candidate: String,
-    /// True parameter value (candidate units).
-    pub value: f64,
-    /// Hidden (true) or the larger effect it hides under (false).
-    pub hidden: bool,
-}
 
-/// What a case tests.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum CaseKind {
-    /// One hidden effect, or a hidden effect under a larger one.
-    Concealed,
-    /// Nothing hidden.
-    Null,
-    /// Two effects that are hard to tell apart.
-    Pair,
-}
 
 /// One case of the suite.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -341,53 +322,6 @@ fn combine(a: &HiddenEffects, b: &HiddenEffects) -> HiddenEffects {
     }
 }
 
-/// Every tunable of the suite run.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SuiteOptions {
-    /// Recordings the fit sees per case.
-    pub fit_recordings: usize,
-    /// Held-out recordings per case.
-    pub holdout_recordings: usize,
-    /// Recording settings (duration, rate, noise).
-    pub record: RecordOptions,
-    /// Half-width (samples) of the rate differentiation.
-    pub derivative_window: usize,
-    /// Base seed (cases and recordings derive theirs from it).
-    pub seed: u64,
-    /// Only the cases whose names contain one of these (all if empty).
-    pub only: Vec<String>,
-}
-
-impl Default for SuiteOptions {
-    /// Four 8 s recordings to fit, two held out, 500 Hz, rates differentiated by local cubics
-    /// over ±8 samples.
-    fn default() -> Self {
-        Self {
-            fit_recordings: 4,
-            holdout_recordings: 2,
-            record: RecordOptions::default(),
-            derivative_window: 8,
-            seed: 2026,
-            only: vec![],
-        }
-    }
-}
-
-impl SuiteOptions {
-    /// The reduced run for CI: three 6 s recordings to fit, one held out.
-    pub fn reduced() -> Self {
-        Self {
-            fit_recordings: 3,
-            holdout_recordings: 1,
-            record: RecordOptions {
-                duration: 6.0,
-                ..RecordOptions::default()
-            },
-            ..Self::default()
-        }
-    }
-}
-
 /// The excitation of recording r: alternately gentle and shaken (forces and torques reverse),
 /// reaching down towards the direct singularity to slightly different depths.
 pub fn excitation(seed: u64, r: usize) -> Excitation {
@@ -396,151 +330,11 @@ pub fn excitation(seed: u64, r: usize) -> Excitation {
     Excitation::random(seed.wrapping_mul(1000).wrapping_add(r as u64), z_low, shake)
 }
 
-/// One scored case.
-#[derive(Debug, Clone, Serialize)]
-pub struct CaseResult {
-    /// Case name.
-    pub case: String,
-    /// Kind.
-    pub kind: CaseKind,
-    /// How it is concealed (words).
-    pub concealment: String,
-    /// Fraction of samples at which the hidden effect moves every channel by less than its
-    /// noise.
-    pub below_noise_fraction: f64,
-    /// Largest hidden contribution in noise units over all channels.
-    pub peak_snr: f64,
-    /// True effects.
-    pub truth: Vec<Truth>,
-    /// Selected effects, in order.
-    pub selected: Vec<String>,
-    /// The true effects were selected first.
-    pub ranked_first: bool,
-    /// Per true effect: (estimate, relative error); None if not selected.
-    pub estimates: Vec<Option<(f64, f64)>>,
-    /// Every true parameter within 25 %.
-    pub estimate_ok: bool,
-    /// Largest held-out residual RMS after the fit / sensor noise, over channels.
-    pub holdout_noise_ratio: f64,
-    /// Held-out residual ≤ 1.1× noise on every channel.
-    pub holdout_ok: bool,
-    /// The diagnosis reported no significant mismatch.
-    pub no_mismatch: bool,
-    /// Pair case: the true effect and its rival were flagged as confounded (and the
-    /// separating experiment).
-    pub confounded: Option<String>,
-    /// The case passes its rules.
-    pub pass: bool,
-    /// The diagnosis' verdict.
-    pub verdict: String,
-}
 
-/// The scoreboard.
-#[derive(Debug, Clone, Serialize)]
-pub struct Scoreboard {
-    /// Per case.
-    pub cases: Vec<CaseResult>,
-    /// Concealed cases with the true physics ranked first / concealed cases.
-    pub ranked_first: (usize, usize),
-    /// Concealed cases with every estimate within 25 %.
-    pub estimates_within_25pct: (usize, usize),
-    /// Concealed cases with the held-out residual ≤ 1.1× noise.
-    pub holdout_at_noise: (usize, usize),
-    /// The null case reports no mismatch.
-    pub null_ok: bool,
-    /// The pair case is separated or flagged.
-    pub pair_ok: bool,
-    /// All targets of issue #6 met: ranked first in ≥ 11 of 12, estimates and held-out in
-    /// every case ranked first, null and pair.
-    pub targets_met: bool,
-    /// Recordings per case (fit, held out), duration (s) and rate (Hz).
-    pub design: (usize, usize, f64, f64),
-    /// Sensor noise.
-    pub noise: SensorNoise,
-}
 
-/// Errors of the suite.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum SuiteError {
-    /// A case's report could not be written.
-    #[error("case {case}: {message}")]
-    Report {
-        /// Case.
-        case: String,
-        /// Cause.
-        message: String,
-    },
-    /// A recording could not be made.
-    #[error("case {case}: {source}")]
-    Record {
-        /// Case.
-        case: String,
-        /// Cause.
-        source: RecordError,
-    },
-    /// The diagnosis could not run (e.g. no fit recordings).
-    #[error("case {case}: {source}")]
-    Diagnose {
-        /// Case.
-        case: String,
-        /// Cause (boxed: a diagnosis error carries several names).
-        source: Box<DiagnoseError>,
-    },
-    /// A name of [`SuiteOptions::only`] is part of no case's name.
-    #[error("no case name contains '{name}' (cases: {cases})")]
-    NoSuchCase {
-        /// The name asked for.
-        name: String,
-        /// The cases there are, comma-separated.
-        cases: String,
-    },
-    /// The scoreboard could not be written.
-    #[error("{path}: {message}")]
-    Write {
-        /// Folder or file.
-        path: std::path::PathBuf,
-        /// The operating system's message.
-        message: String,
-    },
-}
 
-/// Name of the file [`Scoreboard::write`] writes.
-pub const SCOREBOARD_FILE: &str = "scoreboard.json";
 
-impl Scoreboard {
-    /// Writes the scoreboard as pretty JSON to `dir/scoreboard.json` ([`SCOREBOARD_FILE`]),
-    /// creating `dir`; returns the file's path.
-    pub fn write(&self, dir: &std::path::Path) -> Result<std::path::PathBuf, SuiteError> {
-        let path = dir.join(SCOREBOARD_FILE);
-        let text = serde_json::to_string_pretty(self).expect("the scoreboard serialises");
-        std::fs::create_dir_all(dir)
-            .and_then(|_| std::fs::write(&path, text))
-            .map_err(|e| SuiteError::Write {
-                path: dir.into(),
-                message: e.to_string(),
-            })?;
-        Ok(path)
-    }
-}
 
-fn motion(rec: &Recorded, name: String, window: usize, torques: bool) -> MotionData {
-    let q: Vec<Vec<f64>> = rec.q.to_vec();
-    let qd: Vec<Vec<f64>> = rec.qd.to_vec();
-    let qdd = qd.iter().map(|v| derivative_cubic(&rec.t, v, window)).collect();
-    MotionData {
-        name,
-        t: rec.t.clone(),
-        q,
-        qd,
-        qdd,
-        tau: if torques { rec.tau.to_vec() } else { vec![] },
-        y: if rec.pose[0].is_empty() {
-            vec![]
-        } else {
-            rec.pose.to_vec()
-        },
-    }
-}
 
 /// Runs one case.
 pub fn run_case(
@@ -599,154 +393,25 @@ pub fn run_case(
             held.push(d);
         }
     }
-    let dopts = DiagnoseOptions::default();
-    let d = diagnose(&model, &fit, &held, &dopts, |_, _| {}).map_err(|source| SuiteError::Diagnose {
-        case: case.name.clone(),
-        source: Box::new(source),
+    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).map_err(|source| {
+        SuiteError::Diagnose {
+            case: case.name.clone(),
+            source: Box::new(source),
+        }
     })?;
-    let k = case.truth.len();
-    let first: Vec<&String> = d.selected.iter().take(k).collect();
-    let ranked_first = match case.kind {
-        CaseKind::Null => d.selected.is_empty(),
-        _ => k > 0 && case.truth.iter().all(|tr| first.contains(&&tr.candidate)),
-    };
-    let estimates: Vec<Option<(f64, f64)>> = case
-        .truth
-        .iter()
-        .map(|tr| {
-            d.estimates
-                .iter()
-                .find(|e| e.candidate == tr.candidate)
-                .map(|e| (e.value, (e.value - tr.value).abs() / tr.value.abs()))
-        })
-        .collect();
-    let estimate_ok = estimates.iter().all(|e| matches!(e, Some((_, r)) if *r <= 0.25));
-    let holdout_noise_ratio = d
-        .channels
-        .iter()
-        .map(|c| {
-            let sigma = if c.unit == "N m" {
-                opts.record.noise.torque
-            } else {
-                opts.record.noise.tracker
-            };
-            c.holdout_after / sigma
-        })
-        .fold(0.0, f64::max);
-    let holdout_ok = holdout_noise_ratio <= 1.1;
-    let confounded = case.rival.as_ref().and_then(|rival| {
-        d.confounded
-            .iter()
-            .find(|c| {
-                (&c.selected == rival && case.truth.iter().any(|t| t.candidate == c.alternative))
-                    || (&c.alternative == rival && case.truth.iter().any(|t| t.candidate == c.selected))
-            })
-            .map(|c| c.experiment.clone())
-    });
-    let pass = match case.kind {
-        CaseKind::Null => d.no_significant_mismatch && holdout_ok,
-        CaseKind::Pair => (ranked_first && estimate_ok) || confounded.is_some(),
-        CaseKind::Concealed => ranked_first && estimate_ok && holdout_ok,
-    };
-    let res = CaseResult {
-        case: case.name.clone(),
-        kind: case.kind,
-        concealment: case.concealment.clone(),
+    let concealment = Concealment {
         below_noise_fraction: below as f64 / total.max(1) as f64,
         peak_snr: peak,
-        truth: case.truth.clone(),
-        selected: d.selected.clone(),
-        ranked_first,
-        estimates,
-        estimate_ok,
-        holdout_noise_ratio,
-        holdout_ok,
-        no_mismatch: d.no_significant_mismatch,
-        confounded,
-        pass,
-        verdict: d.verdict.clone(),
     };
+    let res = score(
+        &case.name,
+        case.kind,
+        &case.concealment,
+        &case.truth,
+        case.rival.as_deref(),
+        concealment,
+        &d,
+        &opts.record.noise,
+    );
     Ok((res, d))
-}
-
-/// Runs the suite; `progress` receives (case name, fraction done). With `reports`, each
-/// case's diagnosis report (Markdown, JSON, plots) goes to `reports/<case>/` and the
-/// scoreboard to `reports/scoreboard.json` ([`Scoreboard::write`]). A name in
-/// [`SuiteOptions::only`] that no case's name contains is an error
-/// ([`SuiteError::NoSuchCase`]), before anything runs.
-pub fn run_suite(
-    opts: &SuiteOptions,
-    reports: Option<&std::path::Path>,
-    mut progress: impl FnMut(&str, f64),
-) -> Result<Scoreboard, SuiteError> {
-    let all = cases();
-    if let Some(o) = opts
-        .only
-        .iter()
-        .find(|o| !all.iter().any(|c| c.name.contains(o.as_str())))
-    {
-        return Err(SuiteError::NoSuchCase {
-            name: o.clone(),
-            cases: all.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "),
-        });
-    }
-    let chosen: Vec<(usize, &Case)> = all
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| opts.only.is_empty() || opts.only.iter().any(|o| c.name.contains(o.as_str())))
-        .collect();
-    let mut results = vec![];
-    for (k, (i, c)) in chosen.iter().enumerate() {
-        progress(&c.name, k as f64 / chosen.len() as f64);
-        let (r, d) = run_case(c, opts, *i)?;
-        if let Some(dir) = reports {
-            super::report::write_report(&d, &dir.join(&c.name)).map_err(|e| SuiteError::Report {
-                case: c.name.clone(),
-                message: e.to_string(),
-            })?;
-        }
-        results.push(r);
-    }
-    progress("done", 1.0);
-    let concealed: Vec<&CaseResult> = results.iter().filter(|r| r.kind == CaseKind::Concealed).collect();
-    let n = concealed.len();
-    let ranked = concealed.iter().filter(|r| r.ranked_first).count();
-    let est = concealed.iter().filter(|r| r.estimate_ok).count();
-    let held = concealed.iter().filter(|r| r.holdout_ok).count();
-    let null_ok = results
-        .iter()
-        .filter(|r| r.kind == CaseKind::Null)
-        .all(|r| r.pass);
-    let pair_ok = results
-        .iter()
-        .filter(|r| r.kind == CaseKind::Pair)
-        .all(|r| r.pass);
-    let need = n.saturating_sub(n / 12);
-    let targets_met = ranked >= need
-        && concealed
-            .iter()
-            .filter(|r| r.ranked_first)
-            .all(|r| r.estimate_ok && r.holdout_ok)
-        && null_ok
-        && pair_ok;
-    let board = Scoreboard {
-        cases: results,
-        ranked_first: (ranked, n),
-        estimates_within_25pct: (est, n),
-        holdout_at_noise: (held, n),
-        null_ok,
-        pair_ok,
-        targets_met,
-        design: (
-            opts.fit_recordings,
-            opts.holdout_recordings,
-            opts.record.duration,
-            opts.record.rate,
-        ),
-        noise: opts.record.noise,
-    };
-    if let Some(dir) = reports {
-        board.write(dir)?;
-    }
-    Ok(board)
 }
