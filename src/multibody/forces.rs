@@ -208,3 +208,163 @@ impl ForceElement for SpringDamper {
         }
     }
 }
+
+/// The rotation of side j relative to side i about an axis fixed in side i, as rotational
+/// force elements see it.
+///
+/// The angle is measured between a reference direction fixed in side i (`reference_i`,
+/// perpendicular to the axis) and one fixed in side j (`reference_j`), projected on the
+/// plane normal to the axis: θ = atan2(u·(x_i × x_j), x_i·x_j) ∈ (−π, π], zero in the
+/// configuration the element was built in ([`RelativeRotation::from_initial_poses`]). The
+/// rate is the axial component of the relative angular velocity, θ̇ = u·(ω_j − ω_i) (base
+/// frame): exactly dθ/dt while the two sides turn about the common axis (e.g. both on
+/// revolute joints about it), a first-order approximation otherwise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RelativeRotation {
+    /// Side i (the axis and the angle's zero are fixed in it).
+    pub i: Attach,
+    /// Side j.
+    pub j: Attach,
+    /// Unit axis in side i's body frame.
+    pub axis_i: Vector3<f64>,
+    /// Unit reference direction in side i's body frame, perpendicular to the axis.
+    pub reference_i: Vector3<f64>,
+    /// Unit reference direction in side j's body frame (equal to `reference_i` in the build
+    /// configuration).
+    pub reference_j: Vector3<f64>,
+}
+
+impl RelativeRotation {
+    /// From the two sides' initial poses in `mech` (their `position`/`orientation`) and a
+    /// base-frame `axis`: θ = 0 in that configuration. `None` if a body handle does not exist
+    /// or the axis is zero or not finite.
+    pub fn from_initial_poses(
+        mech: &super::Mechanism,
+        i: Attach,
+        j: Attach,
+        axis: Vector3<f64>,
+    ) -> Option<Self> {
+        let norm = axis.norm();
+        if !(norm.is_finite() && norm > 0.0) {
+            return None;
+        }
+        let u = axis / norm;
+        let rot = |a: Attach| -> Option<Matrix3<f64>> {
+            match a {
+                Attach::Ground => Some(Matrix3::identity()),
+                Attach::Body(h) => mech
+                    .body(h)
+                    .map(|b| super::rotation::rotation(&b.orientation.normalize())),
+            }
+        };
+        let (ai, aj) = (rot(i)?, rot(j)?);
+        // Any direction perpendicular to the axis.
+        let helper = if u.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+        let x = (helper - u * helper.dot(&u)).normalize();
+        Some(Self {
+            i,
+            j,
+            axis_i: ai.transpose() * u,
+            reference_i: ai.transpose() * x,
+            reference_j: aj.transpose() * x,
+        })
+    }
+
+    /// Bodies involved (not the ground).
+    pub fn bodies(&self) -> Vec<BodyHandle> {
+        [self.i, self.j].into_iter().filter_map(Attach::body).collect()
+    }
+
+    /// (θ, θ̇, u): the angle (rad), its rate (rad/s) and the axis in the base frame.
+    pub fn evaluate(&self, states: &[BodyState]) -> (f64, f64, Vector3<f64>) {
+        let (si, sj) = (state_of(states, self.i), state_of(states, self.j));
+        let u = si.a * self.axis_i;
+        let xi = si.a * self.reference_i;
+        let xj = sj.a * self.reference_j;
+        let theta = u.dot(&xi.cross(&xj)).atan2(xi.dot(&xj));
+        let rate = u.dot(&(sj.a * sj.omega - si.a * si.omega));
+        (theta, rate, u)
+    }
+
+    /// Applies a torque `tau` (N·m) about the axis u on side j, and −`tau` on side i.
+    pub fn apply_torque(&self, states: &[BodyState], loads: &mut [BodyLoad], u: &Vector3<f64>, tau: f64) {
+        if let Attach::Body(h) = self.j {
+            loads[h.0].torque += states[h.0].a.transpose() * (u * tau);
+        }
+        if let Attach::Body(h) = self.i {
+            loads[h.0].torque -= states[h.0].a.transpose() * (u * tau);
+        }
+    }
+}
+
+/// A linear torsional spring-damper between two sides about a common axis (e.g. a
+/// transmission between a motor rotor and an arm): torque on side j
+/// τ = −k·(θ − θ₀) − c·θ̇ about the axis (and −τ on side i), θ and θ̇ as
+/// [`RelativeRotation`] defines them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RotationalSpringDamper {
+    /// Name.
+    pub name: String,
+    /// The relative rotation it acts on.
+    pub rotation: RelativeRotation,
+    /// Stiffness k, N·m/rad (≥ 0).
+    pub stiffness: f64,
+    /// Damping c, N·m·s/rad (≥ 0).
+    pub damping: f64,
+    /// Free angle θ₀, rad.
+    pub free_angle: f64,
+}
+
+impl RotationalSpringDamper {
+    /// The spring-damper's torque on side j at (θ, θ̇), N·m.
+    pub fn torque(&self, theta: f64, rate: f64) -> f64 {
+        -self.stiffness * (theta - self.free_angle) - self.damping * rate
+    }
+}
+
+impl ForceElement for RotationalSpringDamper {
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn bodies(&self) -> Vec<BodyHandle> {
+        self.rotation.bodies()
+    }
+    fn apply(&self, _t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
+        let (theta, rate, u) = self.rotation.evaluate(states);
+        self.rotation
+            .apply_torque(states, loads, &u, self.torque(theta, rate));
+    }
+}
+
+/// A torque about a common axis given by a law τ(t, θ, θ̇) (N·m on side j, −τ on side i; t in
+/// s, θ and θ̇ as [`RelativeRotation`] defines them): joint friction of any form, cogging,
+/// drive torques from a controller.
+#[derive(Clone)]
+pub struct RotationalTorque {
+    /// Name.
+    pub name: String,
+    /// The relative rotation it acts on.
+    pub rotation: RelativeRotation,
+    /// The law τ(t, θ, θ̇), N·m.
+    pub law: Arc<dyn Fn(f64, f64, f64) -> f64 + Send + Sync>,
+}
+
+impl Debug for RotationalTorque {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "RotationalTorque({})", self.name)
+    }
+}
+
+impl ForceElement for RotationalTorque {
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn bodies(&self) -> Vec<BodyHandle> {
+        self.rotation.bodies()
+    }
+    fn apply(&self, t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
+        let (theta, rate, u) = self.rotation.evaluate(states);
+        self.rotation
+            .apply_torque(states, loads, &u, (self.law)(t, theta, rate));
+    }
+}

@@ -11,7 +11,7 @@
 //! numerical damping.
 
 use super::geometry::{Geometry, MassProperties};
-use super::ideal::{add_links, LinkSpec, Mr2120Error, ELBOW_JOINTS, PLATFORM_JOINTS};
+use super::ideal::{add_links, LinkSpec, Links, Mr2120Error, ELBOW_JOINTS, PLATFORM_JOINTS};
 use super::paper::{ClearanceSet, STEEL_E, TABLE1};
 use crate::contact::{universal_with_clearance, BearingDesign, Damping, Material};
 use crate::multibody::{BodyHandle, JointHandle, Mechanism, MotionLaw};
@@ -56,7 +56,8 @@ pub fn bearing_design(set: &ClearanceSet, damping: Damping) -> BearingDesign {
     d
 }
 
-/// Builds the clearance model in the configuration with platform centre `m_build`.
+/// Builds the clearance model in the configuration with platform centre `m_build`: the
+/// geometry's nominal links and the same bearing `design` in all six universal joints.
 pub fn clearance_model(
     g: &Geometry,
     mp: &MassProperties,
@@ -64,43 +65,111 @@ pub fn clearance_model(
     laws: Option<[MotionLaw; 3]>,
     design: &BearingDesign,
 ) -> Result<ClearanceModel, Mr2120Error> {
-    let mut mech = Mechanism::new();
-    let l = add_links(&mut mech, g, mp, &LinkSpec::nominal(g), m_build, laws)?;
-    let mut crosses = [l.platform; 6];
-    for i in 0..3 {
-        let d = universal_with_clearance(
-            &mut mech,
-            ELBOW_JOINTS[i],
-            l.arms[i],
-            l.forearms[i],
-            l.elbows[i],
-            l.axes[i],
-            l.cross_axes[i],
-            design,
-            mp.cross,
-        )?;
-        let p = universal_with_clearance(
-            &mut mech,
-            PLATFORM_JOINTS[i],
-            l.forearms[i],
-            l.platform,
-            l.platform_points[i],
-            l.cross_axes[i],
-            l.axes[i],
-            design,
-            mp.cross,
-        )?;
-        crosses[i] = d.cross;
-        crosses[3 + i] = p.cross;
-    }
+    let designs: [Option<BearingDesign>; 6] = std::array::from_fn(|_| Some(*design));
+    let m = clearance_model_per_joint(g, mp, &LinkSpec::nominal(g), m_build, laws, &designs)?;
+    let platform = m.platform;
     Ok(ClearanceModel {
+        mechanism: m.mechanism,
+        arms: m.arms,
+        forearms: m.forearms,
+        crosses: m.crosses.map(|c| c.unwrap_or(platform)),
+        platform,
+        drives: m.drives,
+    })
+}
+
+/// The MR2120 with its own bearing design in each universal joint: the model and the handles
+/// of its parts ([`clearance_model_per_joint`]).
+#[derive(Debug)]
+pub struct JointPlayModel {
+    /// The mechanism.
+    pub mechanism: Mechanism,
+    /// Arms.
+    pub arms: [BodyHandle; 3],
+    /// Forearms.
+    pub forearms: [BodyHandle; 3],
+    /// Crosses of D, E, F, P, Q, R; `None` for an ideal universal joint.
+    pub crosses: [Option<BodyHandle>; 6],
+    /// Ideal universal joints D, E, F, P, Q, R; `None` for a joint with play.
+    pub ideal_joints: [Option<JointHandle>; 6],
+    /// Platform.
+    pub platform: BodyHandle,
+    /// Revolute pairs A, B, C (driven if laws were given).
+    pub drives: [JointHandle; 3],
+    /// Drive angles of the build configuration per branch, rad.
+    pub q_build: [f64; 3],
+}
+
+/// Builds the MR2120 in the configuration with platform centre `m_build` (m), with each
+/// branch's own links, payload and gravity (`spec`) and, per universal joint in the order
+/// D, E, F, P, Q, R, its own bearing design: `Some(design)` a trunnion bearing with radial and
+/// axial clearance (a cross body of mass `mp.cross`, eight Hertz ball contacts), `None` an
+/// ideal universal joint. All `None` is the ideal model ([`ideal_model_with`](super::ideal_model_with));
+/// all equal `Some` with the nominal `spec` is [`clearance_model`]. The drives A, B, C follow
+/// `laws` (rad) or are free revolute pairs if `None`.
+pub fn clearance_model_per_joint(
+    g: &Geometry,
+    mp: &MassProperties,
+    spec: &LinkSpec,
+    m_build: Vector3<f64>,
+    laws: Option<[MotionLaw; 3]>,
+    designs: &[Option<BearingDesign>; 6],
+) -> Result<JointPlayModel, Mr2120Error> {
+    let mut mech = Mechanism::new();
+    let l = add_links(&mut mech, g, mp, spec, m_build, laws)?;
+    let (crosses, ideal_joints) = add_universal_joints(&mut mech, &l, mp, designs)?;
+    Ok(JointPlayModel {
         mechanism: mech,
         arms: l.arms,
         forearms: l.forearms,
         crosses,
+        ideal_joints,
         platform: l.platform,
         drives: l.drives,
+        q_build: l.q,
     })
+}
+
+/// Crosses and ideal-joint handles of the six universal joints.
+pub(crate) type UniversalParts = ([Option<BodyHandle>; 6], [Option<JointHandle>; 6]);
+
+/// Adds the six universal joints (D, P of branch A, then E, Q, then F, R — the order of the
+/// original clearance model) to the links `l`: a bearing with clearance where `designs` has
+/// one, an ideal universal joint elsewhere.
+pub(crate) fn add_universal_joints(
+    mech: &mut Mechanism,
+    l: &Links,
+    mp: &MassProperties,
+    designs: &[Option<BearingDesign>; 6],
+) -> Result<UniversalParts, Mr2120Error> {
+    let mut crosses = [None; 6];
+    let mut ideal = [None; 6];
+    for i in 0..3 {
+        // Elbow: axis_i along the drive axis (arm side), axis_j across (forearm side); the
+        // platform joint the other way round.
+        let joints = [
+            (i, ELBOW_JOINTS[i], l.arms[i], l.forearms[i], l.elbows[i], l.axes[i], l.cross_axes[i]),
+            (
+                3 + i,
+                PLATFORM_JOINTS[i],
+                l.forearms[i],
+                l.platform,
+                l.platform_points[i],
+                l.cross_axes[i],
+                l.axes[i],
+            ),
+        ];
+        for (k, name, bi, bj, point, axis_i, axis_j) in joints {
+            match &designs[k] {
+                Some(design) => {
+                    let u = universal_with_clearance(mech, name, bi, bj, point, axis_i, axis_j, design, mp.cross)?;
+                    crosses[k] = Some(u.cross);
+                }
+                None => ideal[k] = Some(mech.universal_at(name, bi, bj, point, axis_i, axis_j)),
+            }
+        }
+    }
+    Ok((crosses, ideal))
 }
 
 #[cfg(test)]

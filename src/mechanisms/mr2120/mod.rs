@@ -11,6 +11,9 @@
 //! * [`output`] — CSV files and charts of the studies.
 //! * [`lumped`] — a closed-form rigid model (fast cross-check of the ideal model's torques).
 //! * [`record`] — synthetic recordings with hidden effects for the diagnosis suite.
+//! * [`truth`] — synthetic recordings from a simulated multibody truth (compliant
+//!   transmissions as bodies, friction force elements, per-joint bearings, payload body,
+//!   sensor model), independent of the diagnosis' candidate library.
 
 pub mod accuracy;
 pub mod clearance;
@@ -22,6 +25,7 @@ pub mod output;
 pub mod paper;
 pub mod record;
 pub mod trajectory;
+pub mod truth;
 
 pub use geometry::{Geometry, MassProperties};
 pub use ideal::{ideal_model, ideal_model_with, IdealModel, LinkSpec, Mr2120Error};
