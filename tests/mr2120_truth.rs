@@ -34,11 +34,23 @@ fn measure_nominal_vs_reference() {
         println!("{name}: steps {} wall {:.2} s", run.steps, run.wall_s);
         for i in 0..3 {
             let (m, s) = max_rms(&run.tau[i], &r.tau[i]);
-            println!("  tau{i}: max {:.4} rms {:.4} N·m = {:.2}/{:.2} noise", m, s, m / 0.02, s / 0.02);
+            println!(
+                "  tau{i}: max {:.4} rms {:.4} N·m = {:.2}/{:.2} noise",
+                m,
+                s,
+                m / 0.02,
+                s / 0.02
+            );
         }
         for i in 0..3 {
             let (m, s) = max_rms(&run.pose[i], &r.pose[i]);
-            println!("  x{i}: max {:.3e} rms {:.3e} m = {:.2}/{:.2} noise", m, s, m / 5e-6, s / 5e-6);
+            println!(
+                "  x{i}: max {:.3e} rms {:.3e} m = {:.2}/{:.2} noise",
+                m,
+                s,
+                m / 5e-6,
+                s / 5e-6
+            );
         }
     }
 }
@@ -50,9 +62,17 @@ fn dump_nominal_vs_reference() {
     let zlow = if shake > 0.0 { 0.30 } else { 0.32 };
     let ex = Excitation::random(11, zlow, shake);
     let mut spec = TruthSpec::nominal();
-    if let Ok(v) = std::env::var("RAMP") { spec.settle_ramp = v.parse().unwrap(); }
-    if let Ok(v) = std::env::var("HOLD") { spec.settle_hold = v.parse().unwrap(); }
-    if let Ok(v) = std::env::var("DAMP") { for d in spec.drives.iter_mut() { d.damping = v.parse().unwrap(); } }
+    if let Ok(v) = std::env::var("RAMP") {
+        spec.settle_ramp = v.parse().unwrap();
+    }
+    if let Ok(v) = std::env::var("HOLD") {
+        spec.settle_hold = v.parse().unwrap();
+    }
+    if let Ok(v) = std::env::var("DAMP") {
+        for d in spec.drives.iter_mut() {
+            d.damping = v.parse().unwrap();
+        }
+    }
     let o = opts(2.0);
     let run = simulate_run(&spec, &ex, &o).unwrap();
     let r = quasi_static_reference(&spec, &ex, &o).unwrap();

@@ -335,10 +335,15 @@ pub fn columns(
     let sens: Vec<Option<OutputSensitivities>> = if output_rows.is_empty() {
         vec![]
     } else {
+        let (mut tau, mut yy) = (vec![0.0; model.joints()], vec![0.0; model.outputs()]);
         (0..n)
             .map(|i| {
                 let (q, qd, qdd) = d.motion_at(i);
                 let y: Vec<f64> = y_nom.iter().map(|v| v[i]).collect();
+                // Walk the recording again, so a model with internal dynamics answers at
+                // each sample's state.
+                yy.copy_from_slice(&y);
+                model.evaluate_at(d.t[i], &theta0, &q, &qd, &qdd, &mut tau, &mut yy);
                 model.output_sensitivities(&theta0, &q, &qd, &qdd, &y)
             })
             .collect()

@@ -220,7 +220,7 @@ impl MotionData {
             if y.iter().any(|v| !v.is_finite()) {
                 y.iter_mut().for_each(|v| *v = 0.0);
             }
-            model.evaluate(theta, &q, &qd, &qdd, &mut tau, &mut y);
+            model.evaluate_at(self.t[i], theta, &q, &qd, &qdd, &mut tau, &mut y);
             for j in 0..nj {
                 out[j][i] = tau[j];
             }

@@ -87,14 +87,19 @@ pub type ConfigurationTagger = Arc<dyn Fn(&[f64], &[f64]) -> Option<String> + Se
 pub enum EncoderPlacement {
     /// On the joint itself: the recorded position is the joint's.
     JointSide,
-    /// On the motor, behind a compliant transmission: the joint lags the encoder by c·τ (c
-    /// the value of parameter `compliance`, rad/(N·m); τ the joint-side torque, N·m) and the
-    /// torque sensor reads τ + J·q̈ (J the rotor inertia reflected to the joint, kg·m²).
+    /// On the motor, behind a compliant transmission (a torsion spring of compliance c, the
+    /// value of parameter `compliance` in rad/(N·m), with a damper): the joint lags the
+    /// encoder by the wind-up w, and the torque sensor reads the transmitted torque
+    /// w/c + d·ẇ plus J·q̈ (J the rotor inertia reflected to the joint, kg·m²). Along a
+    /// recording ([`InverseDynamicsModel::evaluate_at`]) the wind-up follows its own dynamics
+    /// (see [`MechanismModel`]); at a lone sample it is quasi-static, w = c·τ.
     MotorSide {
         /// Index of the transmission's compliance among the model's parameters.
         compliance: usize,
         /// Reflected rotor inertia, kg·m².
         rotor_inertia: f64,
+        /// Damping of the transmission's torsion, N·m·s/rad.
+        damping: f64,
     },
 }
 
@@ -152,6 +157,24 @@ struct Built {
     windup: [Vec<f64>; 2],
     /// Encoder positions of the last sample evaluated.
     last_encoder: Vec<f64>,
+    /// The transmissions' state along a recording (time, w, ẇ, ẅ, sensed torques).
+    dynamic: Option<Windup>,
+}
+
+/// The transmissions' wind-up state at one sample of a recording.
+#[derive(Debug, Clone)]
+struct Windup {
+    t: f64,
+    w: nalgebra::DVector<f64>,
+    wd: nalgebra::DVector<f64>,
+    wdd: nalgebra::DVector<f64>,
+    /// Joint-side torques τ_s at this sample (None at a quasi-static start: the step then
+    /// holds the next sample's).
+    tau_s: Option<nalgebra::DVector<f64>>,
+    tau: Vec<f64>,
+    /// Quasi-static samples so far at the start of the recording (the dynamics starts from
+    /// the second, with the wind-up rate of the first two).
+    started: usize,
 }
 
 /// Largest joint-position change (rad or m) assembled in one Newton solve; larger jumps
@@ -162,6 +185,18 @@ pub const CONTINUATION_STEP: f64 = 0.1;
 /// less than this, rad; a last position-only pass then places the joints (see
 /// [`MechanismModel`]'s sample evaluation).
 pub const WINDUP_REFINE: f64 = 1e-6;
+
+/// Largest time step between samples of one recording over which the transmission
+/// dynamics is integrated, s; a larger gap starts quasi-statically.
+pub const WINDUP_MAX_GAP: f64 = 0.05;
+
+/// Evaluations of the joint-side torques per sample along a recording (at the predicted
+/// wind-up; a second one at the wind-up the step arrives at changed the torques of a
+/// simulated MR2120 by less than 1e-3 N m RMS, so one).
+pub const WINDUP_CORRECTIONS: usize = 1;
+
+/// Newmark substeps of the transmission dynamics per sample interval.
+pub const WINDUP_SUBSTEPS: usize = 8;
 
 /// Central-difference step of the parameter sensitivities, relative to each parameter's
 /// scale: large against the assembly tolerance (1e-12), small
@@ -253,8 +288,15 @@ impl MechanismModel {
             if let EncoderPlacement::MotorSide {
                 compliance,
                 rotor_inertia,
+                damping,
             } = *e
             {
+                if !(damping.is_finite() && damping >= 0.0) {
+                    return Err(self.error(format!(
+                        "the transmission damping of {} must be finite and ≥ 0 N m s/rad, got {damping}",
+                        self.joints[j]
+                    )));
+                }
                 if compliance >= self.parameters.len() {
                     return Err(self.error(format!(
                         "the encoder of {} names compliance parameter {compliance}, but the model has {} parameters",
@@ -401,6 +443,7 @@ impl MechanismModel {
             last: vec![0.0; n],
             windup: [vec![0.0; n], vec![0.0; n]],
             last_encoder: vec![f64::NAN; n],
+            dynamic: None,
         });
         Ok(())
     }
@@ -467,15 +510,20 @@ impl MechanismModel {
         Some(tau)
     }
 
-    /// The sample at encoder positions `q`: joint positions after the wind-up, torques as
-    /// the torque sensors read them; the state is left in the cache. None where the
-    /// mechanism cannot be evaluated.
-    fn sample(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64]) -> Option<Vec<f64>> {
+    /// The sample at encoder positions `q` (time `t` along a recording, or a lone sample):
+    /// joint positions after the wind-up, torques as the torque sensors read them; the
+    /// state is left in the cache. None where the mechanism cannot be evaluated.
+    fn sample(&self, t: Option<f64>, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64]) -> Option<Vec<f64>> {
         self.ensure(theta).ok()?;
         let n = self.joints.len();
         let c: Vec<f64> = (0..n).map(|j| self.compliance(theta, j)).collect();
         let mut b = self.built.borrow_mut();
         let built = b.as_mut()?;
+        if let (Some(t), true) = (t, c.iter().any(|&v| v > 0.0)) {
+            if let Some(tau) = self.step_windup(built, t, &c, q, qd, qdd) {
+                return Some(tau);
+            }
+        }
         // Warm start from the previous samples' wind-up when this sample is near them
         // (linear extrapolation: the wind-up follows the torque smoothly in time).
         let near = (0..n).all(|j| (q[j] - built.last_encoder[j]).abs() < CONTINUATION_STEP);
@@ -519,12 +567,202 @@ impl MechanismModel {
             built.windup[0] = built.windup[1].clone();
         }
         built.last_encoder = q[..n].to_vec();
-        for (j, t) in tau.iter_mut().enumerate() {
+        for (j, x) in tau.iter_mut().enumerate() {
             if let Some(EncoderPlacement::MotorSide { rotor_inertia, .. }) = self.sensors.encoders.get(j) {
-                *t += rotor_inertia * qdd[j];
+                *x += rotor_inertia * qdd[j];
             }
         }
+        // A quasi-static start: at the second sample the wind-up rate of the first two
+        // (a start at rest would ring through the first few tenths of a second).
+        let w = nalgebra::DVector::from_iterator(n, (0..n).map(|j| q[j] - qa[j]));
+        let (wd, started) = match (&built.dynamic, t) {
+            (Some(p), Some(t)) if p.started == 1 && t > p.t && t - p.t <= WINDUP_MAX_GAP => {
+                ((&w - &p.w) / (t - p.t), 2)
+            }
+            _ => (nalgebra::DVector::zeros(n), 1),
+        };
+        built.dynamic = t.map(|t| Windup {
+            t,
+            w,
+            wd,
+            wdd: nalgebra::DVector::zeros(n),
+            tau_s: None,
+            tau: tau.clone(),
+            started,
+        });
         Some(tau)
+    }
+
+    /// Newmark substeps (average acceleration) of M·ẅ + D·ẇ + K·w = τ over `h` from
+    /// `prev`, τ interpolated linearly in time from the previous sample's to `tau_s`, M
+    /// held: the transmission mode may be a few tens of hertz near a singular position, and
+    /// a few steps per period would shift its phase.
+    #[allow(clippy::type_complexity)]
+    fn newmark(
+        prev: &Windup,
+        tau_s: &nalgebra::DVector<f64>,
+        m: &nalgebra::DMatrix<f64>,
+        k: &nalgebra::DVector<f64>,
+        d: &nalgebra::DVector<f64>,
+        h: f64,
+    ) -> Option<(
+        nalgebra::DVector<f64>,
+        nalgebra::DVector<f64>,
+        nalgebra::DVector<f64>,
+    )> {
+        let n = k.len();
+        let tau_0 = prev.tau_s.clone().unwrap_or_else(|| tau_s.clone());
+        let hs = h / WINDUP_SUBSTEPS as f64;
+        let (beta, gamma) = (0.25, 0.5);
+        let a0 = 1.0 / (beta * hs * hs);
+        let a1 = gamma / (beta * hs);
+        let a2 = 1.0 / (beta * hs);
+        let a3 = 1.0 / (2.0 * beta) - 1.0;
+        let a4 = gamma / beta - 1.0;
+        let a5 = hs * (gamma / (2.0 * beta) - 1.0);
+        let mut kh = m * a0;
+        for j in 0..n {
+            kh[(j, j)] += k[j] + a1 * d[j];
+        }
+        let lu = kh.lu();
+        let (mut w, mut wd, mut wdd) = (prev.w.clone(), prev.wd.clone(), prev.wdd.clone());
+        for step in 1..=WINDUP_SUBSTEPS {
+            let f_frac = step as f64 / WINDUP_SUBSTEPS as f64;
+            let load = &tau_0 * (1.0 - f_frac) + tau_s * f_frac;
+            let inertial = &w * a0 + &wd * a2 + &wdd * a3;
+            let viscous = &w * a1 + &wd * a4 + &wdd * a5;
+            let f = load + m * inertial + d.component_mul(&viscous);
+            let w1 = lu.solve(&f)?;
+            let wdd1 = (&w1 - &w) * a0 - &wd * a2 - &wdd * a3;
+            wd = &wd + (&wdd * (1.0 - gamma) + &wdd1 * gamma) * hs;
+            wdd = wdd1;
+            w = w1;
+        }
+        Some((w, wd, wdd))
+    }
+
+    /// One step of the transmissions' wind-up dynamics to time `t`, from the state of the
+    /// previous sample: M_d·ẅ + D·ẇ + K·w = τ_s, with τ_s the joint-side torques at the
+    /// joint positions q − w and rates q̇ − ẇ with the encoder's accelerations q̈, M_d the
+    /// mechanism's mass matrix in drive coordinates there
+    /// ([`Analysis::driver_mass_matrix`]), K = diag(1/c), D the dampings; integrated by the
+    /// average-acceleration Newmark rule (unconditionally stable, second order). The
+    /// sensors read K·w + D·ẇ + J·q̈. None (the caller starts quasi-statically) at the first
+    /// sample of a recording (time not after the previous sample's, or more than
+    /// [`WINDUP_MAX_GAP`] after it) or where the step fails.
+    fn step_windup(
+        &self,
+        built: &mut Built,
+        t: f64,
+        c: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+    ) -> Option<Vec<f64>> {
+        let n = c.len();
+        let prev = built.dynamic.clone()?;
+        let same = (0..n).all(|j| q[j] == built.last_encoder[j]);
+        if t == prev.t && same {
+            return Some(prev.tau);
+        }
+        if prev.started < 2 {
+            return None;
+        }
+        let h = t - prev.t;
+        if !(h > 0.0 && h <= WINDUP_MAX_GAP) {
+            return None;
+        }
+        let damping: Vec<f64> = (0..n)
+            .map(|j| match self.sensors.encoders.get(j) {
+                Some(EncoderPlacement::MotorSide { damping, .. }) => *damping,
+                _ => 0.0,
+            })
+            .collect();
+        // A rigid transmission (c = 0) keeps w = 0: a stiffness far above any other.
+        let k = nalgebra::DVector::from_iterator(n, c.iter().map(|&v| if v > 0.0 { 1.0 / v } else { 1e12 }));
+        let d = nalgebra::DVector::from_column_slice(&damping);
+        // The joint-side torques at the predicted wind-up, then once more at the wind-up the
+        // step arrives at (their dependence on the joint positions is treated explicitly).
+        let mut w_at = &prev.w + &prev.wd * h + &prev.wdd * (0.5 * h * h);
+        let mut wd_at = &prev.wd + &prev.wdd * h;
+        let mut result = None;
+        for _ in 0..WINDUP_CORRECTIONS {
+            let qa: Vec<f64> = (0..n).map(|j| q[j] - w_at[j]).collect();
+            let qda: Vec<f64> = (0..n).map(|j| qd[j] - wd_at[j]).collect();
+            let tau_s = Self::joint_torques(built, &qa, &qda, qdd)?;
+            let m = built
+                .analysis
+                .driver_mass_matrix(&built.model, &mut built.data)
+                .ok()?;
+            let tau_s = nalgebra::DVector::from_column_slice(&tau_s);
+            let (w, wd, wdd) = Self::newmark(&prev, &tau_s, &m, &k, &d, h)?;
+            w_at = w.clone();
+            wd_at = wd.clone();
+            result = Some((w, wd, wdd, tau_s));
+        }
+        let (w, wd, wdd, tau_s) = result?;
+        if !w.iter().chain(wd.iter()).all(|v| v.is_finite()) {
+            return None;
+        }
+        // The joints where the step puts them (positions only).
+        let qa: Vec<f64> = (0..n).map(|j| q[j] - w[j]).collect();
+        for j in 0..n {
+            let _ =
+                built
+                    .data
+                    .prescribe_driver(built.drivers[j], 0.0, [qa[j], qd[j] - wd[j], qdd[j] - wdd[j]]);
+        }
+        let q_new = built
+            .analysis
+            .assemble(&built.model, &mut built.data, 0.0, &built.q)
+            .ok()?;
+        built.data.q.clone_from(&q_new);
+        built.q = q_new;
+        built.last = qa;
+        built.last_encoder = q[..n].to_vec();
+        let tau: Vec<f64> = (0..n)
+            .map(|j| {
+                let rotor = match self.sensors.encoders.get(j) {
+                    Some(EncoderPlacement::MotorSide { rotor_inertia, .. }) => rotor_inertia * qdd[j],
+                    _ => 0.0,
+                };
+                k[j] * w[j] + d[j] * wd[j] + rotor
+            })
+            .collect();
+        built.dynamic = Some(Windup {
+            t,
+            w,
+            wd,
+            wdd,
+            tau_s: Some(tau_s),
+            tau: tau.clone(),
+            started: 2,
+        });
+        Some(tau)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate_sample(
+        &self,
+        t: Option<f64>,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        tau: &mut [f64],
+        y: &mut [f64],
+    ) {
+        let n = self.joints.len();
+        match self.sample(t, theta, q, qd, qdd) {
+            Some(x) => {
+                tau[..n].copy_from_slice(&x);
+                self.outputs_now(y);
+            }
+            None => {
+                tau[..n].iter_mut().for_each(|v| *v = f64::NAN);
+                y.iter_mut().for_each(|v| *v = f64::NAN);
+            }
+        }
     }
 
     /// The outputs at the state left in the cache.
@@ -567,17 +805,19 @@ impl InverseDynamicsModel for MechanismModel {
         self.evaluate(theta, q, qd, qdd, tau, &mut y);
     }
     fn evaluate(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64], y: &mut [f64]) {
-        let n = self.joints.len();
-        match self.sample(theta, q, qd, qdd) {
-            Some(t) => {
-                tau[..n].copy_from_slice(&t);
-                self.outputs_now(y);
-            }
-            None => {
-                tau[..n].iter_mut().for_each(|v| *v = f64::NAN);
-                y.iter_mut().for_each(|v| *v = f64::NAN);
-            }
-        }
+        self.evaluate_sample(None, theta, q, qd, qdd, tau, y)
+    }
+    fn evaluate_at(
+        &self,
+        t: f64,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        tau: &mut [f64],
+        y: &mut [f64],
+    ) {
+        self.evaluate_sample(Some(t), theta, q, qd, qdd, tau, y)
     }
     fn outputs(&self) -> usize {
         self.sensors.outputs.len()
@@ -619,7 +859,16 @@ impl InverseDynamicsModel for MechanismModel {
         if self.play.is_empty() || self.sensors.outputs.is_empty() {
             return None;
         }
-        self.sample(theta, q, qd, qdd)?;
+        // The sample last evaluated along a recording (its wind-up state), or a lone one.
+        let current = {
+            let b = self.built.borrow();
+            b.as_ref().is_some_and(|x| {
+                x.theta == theta && x.dynamic.is_some() && (0..q.len()).all(|j| x.last_encoder[j] == q[j])
+            })
+        };
+        if !current {
+            self.sample(None, theta, q, qd, qdd)?;
+        }
         let mut b = self.built.borrow_mut();
         let built = b.as_mut()?;
         let lay = built.model.layout().clone();

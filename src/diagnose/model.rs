@@ -155,8 +155,26 @@ pub trait InverseDynamicsModel {
     fn evaluate(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64], _y: &mut [f64]) {
         self.torques(theta, q, qd, qdd, tau);
     }
+    /// [`evaluate`](Self::evaluate) at sample time `t` (s) of a recording whose samples come
+    /// in time order: a model with internal dynamics (a compliant transmission integrated
+    /// along the recording) carries its state from one sample to the next and restarts when
+    /// time goes back (a new recording). Default: [`evaluate`](Self::evaluate).
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate_at(
+        &self,
+        _t: f64,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        tau: &mut [f64],
+        y: &mut [f64],
+    ) {
+        self.evaluate(theta, q, qd, qdd, tau, y)
+    }
     /// Output sensitivities at one sample (None for a model without outputs or where the
-    /// model cannot be evaluated).
+    /// model cannot be evaluated). A model with internal dynamics answers for the sample it
+    /// last evaluated with [`evaluate_at`](Self::evaluate_at) when `q` is that sample's.
     fn output_sensitivities(
         &self,
         _theta: &[f64],

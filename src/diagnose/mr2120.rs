@@ -4,8 +4,11 @@
 //! kinematics at every sample ([`MechanismModel`]), with its sensors declared:
 //!
 //! * the drive encoders sit on the motors, behind compliant transmissions (compliance a model
-//!   parameter, nominal [`NOMINAL_COMPLIANCE`]; reflected rotor inertia
-//!   [`NOMINAL_ROTOR_INERTIA`]); the drive torques are read from the motor currents;
+//!   parameter, nominal [`NOMINAL_COMPLIANCE`]; torsional damping
+//!   [`NOMINAL_TRANSMISSION_DAMPING`]; reflected rotor inertia [`NOMINAL_ROTOR_INERTIA`]:
+//!   the machine's data sheet, the same values the synthetic machines are built with); the
+//!   drive torques are read from the motor currents; along a recording the wind-up follows
+//!   its own dynamics;
 //! * a laser tracker reads the platform centre (x, y, z);
 //! * the six universal joints D, E, F, P, Q, R may have play (bearing spacing of
 //!   [`BearingDesign::mr2120`]).
@@ -30,9 +33,7 @@ use std::sync::Arc;
 
 pub use crate::mechanisms::mr2120::lumped::NOMINAL_COMPLIANCE;
 
-/// Nominal reflected rotor inertia of each drive, kg·m² (the nominal model declares none
-/// beyond the arm: a rotor-inertia error is a candidate).
-pub const NOMINAL_ROTOR_INERTIA: f64 = 0.0;
+pub use crate::mechanisms::mr2120::truth::{NOMINAL_ROTOR_INERTIA, NOMINAL_TRANSMISSION_DAMPING};
 
 /// Direct-singularity measure below which the localisation tags a configuration as near it.
 pub const NEAR_DIRECT: f64 = 0.3;
@@ -133,6 +134,7 @@ pub fn mr2120_model(g: &Geometry, mp: &MassProperties) -> Result<MechanismModel,
             .map(|j| EncoderPlacement::MotorSide {
                 compliance: 11 + j,
                 rotor_inertia: NOMINAL_ROTOR_INERTIA,
+                damping: NOMINAL_TRANSMISSION_DAMPING,
             })
             .collect(),
         outputs: ["x", "y", "z"]

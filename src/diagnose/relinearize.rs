@@ -123,6 +123,28 @@ impl InverseDynamicsModel for Shifted<'_> {
     fn evaluate(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64], y: &mut [f64]) {
         self.inner.evaluate(theta, &self.q(q), qd, qdd, tau, y)
     }
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate_at(
+        &self,
+        t: f64,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        tau: &mut [f64],
+        y: &mut [f64],
+    ) {
+        self.inner.evaluate_at(t, theta, &self.q(q), qd, qdd, tau, y)
+    }
+    fn parameter_step(&self, k: usize) -> f64 {
+        self.inner.parameter_step(k)
+    }
+    fn play_sites(&self) -> Vec<String> {
+        self.inner.play_sites()
+    }
+    fn derivative_windows(&self) -> Vec<usize> {
+        self.inner.derivative_windows()
+    }
     fn output_sensitivities(
         &self,
         theta: &[f64],

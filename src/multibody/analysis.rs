@@ -518,6 +518,59 @@ impl Analysis {
             .collect()
     }
 
+    /// The mass matrix of a driven mechanism without free degrees of freedom in its driver
+    /// coordinates, at the state stored in `data` (kg·m² for revolute drivers): M_d = Vᵀ·M·V,
+    /// V the body velocities per unit rate of each driver (from the velocity Jacobian). It is
+    /// the inertia the drivers feel when their coordinates accelerate; rows and columns in
+    /// driver order.
+    pub fn driver_mass_matrix(
+        &self,
+        model: &Mechanism,
+        data: &mut MechanismData,
+    ) -> Result<DMatrix<f64>, ModelError> {
+        model.check_data(data)?;
+        let lay = data.ev.layout.clone();
+        let n = 6 * lay.bodies();
+        if lay.constraints() != n {
+            return Err(ModelError::Output(format!(
+                "the driver mass matrix needs a mechanism without free degrees of freedom ({} constraints for {n} velocities)",
+                lay.constraints()
+            )));
+        }
+        let (q, w) = (data.q.clone(), data.w.clone());
+        data.ev.set_state(&q, &w);
+        data.ev.eval_constraints(data.t);
+        let (bm, _) = Self::velocity_system(&data.ev);
+        let lu = bm.lu();
+        let rows: Vec<usize> = model
+            .drivers()
+            .filter_map(|(h, _)| lay.driver_lambda(h))
+            .collect();
+        let mut v = DMatrix::zeros(n, rows.len());
+        for (c, &r) in rows.iter().enumerate() {
+            let mut e = DVector::zeros(n);
+            e[r] = 1.0;
+            let x = lu.solve(&e).ok_or_else(|| {
+                ModelError::Output(format!("singular velocity Jacobian at t = {} s", data.t))
+            })?;
+            v.set_column(c, &x);
+        }
+        let mut mv = DMatrix::zeros(n, rows.len());
+        for (b, body) in model.bodies().bodies.iter().enumerate() {
+            for c in 0..rows.len() {
+                for k in 0..3 {
+                    mv[(6 * b + k, c)] = body.mass * v[(6 * b + k, c)];
+                }
+                let om = Vector3::new(v[(6 * b + 3, c)], v[(6 * b + 4, c)], v[(6 * b + 5, c)]);
+                let h = body.inertia * om;
+                for k in 0..3 {
+                    mv[(6 * b + 3 + k, c)] = h[k];
+                }
+            }
+        }
+        Ok(v.transpose() * mv)
+    }
+
     /// First-order displacement (m, base frame) of the point `s` (body frame, m) of body
     /// `body` when the positions `q` change by `dq` (e.g. a column of
     /// [`constraint_offset_sensitivity`](Self::constraint_offset_sensitivity)).

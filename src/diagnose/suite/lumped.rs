@@ -25,12 +25,8 @@
 use super::super::model::Mr2120Model;
 use super::super::{diagnose, DiagnoseOptions, Diagnosis};
 use super::{motion, score, CaseKind, CaseResult, Concealment, SuiteError, SuiteOptions, Truth};
-use crate::mechanisms::mr2120::record::{
-    nominal_model, record, Excitation, HiddenEffects, RecordError, RecordOptions, Recorded, SensorNoise,
-};
+use crate::mechanisms::mr2120::record::{nominal_model, record, Excitation, HiddenEffects, RecordOptions};
 use serde::Serialize;
-
-
 
 /// One case of the suite.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -329,12 +325,6 @@ pub fn excitation(seed: u64, r: usize) -> Excitation {
     let shake = if r % 2 == 0 { 10.0 } else { 0.0 };
     Excitation::random(seed.wrapping_mul(1000).wrapping_add(r as u64), z_low, shake)
 }
-
-
-
-
-
-
 
 /// Runs one case.
 pub fn run_case(

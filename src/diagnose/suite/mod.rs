@@ -337,7 +337,13 @@ pub struct Concealment {
 /// Fraction of the held-out mismatch power above the noise that the fit removes, and
 /// whether a mismatch remains (held-out RMS above [`HOLDOUT_TARGET`] × noise on a channel).
 fn adequacy(d: &Diagnosis, noise: &SensorNoise) -> (f64, bool, f64) {
-    let sigma = |unit: &str| if unit == "N m" { noise.torque } else { noise.tracker };
+    let sigma = |unit: &str| {
+        if unit == "N m" {
+            noise.torque
+        } else {
+            noise.tracker
+        }
+    };
     let (mut before, mut after, mut worst) = (0.0, 0.0, 0.0f64);
     for c in &d.channels {
         let s = sigma(&c.unit);
@@ -444,7 +450,10 @@ fn scoreboard(opts: &SuiteOptions, results: Vec<CaseResult>) -> Scoreboard {
     let held = concealed.iter().filter(|r| r.holdout_ok).count();
     let null_ok = of(CaseKind::Null).all(|r| r.pass);
     let pair_ok = of(CaseKind::Pair).all(|r| r.pass);
-    let ool = (of(CaseKind::OutOfLibrary).filter(|r| r.pass).count(), of(CaseKind::OutOfLibrary).count());
+    let ool = (
+        of(CaseKind::OutOfLibrary).filter(|r| r.pass).count(),
+        of(CaseKind::OutOfLibrary).count(),
+    );
     // At least 10 of every 12 concealed cases ranked first.
     let need = (10 * n).div_ceil(12);
     let targets_met = ranked >= need

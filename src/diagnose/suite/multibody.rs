@@ -30,7 +30,15 @@ use std::sync::{Mutex, OnceLock};
 
 /// The cases `lash diagnose --suite --reduced` runs (CI): the null case, one of each kind of
 /// physics, two out-of-library cases and the pair.
-pub const REDUCED_CASES: [&str; 7] = ["null", "payload", "stribeck", "clearance-F", "cogging", "drifting", "pair"];
+pub const REDUCED_CASES: [&str; 7] = [
+    "null",
+    "payload",
+    "stribeck",
+    "clearance-F",
+    "cogging",
+    "drifting",
+    "pair",
+];
 
 /// A change to the nominal truth.
 pub type Change = fn(&mut TruthSpec);
@@ -94,16 +102,19 @@ fn payload(mass: f64, mount: PayloadMount) -> PayloadBody {
 /// The suite's cases (values in SI units).
 pub fn cases() -> Vec<Case> {
     use CaseKind::*;
-    let mk = |name: &str, concealment: &str, kind, hidden: Change, larger: Option<Change>, truth: Vec<Truth>| Case {
-        name: name.into(),
-        concealment: concealment.into(),
-        kind,
-        hidden,
-        larger,
-        truth,
-        rival: None,
-        torques: true,
-    };
+    let mk =
+        |name: &str, concealment: &str, kind, hidden: Change, larger: Option<Change>, truth: Vec<Truth>| {
+            Case {
+                name: name.into(),
+                concealment: concealment.into(),
+                kind,
+                hidden,
+                larger,
+                truth,
+                rival: None,
+                torques: true,
+            }
+        };
     let mut out = vec![
         mk(
             "payload",
@@ -315,7 +326,11 @@ fn contribution(with: &TruthRun, without: &TruthRun, opts: &RecordOptions, torqu
 }
 
 /// Runs one case.
-pub fn run_case(case: &Case, opts: &SuiteOptions, case_index: usize) -> Result<(CaseResult, Diagnosis), SuiteError> {
+pub fn run_case(
+    case: &Case,
+    opts: &SuiteOptions,
+    case_index: usize,
+) -> Result<(CaseResult, Diagnosis), SuiteError> {
     let model = mr2120_model(
         &crate::mechanisms::mr2120::Geometry::default(),
         &crate::mechanisms::mr2120::MassProperties::default(),
@@ -341,7 +356,12 @@ pub fn run_case(case: &Case, opts: &SuiteOptions, case_index: usize) -> Result<(
     let (mut below, mut total, mut peak) = (0usize, 0usize, 0.0f64);
     for r in 0..opts.fit_recordings + opts.holdout_recordings {
         let path = super::lumped::excitation(opts.seed, r);
-        let key = (opts.seed, r, opts.record.duration.to_bits(), opts.record.rate.to_bits());
+        let key = (
+            opts.seed,
+            r,
+            opts.record.duration.to_bits(),
+            opts.record.rate.to_bits(),
+        );
         let cached = nominal_runs().lock().ok().and_then(|m| m.get(&key).cloned());
         let nominal = match cached {
             Some(n) => n,
@@ -365,7 +385,12 @@ pub fn run_case(case: &Case, opts: &SuiteOptions, case_index: usize) -> Result<(
             total += 1;
         }
         let rec: Recorded = run.sensed(&full, &path, &ropts, Some(noise_seed.wrapping_add(r as u64)));
-        let d = motion(&rec, format!("{}-{}", case.name, r + 1), opts.derivative_window, case.torques);
+        let d = motion(
+            &rec,
+            format!("{}-{}", case.name, r + 1),
+            opts.derivative_window,
+            case.torques,
+        );
         if r < opts.fit_recordings {
             fit.push(d);
         } else {

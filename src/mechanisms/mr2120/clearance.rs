@@ -148,7 +148,15 @@ pub(crate) fn add_universal_joints(
         // Elbow: axis_i along the drive axis (arm side), axis_j across (forearm side); the
         // platform joint the other way round.
         let joints = [
-            (i, ELBOW_JOINTS[i], l.arms[i], l.forearms[i], l.elbows[i], l.axes[i], l.cross_axes[i]),
+            (
+                i,
+                ELBOW_JOINTS[i],
+                l.arms[i],
+                l.forearms[i],
+                l.elbows[i],
+                l.axes[i],
+                l.cross_axes[i],
+            ),
             (
                 3 + i,
                 PLATFORM_JOINTS[i],
@@ -162,7 +170,9 @@ pub(crate) fn add_universal_joints(
         for (k, name, bi, bj, point, axis_i, axis_j) in joints {
             match &designs[k] {
                 Some(design) => {
-                    let u = universal_with_clearance(mech, name, bi, bj, point, axis_i, axis_j, design, mp.cross)?;
+                    let u = universal_with_clearance(
+                        mech, name, bi, bj, point, axis_i, axis_j, design, mp.cross,
+                    )?;
                     crosses[k] = Some(u.cross);
                 }
                 None => ideal[k] = Some(mech.universal_at(name, bi, bj, point, axis_i, axis_j)),
