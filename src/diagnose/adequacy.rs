@@ -205,7 +205,11 @@ fn excess(ratio: f64) -> f64 {
 /// The explained fraction of one channel from its noise ratios before and after the fit.
 pub fn explained_fraction(before: f64, after: f64) -> f64 {
     if before <= UNEXPLAINED_NOISE_RATIO {
-        return if after <= UNEXPLAINED_NOISE_RATIO { 1.0 } else { 0.0 };
+        return if after <= UNEXPLAINED_NOISE_RATIO {
+            1.0
+        } else {
+            0.0
+        };
     }
     (1.0 - excess(after) / excess(before)).clamp(0.0, 1.0)
 }
@@ -215,7 +219,11 @@ pub fn overall_explained_fraction(ratios: &[(f64, f64)]) -> f64 {
     let den: f64 = ratios.iter().map(|r| excess(r.0)).sum();
     let num: f64 = ratios.iter().map(|r| excess(r.1)).sum();
     if ratios.iter().all(|r| r.0 <= UNEXPLAINED_NOISE_RATIO) {
-        return if ratios.iter().all(|r| r.1 <= UNEXPLAINED_NOISE_RATIO) { 1.0 } else { 0.0 };
+        return if ratios.iter().all(|r| r.1 <= UNEXPLAINED_NOISE_RATIO) {
+            1.0
+        } else {
+            0.0
+        };
     }
     (1.0 - num / den.max(1e-300)).clamp(0.0, 1.0)
 }
@@ -311,7 +319,10 @@ pub(super) fn assess(
             unexplained,
         });
     }
-    let ratios: Vec<(f64, f64)> = out.iter().map(|c| (c.noise_ratio_before, c.noise_ratio_after)).collect();
+    let ratios: Vec<(f64, f64)> = out
+        .iter()
+        .map(|c| (c.noise_ratio_before, c.noise_ratio_after))
+        .collect();
     Adequacy {
         basis: if held_out { "held-out" } else { "fit" }.into(),
         unexplained_noise_ratio: UNEXPLAINED_NOISE_RATIO,
@@ -388,7 +399,9 @@ pub(super) fn honest_uncertainty(estimates: &mut [Estimate], shares: &[Vec<f64>]
         let (lo, hi) = e
             .folds
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            });
         let range = if e.folds.len() >= 2 { hi - lo } else { 0.0 };
         e.stable = !(range > inflated && range > UNSTABLE_FRACTION * e.value.abs());
     }
@@ -403,7 +416,9 @@ pub fn fold_movement(e: &Estimate) -> f64 {
     let (lo, hi) = e
         .folds
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
     (hi - lo) / e.value.abs().max(1e-300)
 }
 
@@ -416,7 +431,11 @@ fn short_tags(channel: &str, tags: &[String]) -> String {
     if t.is_empty() {
         return "no distinctive state".into();
     }
-    t.iter().take(2).map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+    t.iter()
+        .take(2)
+        .map(|s| s.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The opening of the verdict: whether what remains is noise, with numbers per channel.
@@ -426,7 +445,11 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
     if a.channels.is_empty() {
         return String::new();
     }
-    let basis = if a.basis == "held-out" { "held-out" } else { "fitted (no recording held out)" };
+    let basis = if a.basis == "held-out" {
+        "held-out"
+    } else {
+        "fitted (no recording held out)"
+    };
     if !a.unexplained {
         let worst = a.channels.iter().map(|c| c.noise_ratio_after).fold(0.0, f64::max);
         let min_p = a.channels.iter().map(|c| c.whiteness_p).fold(1.0, f64::min);
@@ -440,7 +463,11 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
                 .fold(0.0, f64::max);
             format!("nearly white (lag-1 autocorrelation ≤ {r1:.2})")
         };
-        let head = if selected_any { "What remains is noise" } else { "No significant mismatch: what remains is noise" };
+        let head = if selected_any {
+            "What remains is noise"
+        } else {
+            "No significant mismatch: what remains is noise"
+        };
         return format!(
             "{head}: the {basis} residual after the fit is ≤ {worst:.2}× the noise floor on every channel and {white}. "
         );
@@ -450,11 +477,14 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
         .iter()
         .map(|c| {
             if !c.unexplained {
+                let what = if c.noise_ratio_before <= UNEXPLAINED_NOISE_RATIO {
+                    "nothing above the noise to explain".to_string()
+                } else {
+                    format!("{:.0} % explained", 100.0 * c.explained_fraction)
+                };
                 return format!(
-                    "the {} is at noise ({:.2}× the noise floor, {:.0} % explained)",
-                    c.channel,
-                    c.noise_ratio_after,
-                    100.0 * c.explained_fraction
+                    "the {} is at noise ({:.2}× the noise floor; {what})",
+                    c.channel, c.noise_ratio_after
                 );
             }
             let mut s = format!(
@@ -478,13 +508,13 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
         .collect();
     let lead = if selected_any {
         format!(
-            "The selected physics explains {:.0} % of the {basis} mismatch above the noise",
+            "the selected physics explains {:.0} % of the {basis} mismatch above the noise",
             100.0 * a.explained_fraction
         )
     } else {
-        "No candidate physics explains the mismatch".to_string()
+        "no candidate physics explains the mismatch".to_string()
     };
-    let mut s = format!("Unexplained mismatch remains. {lead}; {}. ", parts.join("; "));
+    let mut s = format!("Unexplained mismatch remains: {lead}; {}. ", parts.join("; "));
     // Second sentence: structure, per unexplained channel.
     let detail: Vec<String> = a
         .channels
@@ -510,7 +540,10 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
     if !detail.is_empty() {
         let text = detail.join("; ");
         let mut cs = text.chars();
-        let first = cs.next().map(|c| c.to_uppercase().collect::<String>()).unwrap_or_default();
+        let first = cs
+            .next()
+            .map(|c| c.to_uppercase().collect::<String>())
+            .unwrap_or_default();
         s.push_str(&format!("{first}{}. ", cs.as_str()));
     }
     s

@@ -133,7 +133,14 @@ impl StateScales {
         let nj = model.joints();
         let pick = |f: &dyn Fn(&MotionData) -> &Vec<Vec<f64>>, p: f64| -> Vec<f64> {
             (0..nj)
-                .map(|j| percentile(data.iter().flat_map(|d| f(d)[j].iter().map(|v| v.abs())).collect(), p))
+                .map(|j| {
+                    percentile(
+                        data.iter()
+                            .flat_map(|d| f(d)[j].iter().map(|v| v.abs()))
+                            .collect(),
+                        p,
+                    )
+                })
                 .collect()
         };
         Self {

@@ -84,7 +84,11 @@ fn residual_charts(_: &Diagnosis, _: &Path) -> Result<Vec<(String, String, PathB
 /// The report's opening lines: explained or unexplained, per channel, with numbers.
 fn adequacy_lines(m: &mut String, d: &Diagnosis) {
     let a = &d.adequacy;
-    let basis = if a.basis == "held-out" { "held-out recordings" } else { "fit recordings (none held out)" };
+    let basis = if a.basis == "held-out" {
+        "held-out recordings"
+    } else {
+        "fit recordings (none held out)"
+    };
     if a.unexplained {
         let _ = writeln!(
             m,
@@ -123,7 +127,11 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
                 w.t0,
                 w.t1,
                 w.noise_ratio,
-                if w.tags.is_empty() { "no distinctive state".to_string() } else { w.tags.join(", ") }
+                if w.tags.is_empty() {
+                    "no distinctive state".to_string()
+                } else {
+                    w.tags.join(", ")
+                }
             ));
         }
         if let Some(st) = c.strongest_state.as_ref().filter(|_| c.unexplained) {

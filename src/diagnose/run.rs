@@ -165,7 +165,10 @@ fn diagnose_once(
             name: &d.name,
             t: &d.t,
             after: if held_out {
-                traces[r * nj..(r + 1) * nj].iter().map(|tr| tr.after.clone()).collect()
+                traces[r * nj..(r + 1) * nj]
+                    .iter()
+                    .map(|tr| tr.after.clone())
+                    .collect()
             } else {
                 fit_after[r].clone()
             },

@@ -203,7 +203,8 @@ pub fn ljung_box(r: &[f64], n: usize) -> (f64, f64) {
         return (0.0, 1.0);
     }
     let nf = n as f64;
-    let q = nf * (nf + 2.0)
+    let q = nf
+        * (nf + 2.0)
         * r.iter()
             .enumerate()
             .map(|(k, rk)| rk * rk / (nf - (k + 1) as f64))

@@ -101,7 +101,12 @@ pub(super) fn verdict(
             .all(|e| e.stable)
     };
     let found: Vec<String> = set.iter().copied().filter(|&c| stable(c)).map(describe).collect();
-    let unstable: Vec<String> = set.iter().copied().filter(|&c| !stable(c)).map(describe).collect();
+    let unstable: Vec<String> = set
+        .iter()
+        .copied()
+        .filter(|&c| !stable(c))
+        .map(describe)
+        .collect();
     if !found.is_empty() {
         s.push_str("Missing physics, in order of evidence: ");
         s.push_str(&found.join("; "));
