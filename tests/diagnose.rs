@@ -789,3 +789,35 @@ fn dfki_report_opens_with_what_stays_unexplained_in_both_joints() {
     }
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn a_ripple_alone_is_unexplained_and_nothing_is_claimed_as_found() {
+    // Only an effect outside the library: cogging ripple 0.04·sin(20·q₂) N m in joint 2.
+    let extra = |j: usize, q: f64, _: f64, _: f64| if j == 1 { 0.04 * (20.0 * q).sin() } else { 0.0 };
+    let freqs = [[0.3, 0.5], [0.4, 0.35], [0.25, 0.6], [0.5, 0.45]];
+    let fit: Vec<MotionData> = freqs[..3]
+        .iter()
+        .enumerate()
+        .map(|(k, f)| run_with(k as u64 + 1, *f, &extra, 0.01))
+        .collect();
+    let held = vec![run_with(99, freqs[3], &extra, 0.01)];
+    let model = DoublePendulumModel { params: params() };
+    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap();
+    eprintln!("{}\n{:?}", d.verdict, d.estimates);
+    let j2 = &d.channels[1];
+    assert!(
+        d.unexplained && j2.unexplained && j2.noise_ratio_after > 2.0,
+        "{j2:?}"
+    );
+    assert!(d.explained_fraction < 0.3, "{}", d.explained_fraction);
+    assert!(
+        d.verdict.starts_with("Unexplained mismatch remains"),
+        "{}",
+        d.verdict
+    );
+    // No estimate is claimed as found physics: each is unstable or within two of its
+    // (misfit-including) standard deviations of zero.
+    for e in &d.estimates {
+        assert!(!e.stable || e.value.abs() < 2.0 * e.std, "{e:?}");
+    }
+}
