@@ -679,7 +679,7 @@ fn at_noise_nothing_is_unexplained_and_the_residual_is_white() {
     assert_eq!(d.explained_fraction, 1.0);
     assert!(
         d.verdict
-            .starts_with("No significant mismatch: what remains is noise"),
+            .starts_with("No significant mismatch; what remains is noise"),
         "{}",
         d.verdict
     );

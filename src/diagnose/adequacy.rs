@@ -15,9 +15,9 @@
 //!   the noise tolerance to explain: e = 1 if the fit keeps it there, 0 if the fit pushes
 //!   the channel above the tolerance. A fit that makes the channel worse gives 0.
 //! - **Whiteness.** The normalised autocorrelation r_k of the residual after the fit at lags
-//!   k = 1..=[`WHITENESS_LAGS`], pooled over the basis recordings (each centred on its own
-//!   mean, `signal::autocorrelation`), and the Ljung–Box statistic
-//!   Q = n(n+2)·Σ r_k²/(n−k), χ² with L = [`WHITENESS_LAGS`] degrees of freedom if the
+//!   k = 1..=L, L = [`WHITENESS_LAGS`] (fewer if the basis has under 5·L samples), pooled
+//!   over the basis recordings (each centred on its own mean, `signal::autocorrelation`), and
+//!   the Ljung–Box statistic Q = n(n+2)·Σ r_k²/(n−k), χ² with L degrees of freedom if the
 //!   residual is white (`stats::ljung_box`; exact in distribution for held-out data, where
 //!   no parameter was fitted to the series; on the fit basis it is slightly optimistic). Its
 //!   p-value is `whiteness_p`. With thousands of samples Q detects the faintest colour, so
@@ -463,13 +463,16 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
                 .fold(0.0, f64::max);
             format!("nearly white (lag-1 autocorrelation ≤ {r1:.2})")
         };
-        let head = if selected_any {
-            "What remains is noise"
+        let (head, what) = if selected_any {
+            ("What remains is noise", "after the fit")
         } else {
-            "No significant mismatch: what remains is noise"
+            (
+                "No significant mismatch; what remains is noise",
+                "of the nominal model",
+            )
         };
         return format!(
-            "{head}: the {basis} residual after the fit is ≤ {worst:.2}× the noise floor on every channel and {white}. "
+            "{head}: the {basis} residual {what} is ≤ {worst:.2}× the noise floor on every channel and {white}. "
         );
     }
     let parts: Vec<String> = a

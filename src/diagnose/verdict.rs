@@ -1,7 +1,7 @@
 //! The verdict: one paragraph of prose from a finished diagnosis — first whether what
 //! remains after the fit is noise (with the explained fraction and the remaining noise ratio
-//! per channel, and where it is largest), then where the nominal model disagrees most, which state the residual follows, the missing physics in order of
-//! evidence with their estimates (uncertainties including the misfit; estimates that move
+//! per channel, and where it is largest), then where the nominal model disagrees most, which
+//! state the residual follows, the missing physics in order of evidence with their estimates (uncertainties including the misfit; estimates that move
 //! between leave-one-recording-out folds are reported as unstable, not as found physics), the
 //! held-out improvement and the effects the data cannot separate.
 
