@@ -99,20 +99,31 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
     } else {
         let _ = writeln!(
             m,
-            "**What remains is noise** on the {basis}: every channel within {:.1}× its noise floor and not far from white; the selected physics explains {:.0} % of the mismatch power above the noise.\n",
+            "**What remains is noise** on the {basis}: every channel within {:.1}× its noise floor and not far from white; {}.\n",
             a.unexplained_noise_ratio,
-            100.0 * a.explained_fraction
+            if a.channels.iter().all(|c| c.noise_ratio_before <= a.unexplained_noise_ratio) {
+                "the nominal model was already at noise".to_string()
+            } else {
+                format!(
+                    "the selected physics explains {:.0} % of the mismatch power above the noise",
+                    100.0 * a.explained_fraction
+                )
+            }
         );
     }
     for c in &a.channels {
         let state = if c.unexplained { "UNEXPLAINED" } else { "at noise" };
         let mut line = format!(
-            "- {}: {state} — {:.1}× the noise floor after the fit ({} {u}; before {:.1}×), {:.0} % explained; lag-1 autocorrelation {:.2}, whiteness p {}; {} of {} windows above {} noise floors",
+            "- {}: {state} — {:.1}× the noise floor after the fit ({} {u}; before {:.1}×), {}; lag-1 autocorrelation {:.2}, whiteness p {}; {} of {} windows above {} noise floors",
             c.channel,
             c.noise_ratio_after,
             number(c.rms_after),
             c.noise_ratio_before,
-            100.0 * c.explained_fraction,
+            if c.noise_ratio_before <= a.unexplained_noise_ratio {
+                "nothing above the noise to explain".to_string()
+            } else {
+                format!("{:.0} % explained", 100.0 * c.explained_fraction)
+            },
             c.autocorrelation.first().copied().unwrap_or(0.0),
             super::adequacy::p_text(c.whiteness_p),
             c.significant_windows,
