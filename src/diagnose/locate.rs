@@ -119,6 +119,115 @@ fn percentile(mut v: Vec<f64>, p: f64) -> f64 {
     v[((v.len() - 1) as f64 * p).round() as usize]
 }
 
+/// Per joint, the acceleration (90th percentile of |q̈|) and speed (75th percentile of |q̇|)
+/// above which a window counts as an acceleration peak or high speed, over a set of
+/// recordings.
+pub(super) struct StateScales {
+    acc_hi: Vec<f64>,
+    spd_hi: Vec<f64>,
+}
+
+impl StateScales {
+    /// The scales of `data`.
+    pub(super) fn of(model: &dyn InverseDynamicsModel, data: &[MotionData]) -> Self {
+        let nj = model.joints();
+        let pick = |f: &dyn Fn(&MotionData) -> &Vec<Vec<f64>>, p: f64| -> Vec<f64> {
+            (0..nj)
+                .map(|j| {
+                    percentile(
+                        data.iter()
+                            .flat_map(|d| f(d)[j].iter().map(|v| v.abs()))
+                            .collect(),
+                        p,
+                    )
+                })
+                .collect()
+        };
+        Self {
+            acc_hi: pick(&|d| &d.qdd, 0.9),
+            spd_hi: pick(&|d| &d.qd, 0.75),
+        }
+    }
+}
+
+/// The windows of `opts.window_s` of one recording as sample ranges [a, b) with the state
+/// tags of each (velocity and load reversals, acceleration peaks, high speed, rest, and the
+/// model's configuration tags at parameters `theta`); `sigma` are the channels' noise floors
+/// (torque channels first), which set when a measured load counts as reversing.
+pub(super) fn tagged_windows(
+    model: &dyn InverseDynamicsModel,
+    d: &MotionData,
+    theta: &[f64],
+    sigma: &[f64],
+    scales: &StateScales,
+    opts: &LocateOptions,
+) -> Vec<(usize, usize, Vec<String>)> {
+    let nj = model.joints();
+    let (acc_hi, spd_hi) = (&scales.acc_hi, &scales.spd_hi);
+    let (tau_model, y_model) = d.model_all(model, theta);
+    // Configuration tags per sample (e.g. near a singular configuration).
+    let config: Vec<Option<String>> = (0..d.len())
+        .map(|i| {
+            let q: Vec<f64> = d.q.iter().map(|v| v[i]).collect();
+            let y: Vec<f64> = y_model.iter().map(|v| v[i]).collect();
+            model.configuration_tag(theta, &q, &y)
+        })
+        .collect();
+    let mut out = vec![];
+    let mut a = 0;
+    while a < d.len() {
+        let t_end = d.t[a] + opts.window_s;
+        let b = d.t.iter().position(|&t| t >= t_end).unwrap_or(d.len());
+        if b - a < 5 {
+            break;
+        }
+        let mut tags = vec![];
+        for k in 0..nj {
+            let qd = &d.qd[k][a..b];
+            let moving: Vec<f64> = qd.iter().copied().filter(|v| v.abs() > opts.rest_speed).collect();
+            if moving.windows(2).any(|w| w[0] * w[1] < 0.0) {
+                tags.push(format!("velocity reversal of {}", model.joint_name(k)));
+            }
+            // The measured load if recorded, else the model's.
+            let tau = if d.tau.is_empty() {
+                &tau_model[k][a..b]
+            } else {
+                &d.tau[k][a..b]
+            };
+            let load_noise = if d.tau.is_empty() {
+                0.01 * tau.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+            } else {
+                sigma[k]
+            };
+            let loaded: Vec<f64> = tau
+                .iter()
+                .copied()
+                .filter(|v| v.abs() > 3.0 * load_noise)
+                .collect();
+            if loaded.windows(2).any(|w| w[0] * w[1] < 0.0) {
+                tags.push(format!("load reversal in {}", model.joint_name(k)));
+            }
+            if d.qdd[k][a..b].iter().any(|v| v.abs() > acc_hi[k]) {
+                tags.push(format!("acceleration peak of {}", model.joint_name(k)));
+            }
+            if qd.iter().map(|v| v.abs()).sum::<f64>() / qd.len() as f64 > spd_hi[k] {
+                tags.push(format!("high speed of {}", model.joint_name(k)));
+            }
+            if qd.iter().all(|v| v.abs() <= opts.rest_speed) {
+                tags.push(format!("{} at rest", model.joint_name(k)));
+            }
+        }
+        for tag in config[a..b].iter().flatten() {
+            if !tags.contains(tag) {
+                tags.push(tag.clone());
+            }
+        }
+        out.push((a, b, tags));
+        a = b;
+    }
+    out
+}
+
 /// Windows of the nominal residual (parameters `theta`) of every recording.
 pub fn locate(
     model: &dyn InverseDynamicsModel,
@@ -130,87 +239,12 @@ pub fn locate(
     let nj = model.joints();
     let chans = data.first().map(MotionData::channels).unwrap_or_default();
     let nc = chans.len();
-    let acc_hi: Vec<f64> = (0..nj)
-        .map(|j| {
-            percentile(
-                data.iter()
-                    .flat_map(|d| d.qdd[j].iter().map(|v| v.abs()))
-                    .collect(),
-                0.9,
-            )
-        })
-        .collect();
-    let spd_hi: Vec<f64> = (0..nj)
-        .map(|j| {
-            percentile(
-                data.iter()
-                    .flat_map(|d| d.qd[j].iter().map(|v| v.abs()))
-                    .collect(),
-                0.75,
-            )
-        })
-        .collect();
+    let scales = StateScales::of(model, data);
     // (channel, rms, tags, finding)
     let mut windows: Vec<(usize, f64, Vec<String>, Finding)> = vec![];
     for d in data {
         let nominal = d.model_channels(model, theta);
-        let (tau_model, y_model) = d.model_all(model, theta);
-        // Configuration tags per sample (e.g. near a singular configuration).
-        let config: Vec<Option<String>> = (0..d.len())
-            .map(|i| {
-                let q: Vec<f64> = d.q.iter().map(|v| v[i]).collect();
-                let y: Vec<f64> = y_model.iter().map(|v| v[i]).collect();
-                model.configuration_tag(theta, &q, &y)
-            })
-            .collect();
-        let mut a = 0;
-        while a < d.len() {
-            let t_end = d.t[a] + opts.window_s;
-            let b = d.t.iter().position(|&t| t >= t_end).unwrap_or(d.len());
-            if b - a < 5 {
-                break;
-            }
-            let mut tags = vec![];
-            for k in 0..nj {
-                let qd = &d.qd[k][a..b];
-                let moving: Vec<f64> = qd.iter().copied().filter(|v| v.abs() > opts.rest_speed).collect();
-                if moving.windows(2).any(|w| w[0] * w[1] < 0.0) {
-                    tags.push(format!("velocity reversal of {}", model.joint_name(k)));
-                }
-                // The measured load if recorded, else the model's.
-                let tau = if d.tau.is_empty() {
-                    &tau_model[k][a..b]
-                } else {
-                    &d.tau[k][a..b]
-                };
-                let load_noise = if d.tau.is_empty() {
-                    0.01 * tau.iter().fold(0.0f64, |m, v| m.max(v.abs()))
-                } else {
-                    sigma[k]
-                };
-                let loaded: Vec<f64> = tau
-                    .iter()
-                    .copied()
-                    .filter(|v| v.abs() > 3.0 * load_noise)
-                    .collect();
-                if loaded.windows(2).any(|w| w[0] * w[1] < 0.0) {
-                    tags.push(format!("load reversal in {}", model.joint_name(k)));
-                }
-                if d.qdd[k][a..b].iter().any(|v| v.abs() > acc_hi[k]) {
-                    tags.push(format!("acceleration peak of {}", model.joint_name(k)));
-                }
-                if qd.iter().map(|v| v.abs()).sum::<f64>() / qd.len() as f64 > spd_hi[k] {
-                    tags.push(format!("high speed of {}", model.joint_name(k)));
-                }
-                if qd.iter().all(|v| v.abs() <= opts.rest_speed) {
-                    tags.push(format!("{} at rest", model.joint_name(k)));
-                }
-            }
-            for tag in config[a..b].iter().flatten() {
-                if !tags.contains(tag) {
-                    tags.push(tag.clone());
-                }
-            }
+        for (a, b, tags) in tagged_windows(model, d, theta, sigma, &scales, opts) {
             for j in 0..nc {
                 let meas = d.measured(chans[j]);
                 let res: Vec<f64> = (a..b)
@@ -230,7 +264,6 @@ pub fn locate(
                 };
                 windows.push((j, r, tags.clone(), f));
             }
-            a = b;
         }
     }
     let mut out = Location::default();

@@ -13,6 +13,7 @@
 //! | `candidates.rs` | the library of candidate physics and their regressors |
 //! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
 //! | `locate.rs` | significant residual windows tied to the mechanism's state |
+//! | `adequacy.rs` | after the selection: is what remains noise (noise ratio, whiteness, windows that stay significant, explained fraction per channel), uncertainties that include the misfit, unstable estimates; its module doc states the statistics |
 //! | `run.rs` | the entry points [`diagnose`] and [`diagnose_recordings`]: noise floors, localisation, held-out check |
 //! | `options.rs` | [`DiagnoseOptions`], every tunable of the diagnosis |
 //! | `outcome.rs` | [`Diagnosis`] and its parts (ranking, steps, estimates, confounded pairs, channel fits) |
@@ -57,6 +58,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod adequacy;
 pub mod candidates;
 pub mod columns;
 pub mod data;

@@ -1,6 +1,7 @@
 //! What a diagnosis returns: the ranking, the greedy steps, the estimates with their
 //! uncertainty, the confounded pairs, the per-channel fit before and after, and the verdict.
 
+use super::adequacy::{Adequacy, ResidualWindow};
 use super::locate::Location;
 use serde::Serialize;
 
@@ -43,8 +44,26 @@ pub struct Estimate {
     pub parameter: String,
     /// Value.
     pub value: f64,
-    /// Standard deviation (effective-sample corrected).
+    /// Standard deviation including the misfit: the larger of `std_noise_only` inflated by
+    /// the residual-to-noise ratio of the channels the parameter acts on (`inflation`) and
+    /// the leave-one-recording-out jackknife (`std_jackknife`); see the `adequacy` module.
     pub std: f64,
+    /// The standard deviation that treats the residual as random noise (least squares with
+    /// effective samples), without any allowance for systematic misfit.
+    pub std_noise_only: f64,
+    /// Leave-one-recording-out jackknife standard deviation, √((R−1)/R·Σ(x₋ᵣ − x̄)²) over the
+    /// R fit recordings; `None` with a single fit recording.
+    pub std_jackknife: Option<f64>,
+    /// Factor applied to `std_noise_only`: the information-weighted residual-to-noise ratio
+    /// (at least 1) of the channels the parameter acts on.
+    pub inflation: f64,
+    /// The estimate with each fit recording left out in turn (same order as the fit
+    /// recordings; empty with a single fit recording).
+    pub folds: Vec<f64>,
+    /// False if the estimate moves between the leave-one-recording-out folds by more than
+    /// its inflated uncertainty and by more than `adequacy::UNSTABLE_FRACTION` of its value:
+    /// it soaks up model error rather than measuring physics.
+    pub stable: bool,
 }
 
 /// A pair of effects the data cannot tell apart.
@@ -79,6 +98,19 @@ pub struct ChannelFit {
     pub holdout_after: f64,
     /// 1 − after/before on the held-out recordings.
     pub holdout_reduction: f64,
+    /// Fraction of the mismatch power above the noise that the selected physics removes,
+    /// on the adequacy basis (held-out recordings if any, else the fit recordings); see the
+    /// `adequacy` module for its definition.
+    pub explained_fraction: f64,
+    /// RMS after the fit / noise floor, on the adequacy basis.
+    pub noise_ratio_after: f64,
+    /// Ljung–Box p-value of the residual after the fit being white (adequacy basis).
+    pub whiteness_p: f64,
+    /// True if what remains after the fit is not noise: RMS above
+    /// `adequacy::UNEXPLAINED_NOISE_RATIO` noise floors, or a residual far from white.
+    pub unexplained: bool,
+    /// The window where the remaining mismatch is largest (adequacy basis), with its state.
+    pub worst_window: Option<ResidualWindow>,
 }
 
 /// Residual time series of one held-out recording and channel (for plots).
@@ -129,6 +161,13 @@ pub struct Diagnosis {
     pub channels: Vec<ChannelFit>,
     /// True if nothing significant is missing.
     pub no_significant_mismatch: bool,
+    /// Fraction of the mismatch power above the noise (in noise-floor units, summed over the
+    /// channels) that the selected physics removes; see the `adequacy` module.
+    pub explained_fraction: f64,
+    /// True if any channel's residual after the fit is not noise.
+    pub unexplained: bool,
+    /// Whether what remains after the fit is noise: per channel ratios, whiteness, windows.
+    pub adequacy: Adequacy,
     /// One-paragraph verdict.
     pub verdict: String,
     /// Leave-one-recording-out residual RMS of the final model on the fit recordings, in

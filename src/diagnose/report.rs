@@ -81,6 +81,85 @@ fn residual_charts(_: &Diagnosis, _: &Path) -> Result<Vec<(String, String, PathB
     Ok(vec![])
 }
 
+/// The report's opening lines: explained or unexplained, per channel, with numbers.
+fn adequacy_lines(m: &mut String, d: &Diagnosis) {
+    let a = &d.adequacy;
+    let basis = if a.basis == "held-out" {
+        "held-out recordings"
+    } else {
+        "fit recordings (none held out)"
+    };
+    if a.unexplained {
+        let _ = writeln!(
+            m,
+            "**Unexplained mismatch remains**: the selected physics explains {:.0} % of the mismatch power above the noise on the {basis}; what remains is not noise (threshold: {:.1}× the noise floor, or a residual far from white).\n",
+            100.0 * a.explained_fraction,
+            a.unexplained_noise_ratio
+        );
+    } else {
+        let _ = writeln!(
+            m,
+            "**What remains is noise** on the {basis}: every channel within {:.1}× its noise floor and not far from white; {}.\n",
+            a.unexplained_noise_ratio,
+            if a.channels.iter().all(|c| c.noise_ratio_before <= a.unexplained_noise_ratio) {
+                "the nominal model was already at noise".to_string()
+            } else {
+                format!(
+                    "the selected physics explains {:.0} % of the mismatch power above the noise",
+                    100.0 * a.explained_fraction
+                )
+            }
+        );
+    }
+    for c in &a.channels {
+        let state = if c.unexplained { "UNEXPLAINED" } else { "at noise" };
+        let mut line = format!(
+            "- {}: {state} — {:.1}× the noise floor after the fit ({} {u}; before {:.1}×), {}; lag-1 autocorrelation {:.2}, whiteness p {}; {} of {} windows above {} noise floors",
+            c.channel,
+            c.noise_ratio_after,
+            number(c.rms_after),
+            c.noise_ratio_before,
+            if c.noise_ratio_before <= a.unexplained_noise_ratio {
+                "nothing above the noise to explain".to_string()
+            } else {
+                format!("{:.0} % explained", 100.0 * c.explained_fraction)
+            },
+            c.autocorrelation.first().copied().unwrap_or(0.0),
+            super::adequacy::p_text(c.whiteness_p),
+            c.significant_windows,
+            c.windows,
+            a.window.1,
+            u = c.unit
+        );
+        if let Some(w) = c.worst_window.as_ref().filter(|_| c.unexplained) {
+            line.push_str(&format!(
+                "; largest in {} at t = {:.2}–{:.2} s ({:.1}×; {})",
+                w.recording,
+                w.t0,
+                w.t1,
+                w.noise_ratio,
+                if w.tags.is_empty() {
+                    "no distinctive state".to_string()
+                } else {
+                    w.tags.join(", ")
+                }
+            ));
+        }
+        if let Some(st) = c.strongest_state.as_ref().filter(|_| c.unexplained) {
+            line.push_str(&format!("; {:.1}× larger in windows with {}", st.ratio, st.tag));
+        }
+        let _ = writeln!(m, "{line}.");
+    }
+    if !a.unstable.is_empty() {
+        let _ = writeln!(
+            m,
+            "- Unstable estimates (soak up model error, not found physics): {}.",
+            a.unstable.join("; ")
+        );
+    }
+    let _ = writeln!(m);
+}
+
 /// Writes the report into `dir` (created if needed); returns the Markdown path.
 pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
     std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
@@ -90,6 +169,7 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
     std::fs::write(&json, text).map_err(|e| io(&json, e))?;
     let mut m = String::new();
     let _ = writeln!(m, "# lash diagnose: {}\n", d.model);
+    adequacy_lines(&mut m, d);
     let _ = writeln!(m, "## Verdict\n\n{}\n", d.verdict);
     let _ = writeln!(
         m,
@@ -190,12 +270,24 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
     if d.steps.is_empty() {
         let _ = writeln!(m, "\nNothing joined the model: no significant mismatch.");
     }
-    let _ = writeln!(m, "\n## Estimates (± one standard deviation)\n\n| effect | parameter | value | std |\n|---|---|---|---|");
+    let _ = writeln!(
+        m,
+        "\n## Estimates (± one standard deviation)\n\nstd includes the misfit: the larger of the noise-only std × the residual-to-noise inflation and the leave-one-recording-out jackknife. Unstable: moves between leave-one-recording-out fits by more than its inflated std and more than {:.0} % — it soaks up model error.\n\n| effect | parameter | value | std | std (noise only) | inflation | jackknife std | fold movement | stable |\n|---|---|---|---|---|---|---|---|---|",
+        100.0 * super::adequacy::UNSTABLE_FRACTION
+    );
     for e in &d.estimates {
         let _ = writeln!(
             m,
-            "| {} | {} | {:.5} | {:.5} |",
-            e.candidate, e.parameter, e.value, e.std
+            "| {} | {} | {} | {} | {} | {:.2} | {} | {:.1} % | {} |",
+            e.candidate,
+            e.parameter,
+            number(e.value),
+            number(e.std),
+            number(e.std_noise_only),
+            e.inflation,
+            e.std_jackknife.map(number).unwrap_or_else(|| "–".into()),
+            100.0 * super::adequacy::fold_movement(e),
+            if e.stable { "yes" } else { "no (unstable)" }
         );
     }
     if !d.correlations.is_empty() {

@@ -2,10 +2,11 @@
 //! selection, estimates, confounding and the held-out check, then one re-linearisation) and
 //! [`diagnose_recordings`] on recordings, which first chooses the differentiation window.
 
+use super::adequacy::{self, BasisResidual};
 use super::candidates::library;
 use super::data::{Channel, MotionData};
 use super::error::DiagnoseError;
-use super::locate::locate;
+use super::locate::{locate, tagged_windows, StateScales};
 use super::model::InverseDynamicsModel;
 use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, ResidualTrace};
@@ -14,7 +15,7 @@ use super::relinearize;
 use super::residuals::{prepare, Prepared};
 use super::selection::{confounded, estimate, select, Estimates, Selection};
 use super::signal::{noise_floor, rms};
-use super::verdict::verdict;
+use super::verdict::{verdict, verdict_text};
 
 /// Runs the diagnosis of `model` on the `fit` recordings, checked on `holdout` (equation
 /// error on torque channels, output error on output channels). `progress` receives (stage,
@@ -45,7 +46,10 @@ pub fn diagnose(
     o2.relinearize = false;
     o2.shift = moved;
     let second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.5 * f))?;
-    let d = relinearize::against_nominal(model, first, second, &cands);
+    let mut d = relinearize::against_nominal(model, first, second, &cands);
+    // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
+    adequacy::refresh(&mut d);
+    d.verdict = verdict_text(model, &d, &cands);
     progress("done", 1.0);
     Ok(d)
 }
@@ -127,8 +131,9 @@ fn diagnose_once(
     progress("estimates", 0.85);
     let Estimates {
         x,
-        estimates,
+        mut estimates,
         correlations,
+        shares,
     } = estimate(&sel, &cands);
     let confounded = confounded(&sel, &cands, opts);
     let Selection {
@@ -142,10 +147,47 @@ fn diagnose_once(
         ..
     } = sel;
     progress("held-out check", 0.9);
-    let (channels, traces) = channel_fits(model, fit, holdout, &prep, &set, &x, &weight_scale, &sigma, opts)?;
+    let (mut channels, traces, fit_after) =
+        channel_fits(model, fit, holdout, &prep, &set, &x, &weight_scale, &sigma, opts)?;
     let factor: Vec<f64> = (0..nj).map(|j| weight_scale[j] / sigma[j]).collect();
     let cv_rms_noise_units = prep.cv_rms_rescaled(&set, &factor, &lens);
     let no_mismatch = set.is_empty();
+    // Is what remains noise? On the held-out recordings if any, else on the fit ones.
+    progress("adequacy", 0.95);
+    let held_out = !holdout.is_empty();
+    let basis_data = if held_out { holdout } else { fit };
+    let scales = StateScales::of(model, basis_data);
+    let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    let basis: Vec<BasisResidual> = basis_data
+        .iter()
+        .enumerate()
+        .map(|(r, d)| BasisResidual {
+            name: &d.name,
+            t: &d.t,
+            after: if held_out {
+                traces[r * nj..(r + 1) * nj]
+                    .iter()
+                    .map(|tr| tr.after.clone())
+                    .collect()
+            } else {
+                fit_after[r].clone()
+            },
+            windows: tagged_windows(model, d, &theta, &sigma, &scales, &opts.locate),
+        })
+        .collect();
+    let mut adequacy = adequacy::assess(
+        &mut channels,
+        &basis,
+        held_out,
+        (opts.locate.window_s, opts.locate.threshold),
+    );
+    // Uncertainty including the misfit: the larger of the fit and basis noise ratios.
+    let ratio: Vec<f64> = channels
+        .iter()
+        .map(|c| (c.fit_after / c.noise_floor.max(1e-300)).max(c.noise_ratio_after))
+        .collect();
+    adequacy::honest_uncertainty(&mut estimates, &shares, &ratio);
+    adequacy.unstable = adequacy::unstable_names(&estimates);
     let verdict = verdict(
         model,
         &set,
@@ -154,6 +196,7 @@ fn diagnose_once(
         &channels,
         &confounded,
         &location,
+        &adequacy,
     );
     progress("done", 1.0);
     Ok(Diagnosis {
@@ -171,6 +214,9 @@ fn diagnose_once(
         confounded,
         channels,
         no_significant_mismatch: no_mismatch,
+        explained_fraction: adequacy.explained_fraction,
+        unexplained: adequacy.unexplained,
+        adequacy,
         verdict,
         cv_rms_noise_units,
         derivative_window: (0, vec![]),
@@ -235,7 +281,10 @@ pub fn diagnose_recordings(
     Ok(d)
 }
 
-#[allow(clippy::too_many_arguments)]
+/// Per channel before/after on the fit and held-out recordings, the held-out residual
+/// traces (recording-major, channel-minor), and per fit recording and channel the residual
+/// after the fit (in the channel's unit).
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn channel_fits(
     model: &dyn InverseDynamicsModel,
     fit: &[MotionData],
@@ -246,19 +295,24 @@ fn channel_fits(
     sigma: &[f64],
     noise: &[f64],
     opts: &DiagnoseOptions,
-) -> Result<(Vec<ChannelFit>, Vec<ResidualTrace>), DiagnoseError> {
+) -> Result<(Vec<ChannelFit>, Vec<ResidualTrace>, Vec<Vec<Vec<f64>>>), DiagnoseError> {
     let chans = fit.first().map(MotionData::channels).unwrap_or_default();
     let nj = chans.len();
     let mut fit_b = vec![vec![]; nj];
     let mut fit_a = vec![vec![]; nj];
+    let mut per_recording = vec![];
     for r in 0..fit.len() {
         let n = fit[r].len();
         let before = &prep.blocks[r].1;
         let after = prep.residual(r, set, x);
+        let mut rec = vec![];
         for j in 0..nj {
             fit_b[j].extend(before[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]));
-            fit_a[j].extend(after[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]));
+            let a: Vec<f64> = after[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]).collect();
+            fit_a[j].extend(&a);
+            rec.push(a);
         }
+        per_recording.push(rec);
     }
     let mut ho_b = vec![vec![]; nj];
     let mut ho_a = vec![vec![]; nj];
@@ -297,8 +351,14 @@ fn channel_fits(
                 holdout_before: hb,
                 holdout_after: ha,
                 holdout_reduction: if hb > 0.0 { 1.0 - ha / hb } else { 0.0 },
+                // Set by the adequacy check.
+                explained_fraction: 0.0,
+                noise_ratio_after: 0.0,
+                whiteness_p: 1.0,
+                unexplained: false,
+                worst_window: None,
             }
         })
         .collect();
-    Ok((channels, traces))
+    Ok((channels, traces, per_recording))
 }

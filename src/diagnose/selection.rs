@@ -252,9 +252,15 @@ pub(super) struct Estimates {
     pub estimates: Vec<Estimate>,
     /// Estimate pairs correlated beyond ±0.8: (a, b, correlation).
     pub correlations: Vec<(String, String, f64)>,
+    /// Per estimate, the energy of its weighted column in each channel (its information
+    /// per channel, for the misfit inflation of `adequacy::honest_uncertainty`).
+    pub shares: Vec<Vec<f64>>,
 }
 
-/// Estimates with uncertainty (effective-sample corrected).
+/// Estimates with uncertainty: the least-squares one (effective-sample corrected, the
+/// residual treated as noise; `std` and `std_noise_only` until the adequacy check inflates
+/// `std`), the leave-one-recording-out refits of the final selection (one small solve per
+/// fit recording on the accumulated Gram matrices) and their jackknife standard deviation.
 pub(super) fn estimate(sel: &Selection, cands: &[Candidate]) -> Estimates {
     let Selection {
         prep,
@@ -262,6 +268,7 @@ pub(super) fn estimate(sel: &Selection, cands: &[Candidate]) -> Estimates {
         n,
         n_eff,
         total,
+        weight_scale,
         ..
     } = sel;
     let (n, n_eff) = (*n, *n_eff);
@@ -270,17 +277,49 @@ pub(super) fn estimate(sel: &Selection, cands: &[Candidate]) -> Estimates {
     let dof = (n as f64 - idx.len() as f64).max(1.0);
     let s2 = total.rss(&idx, &x) / dof;
     let cov = total.inverse(&idx) * (s2 * n as f64 / n_eff);
+    // Leave-one-recording-out refits of the final selection.
+    let folds: Vec<Vec<f64>> = if prep.grams.len() >= 2 {
+        prep.grams.iter().map(|g| total.minus(g).solve(&idx)).collect()
+    } else {
+        vec![]
+    };
+    let nc = weight_scale.len();
+    let shares: Vec<Vec<f64>> = idx
+        .iter()
+        .map(|&i| {
+            let mut e = vec![0.0; nc];
+            for (cols, b) in &prep.blocks {
+                let len = b.len() / nc.max(1);
+                for (j, ej) in e.iter_mut().enumerate() {
+                    *ej += cols[i][j * len..(j + 1) * len].iter().map(|v| v * v).sum::<f64>();
+                }
+            }
+            e
+        })
+        .collect();
     let mut estimates = vec![];
     let mut labels = vec![];
     let mut p = 0;
     for &c in set {
         for name in &cands[c].parameters {
             // Columns are weighted like the residual, so coefficients are in physical units.
+            let std = cov[(p, p)].max(0.0).sqrt();
+            let fold_values: Vec<f64> = folds.iter().map(|f| f[p]).collect();
+            let std_jackknife = (fold_values.len() >= 2).then(|| {
+                let r = fold_values.len() as f64;
+                let m = fold_values.iter().sum::<f64>() / r;
+                ((r - 1.0) / r * fold_values.iter().map(|v| (v - m).powi(2)).sum::<f64>()).sqrt()
+            });
             estimates.push(Estimate {
                 candidate: cands[c].name.clone(),
                 parameter: name.clone(),
                 value: x[p],
-                std: cov[(p, p)].max(0.0).sqrt(),
+                std,
+                std_noise_only: std,
+                std_jackknife,
+                inflation: 1.0,
+                folds: fold_values,
+                stable: true,
             });
             labels.push(format!("{} ({})", cands[c].name, name));
             p += 1;
@@ -299,6 +338,7 @@ pub(super) fn estimate(sel: &Selection, cands: &[Candidate]) -> Estimates {
         x,
         estimates,
         correlations,
+        shares,
     }
 }
 

@@ -131,6 +131,36 @@ pub fn effective_samples(n: usize, rho: f64) -> f64 {
     (n as f64 * (1.0 - r) / (1.0 + r)).max(1.0)
 }
 
+/// Normalised autocorrelation r_k, k = 1..=`max_lag`, pooled over several segments (e.g. one
+/// residual per recording): each segment is centred on its own mean, and
+/// r_k = Σ_segments Σ_i e_i·e_(i+k) / Σ_segments Σ_i e_i², so no product straddles two
+/// segments. Segments shorter than k + 1 samples add nothing at lag k. All zeros if the
+/// segments carry no variance.
+pub fn autocorrelation(segments: &[&[f64]], max_lag: usize) -> Vec<f64> {
+    let centred: Vec<Vec<f64>> = segments
+        .iter()
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            let m = s.iter().sum::<f64>() / s.len() as f64;
+            s.iter().map(|v| v - m).collect()
+        })
+        .collect();
+    let var: f64 = centred.iter().flat_map(|s| s.iter().map(|v| v * v)).sum();
+    (1..=max_lag)
+        .map(|k| {
+            if var <= 0.0 {
+                return 0.0;
+            }
+            centred
+                .iter()
+                .filter(|s| s.len() > k)
+                .map(|s| s.iter().zip(&s[k..]).map(|(a, b)| a * b).sum::<f64>())
+                .sum::<f64>()
+                / var
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -153,6 +183,24 @@ mod tests {
             .collect();
         let nf = noise_floor(&x);
         assert!((nf / 0.01 - 1.0).abs() < 0.1, "noise floor {nf}");
+    }
+
+    #[test]
+    fn autocorrelation_of_white_noise_is_small_and_of_a_sine_is_large() {
+        let mut s = 7u64;
+        let mut u = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64 - 0.5
+        };
+        let white: Vec<f64> = (0..4000).map(|_| u()).collect();
+        let r = autocorrelation(&[&white[..2000], &white[2000..]], 5);
+        // 1/√4000 ≈ 0.016: white noise stays within a few of those.
+        assert!(r.iter().all(|v| v.abs() < 0.06), "{r:?}");
+        let sine: Vec<f64> = (0..2000).map(|k| (k as f64 * 0.01).sin()).collect();
+        let r = autocorrelation(&[&sine], 3);
+        assert!((r[0] - 1.0).abs() < 0.01, "{r:?}");
     }
 
     #[test]

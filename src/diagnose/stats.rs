@@ -192,6 +192,26 @@ pub fn chi2_sf(x: f64, k: usize) -> f64 {
     gamma_q(k as f64 / 2.0, x / 2.0).clamp(0.0, 1.0)
 }
 
+/// Ljung–Box portmanteau test of whiteness: Q = n(n+2)·Σ_(k=1..L) r_k²/(n−k) from the
+/// normalised autocorrelations `r` = (r_1..r_L) of a series of `n` samples; under the
+/// hypothesis that the series is white, Q is χ² with L degrees of freedom (no parameter was
+/// fitted to the series, e.g. a held-out residual). Returns (Q, P(χ²_L > Q)); (0, 1) for an
+/// empty `r` or n ≤ L.
+pub fn ljung_box(r: &[f64], n: usize) -> (f64, f64) {
+    let l = r.len();
+    if l == 0 || n <= l {
+        return (0.0, 1.0);
+    }
+    let nf = n as f64;
+    let q = nf
+        * (nf + 2.0)
+        * r.iter()
+            .enumerate()
+            .map(|(k, rk)| rk * rk / (nf - (k + 1) as f64))
+            .sum::<f64>();
+    (q, chi2_sf(q, l))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -202,6 +222,17 @@ mod tests {
         assert!((chi2_sf(10.828, 1) - 0.001).abs() < 1e-4);
         assert!((chi2_sf(5.991, 2) - 0.05).abs() < 1e-3);
         assert!((chi2_sf(1.0, 3) - 0.8013).abs() < 1e-3);
+    }
+
+    #[test]
+    fn ljung_box_of_zero_autocorrelation_is_not_significant_and_of_a_large_one_is() {
+        assert_eq!(ljung_box(&[0.0; 10], 1000), (0.0, 1.0));
+        let (q, p) = ljung_box(&[0.5; 10], 1000);
+        // 1000·1002·Σ 0.25/(1000−k) ≈ 2518.9 on 10 degrees of freedom.
+        assert!((q - 2518.9).abs() < 0.1 && p < 1e-100, "{q} {p}");
+        // r = 0.03 at 10 lags of 1000 samples: Q ≈ 9.0, p ≈ 0.53.
+        let (q, p) = ljung_box(&[0.03; 10], 1000);
+        assert!((q - 9.06).abs() < 0.05 && (p - 0.53).abs() < 0.02, "{q} {p}");
     }
 
     #[test]

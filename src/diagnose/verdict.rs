@@ -1,8 +1,11 @@
-//! The verdict: one paragraph of prose from a finished diagnosis — where the nominal model
-//! disagrees most, which state the residual follows, the missing physics in order of
-//! evidence with their estimates, the held-out improvement and the effects the data cannot
-//! separate.
+//! The verdict: one paragraph of prose from a finished diagnosis — first whether what
+//! remains after the fit is noise (with the explained fraction and the remaining noise ratio
+//! per channel, and where it is largest), then where the nominal model disagrees most, which
+//! state the residual follows, the missing physics in order of evidence with their estimates (uncertainties including the misfit; estimates that move
+//! between leave-one-recording-out folds are reported as unstable, not as found physics), the
+//! held-out improvement and the effects the data cannot separate.
 
+use super::adequacy::{fold_movement, opening, Adequacy};
 use super::candidates::Candidate;
 use super::format::number;
 use super::locate::Location;
@@ -25,10 +28,12 @@ pub(super) fn verdict_text(model: &dyn InverseDynamicsModel, d: &Diagnosis, cand
         &d.channels,
         &d.confounded,
         &d.location,
+        &d.adequacy,
     )
 }
 
 /// The verdict of a selection `set` (indices into `cands`).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn verdict(
     model: &dyn InverseDynamicsModel,
     set: &[usize],
@@ -37,14 +42,22 @@ pub(super) fn verdict(
     channels: &[ChannelFit],
     confounded: &[Confound],
     location: &Location,
+    adequacy: &Adequacy,
 ) -> String {
-    let mut s = String::new();
+    let mut s = opening(adequacy, !set.is_empty());
     if set.is_empty() {
-        s.push_str(&format!(
-            "No significant mismatch: no candidate physics improves the cross-validated fit of the {} beyond the noise.",
-            model.name()
-        ));
-        return s;
+        if adequacy.unexplained {
+            s.push_str(&format!(
+                "No candidate physics improves the cross-validated fit of the {} beyond the noise: what remains lies outside the candidate library. ",
+                model.name()
+            ));
+        } else {
+            s.push_str(&format!(
+                "No candidate physics improves the cross-validated fit of the {} beyond the noise.",
+                model.name()
+            ));
+            return s;
+        }
     }
     if let Some(f) = location.findings.first() {
         s.push_str(&format!("The nominal model disagrees most {}. ", f.text));
@@ -61,20 +74,49 @@ pub(super) fn verdict(
             a.channel, a.ratio, a.tag
         ));
     }
-    s.push_str("Missing physics, in order of evidence: ");
-    let parts: Vec<String> = set
+    let describe = |c: usize| {
+        let est: Vec<String> = estimates
+            .iter()
+            .filter(|e| e.candidate == cands[c].name)
+            .map(|e| {
+                let mut t = format!("{} = {} ± {}", e.parameter, number(e.value), number(e.std));
+                if e.std > 1.5 * e.std_noise_only {
+                    t.push_str(&format!(" (± {} from the noise alone)", number(e.std_noise_only)));
+                }
+                if !e.stable {
+                    t.push_str(&format!(
+                        ", moves {:.0} % between leave-one-recording-out fits",
+                        100.0 * fold_movement(e)
+                    ));
+                }
+                t
+            })
+            .collect();
+        format!("{} ({})", cands[c].name, est.join(", "))
+    };
+    let stable = |c: usize| {
+        estimates
+            .iter()
+            .filter(|e| e.candidate == cands[c].name)
+            .all(|e| e.stable)
+    };
+    let found: Vec<String> = set.iter().copied().filter(|&c| stable(c)).map(describe).collect();
+    let unstable: Vec<String> = set
         .iter()
-        .map(|&c| {
-            let est: Vec<String> = estimates
-                .iter()
-                .filter(|e| e.candidate == cands[c].name)
-                .map(|e| format!("{} = {} ± {}", e.parameter, number(e.value), number(e.std)))
-                .collect();
-            format!("{} ({})", cands[c].name, est.join(", "))
-        })
+        .copied()
+        .filter(|&c| !stable(c))
+        .map(describe)
         .collect();
-    s.push_str(&parts.join("; "));
-    s.push_str(". ");
+    if !found.is_empty() {
+        s.push_str("Missing physics, in order of evidence: ");
+        s.push_str(&found.join("; "));
+        s.push_str(". ");
+    }
+    if !unstable.is_empty() {
+        s.push_str("Unstable (soaks up model error; not found physics): ");
+        s.push_str(&unstable.join("; "));
+        s.push_str(". ");
+    }
     for c in channels {
         if c.holdout_before > 0.0 {
             let u = &c.unit;
