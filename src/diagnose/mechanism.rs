@@ -172,8 +172,12 @@ struct Windup {
     /// holds the next sample's).
     tau_s: Option<nalgebra::DVector<f64>>,
     tau: Vec<f64>,
-    /// Quasi-static samples so far at the start of the recording (the dynamics starts from
-    /// the second, with the wind-up rate of the first two).
+    /// Quasi-static wind-up at this sample.
+    w_qs: nalgebra::DVector<f64>,
+    /// Time of the recording's first sample, s.
+    start: f64,
+    /// Quasi-static samples so far at the start of the recording (the dynamics runs from the
+    /// fourth sample on: 3).
     started: usize,
 }
 
@@ -194,6 +198,11 @@ pub const WINDUP_MAX_GAP: f64 = 0.05;
 /// wind-up; a second one at the wind-up the step arrives at changed the torques of a
 /// simulated MR2120 by less than 1e-3 N m RMS, so one).
 pub const WINDUP_CORRECTIONS: usize = 1;
+
+/// Start transient of the transmission dynamics, s: along a recording the first samples
+/// within this time of its start carry no weight (the wind-up's initial rate is not known;
+/// on simulated MR2120 recordings the start error decays within 0.2 s).
+pub const WINDUP_SETTLING: f64 = 0.3;
 
 /// Newmark substeps of the transmission dynamics per sample interval.
 pub const WINDUP_SUBSTEPS: usize = 8;
@@ -572,24 +581,67 @@ impl MechanismModel {
                 *x += rotor_inertia * qdd[j];
             }
         }
-        // A quasi-static start: at the second sample the wind-up rate of the first two
-        // (a start at rest would ring through the first few tenths of a second).
+        // A quasi-static start over the first three samples of a recording; at the third,
+        // the wind-up's rate and acceleration from their differences and the dynamic part of
+        // the wind-up, −K⁻¹(M_d·ẅ + D·ẇ), which a slowly forced, damped mode follows (a start
+        // at rest would ring through the first few tenths of a second).
         let w = nalgebra::DVector::from_iterator(n, (0..n).map(|j| q[j] - qa[j]));
-        let (wd, started) = match (&built.dynamic, t) {
-            (Some(p), Some(t)) if p.started == 1 && t > p.t && t - p.t <= WINDUP_MAX_GAP => {
-                ((&w - &p.w) / (t - p.t), 2)
+        let prev = built.dynamic.clone();
+        let next = match (prev, t) {
+            (Some(p), Some(t)) if p.started >= 1 && p.started < 3 && t > p.t && t - p.t <= WINDUP_MAX_GAP => {
+                let h = t - p.t;
+                let wd = (&w - &p.w_qs) / h;
+                if p.started == 2 {
+                    let wdd = (&wd - &p.wd) / h;
+                    let m = built.analysis.driver_mass_matrix(&built.model, &mut built.data).ok();
+                    let damping: Vec<f64> = (0..n)
+                        .map(|j| match self.sensors.encoders.get(j) {
+                            Some(EncoderPlacement::MotorSide { damping, .. }) => *damping,
+                            _ => 0.0,
+                        })
+                        .collect();
+                    let force = m.map(|m| &m * &wdd).unwrap_or_else(|| nalgebra::DVector::zeros(n))
+                        + nalgebra::DVector::from_iterator(n, (0..n).map(|j| damping[j] * wd[j]));
+                    let dynamic = nalgebra::DVector::from_iterator(n, (0..n).map(|j| -c[j] * force[j]));
+                    Some(Windup {
+                        t,
+                        start: p.start,
+                        w: &w + dynamic,
+                        w_qs: w.clone(),
+                        wd,
+                        wdd,
+                        tau_s: None,
+                        tau: tau.clone(),
+                        started: 3,
+                    })
+                } else {
+                    Some(Windup {
+                        t,
+                        start: p.start,
+                        w: w.clone(),
+                        w_qs: w.clone(),
+                        wd,
+                        wdd: nalgebra::DVector::zeros(n),
+                        tau_s: None,
+                        tau: tau.clone(),
+                        started: p.started + 1,
+                    })
+                }
             }
-            _ => (nalgebra::DVector::zeros(n), 1),
+            (_, Some(t)) => Some(Windup {
+                t,
+                start: t,
+                w: w.clone(),
+                w_qs: w.clone(),
+                wd: nalgebra::DVector::zeros(n),
+                wdd: nalgebra::DVector::zeros(n),
+                tau_s: None,
+                tau: tau.clone(),
+                started: 1,
+            }),
+            _ => None,
         };
-        built.dynamic = t.map(|t| Windup {
-            t,
-            w,
-            wd,
-            wdd: nalgebra::DVector::zeros(n),
-            tau_s: None,
-            tau: tau.clone(),
-            started,
-        });
+        built.dynamic = next;
         Some(tau)
     }
 
@@ -665,7 +717,7 @@ impl MechanismModel {
         if t == prev.t && same {
             return Some(prev.tau);
         }
-        if prev.started < 2 {
+        if prev.started < 3 {
             return None;
         }
         let h = t - prev.t;
@@ -731,12 +783,14 @@ impl MechanismModel {
             .collect();
         built.dynamic = Some(Windup {
             t,
+            start: prev.start,
             w,
             wd,
             wdd,
             tau_s: Some(tau_s),
             tau: tau.clone(),
-            started: 2,
+            w_qs: nalgebra::DVector::zeros(n),
+            started: 3,
         });
         Some(tau)
     }
@@ -754,15 +808,30 @@ impl MechanismModel {
     ) {
         let n = self.joints.len();
         match self.sample(t, theta, q, qd, qdd) {
-            Some(x) => {
+            Some(x) if !self.settling() => {
                 tau[..n].copy_from_slice(&x);
                 self.outputs_now(y);
+            }
+            Some(_) => {
+                // Within the transmissions' start transient: the model does not know the
+                // wind-up's state yet (NaN: the sample carries no weight).
+                tau[..n].iter_mut().for_each(|v| *v = f64::NAN);
+                y.iter_mut().for_each(|v| *v = f64::NAN);
             }
             None => {
                 tau[..n].iter_mut().for_each(|v| *v = f64::NAN);
                 y.iter_mut().for_each(|v| *v = f64::NAN);
             }
         }
+    }
+
+    /// Whether the last sample evaluated lies within [`WINDUP_SETTLING`] of the start of
+    /// its recording's transmission dynamics.
+    fn settling(&self) -> bool {
+        let b = self.built.borrow();
+        b.as_ref()
+            .and_then(|x| x.dynamic.as_ref())
+            .is_some_and(|d| d.t - d.start < WINDUP_SETTLING)
     }
 
     /// The outputs at the state left in the cache.

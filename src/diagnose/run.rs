@@ -307,9 +307,15 @@ fn channel_fits(
         let after = prep.residual(r, set, x);
         let mut rec = vec![];
         for j in 0..nj {
-            fit_b[j].extend(before[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]));
             let a: Vec<f64> = after[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]).collect();
-            fit_a[j].extend(&a);
+            // Samples the model cannot evaluate (zero weight: residual and columns exactly
+            // 0) are left out of the RMS.
+            for (i, &bv) in before[j * n..(j + 1) * n].iter().enumerate() {
+                if !masked(bv, a[i]) {
+                    fit_b[j].push(bv * sigma[j]);
+                    fit_a[j].push(a[i]);
+                }
+            }
             rec.push(a);
         }
         per_recording.push(rec);
@@ -326,8 +332,12 @@ fn channel_fits(
             for j in 0..nj {
                 let b: Vec<f64> = before[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]).collect();
                 let a: Vec<f64> = after[j * n..(j + 1) * n].iter().map(|v| v * sigma[j]).collect();
-                ho_b[j].extend(&b);
-                ho_a[j].extend(&a);
+                for i in 0..n {
+                    if !masked(b[i], a[i]) {
+                        ho_b[j].push(b[i]);
+                        ho_a[j].push(a[i]);
+                    }
+                }
                 traces.push(ResidualTrace {
                     recording: holdout[r].name.clone(),
                     channel: chans[j].name(model),
@@ -361,4 +371,10 @@ fn channel_fits(
         })
         .collect();
     Ok((channels, traces, per_recording))
+}
+
+/// A sample the model could not evaluate: `prepare` gives it zero weight (residual and
+/// every column exactly 0, so the fitted residual is exactly 0 too).
+fn masked(before: f64, after: f64) -> bool {
+    before == 0.0 && after == 0.0
 }
