@@ -103,9 +103,9 @@ pub const REFERENCE_ARM_INERTIA: f64 = 0.1;
 /// k = [`NOMINAL_STIFFNESS`], J = [`REFERENCE_ARM_INERTIA`] (mode ≈ 50 Hz).
 pub const NOMINAL_TRANSMISSION_DAMPING: f64 = 12.649110640673518;
 /// Default hold at rest before the ramp, s.
-pub const SETTLE_HOLD: f64 = 0.3;
+pub const SETTLE_HOLD: f64 = 0.2;
 /// Default ramp that blends the path in, s.
-pub const SETTLE_RAMP: f64 = 0.5;
+pub const SETTLE_RAMP: f64 = 1.0;
 /// Spacing of the samples of the commanded motor angles that the drivers' splines
 /// interpolate, s.
 pub const KNOT_SPACING: f64 = 1e-3;
@@ -330,6 +330,10 @@ pub struct SolverSettings {
     pub atol: f64,
     /// Largest step, s.
     pub h_max: f64,
+    /// With bearings with clearance: velocities as index-2 variables in the error test, so
+    /// contact rattle along stiff directions is damped by the BDF instead of resolved (as in
+    /// the clearance studies, `trajectory::clearance_options`). Ignored with ideal joints.
+    pub damp_contact_rattle: bool,
 }
 
 impl Default for SolverSettings {
@@ -339,6 +343,7 @@ impl Default for SolverSettings {
             rtol: 1e-8,
             atol: 1e-9,
             h_max: 2e-3,
+            damp_contact_rattle: true,
         }
     }
 }
@@ -912,9 +917,7 @@ pub fn simulate_run(spec: &TruthSpec, path: &Excitation, opts: &RecordOptions) -
     let mut o = SimulationOptions::with_tolerances(spec.solver.rtol, spec.solver.atol);
     o.bdf.h_max = spec.solver.h_max;
     o.bdf.max_steps = 1_000_000;
-    if spec.joints.iter().any(Option::is_some) {
-        // Contact rattle along stiff directions is damped by the BDF instead of resolved
-        // (as in the clearance studies, `trajectory::clearance_options`).
+    if spec.joints.iter().any(Option::is_some) && spec.solver.damp_contact_rattle {
         o.formulation.velocities_index2 = true;
     }
     let mech = Arc::new(model.mechanism);
