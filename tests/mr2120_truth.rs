@@ -51,14 +51,16 @@ fn bad_input_is_an_error_naming_it() {
     assert!(e.to_string().contains("torque delay"), "{e}");
 
     let mut spec = TruthSpec::nominal();
-    spec.drives[0].friction.push(ArmFriction::Stribeck(StribeckFriction {
-        coulomb: 0.1,
-        stiction: 0.2,
-        stribeck_velocity: 0.0,
-        exponent: 1.5,
-        regularisation: 1e-3,
-        viscous: 0.0,
-    }));
+    spec.drives[0]
+        .friction
+        .push(ArmFriction::Stribeck(StribeckFriction {
+            coulomb: 0.1,
+            stiction: 0.2,
+            stribeck_velocity: 0.0,
+            exponent: 1.5,
+            regularisation: 1e-3,
+            viscous: 0.0,
+        }));
     let e = simulate_truth(&spec, &ex, &opts(1.0), None).unwrap_err();
     assert!(e.to_string().contains("Stribeck velocity"), "{e}");
 
@@ -98,11 +100,18 @@ fn nominal_truth_matches_the_quasi_static_reference_near_the_noise() {
     tilted.payload_body = Some(PayloadBody::example());
     tilted.links.gravity = lash::mechanisms::mr2120::lumped::tilted_gravity(0.01, -0.005);
     // (spec, bound on max, bound on rms) in noise units.
-    for (name, spec, max_bound, rms_bound) in [("nominal", TruthSpec::nominal(), 3.0, 0.6), ("payload+tilt", tilted, 4.5, 0.9)] {
+    for (name, spec, max_bound, rms_bound) in [
+        ("nominal", TruthSpec::nominal(), 3.0, 0.6),
+        ("payload+tilt", tilted, 4.5, 0.9),
+    ] {
         let d = truth_minus_reference(&spec, &ex, 2.0);
         for (c, (max, rms)) in d.iter().enumerate() {
             let noise = if c < 3 { 0.02 } else { 5e-6 };
-            println!("{name} channel {c}: max {:.2} rms {:.2} (noise units)", max / noise, rms / noise);
+            println!(
+                "{name} channel {c}: max {:.2} rms {:.2} (noise units)",
+                max / noise,
+                rms / noise
+            );
             assert!(
                 max / noise < max_bound && rms / noise < rms_bound,
                 "{name} channel {c}: max {max:e}, rms {rms:e}"
@@ -197,30 +206,49 @@ fn noise_and_sensor_errors_are_as_declared() {
     let run = simulate_run(&spec, &ex, &o).unwrap();
     let n = clean.t.len();
     assert_eq!(n, 501);
-    assert!(clean.contribution.iter().all(|c| c.len() == n && c.iter().all(|&v| v == 0.0)));
+    assert!(clean
+        .contribution
+        .iter()
+        .all(|c| c.len() == n && c.iter().all(|&v| v == 0.0)));
     for k in 2..n {
         for i in 0..3 {
             assert_eq!(clean.q[i][k], run.q[i][k] + spec.sensors.encoder_offset[i]);
-            let tau = (1.0 + spec.sensors.torque_scale[i]) * run.tau[i][k - 2] + spec.sensors.torque_offset[i];
-            assert!((clean.tau[i][k] - tau).abs() < 1e-9, "torque {i} at {k}: {} vs {tau}", clean.tau[i][k]);
-            let x = (1.0 + spec.sensors.tracker_scale[i]) * run.pose[i][k - 1] + spec.sensors.tracker_offset[i];
-            assert!((clean.pose[i][k] - x).abs() < 1e-13, "tracker {i} at {k}: {} vs {x}", clean.pose[i][k]);
+            let tau =
+                (1.0 + spec.sensors.torque_scale[i]) * run.tau[i][k - 2] + spec.sensors.torque_offset[i];
+            assert!(
+                (clean.tau[i][k] - tau).abs() < 1e-9,
+                "torque {i} at {k}: {} vs {tau}",
+                clean.tau[i][k]
+            );
+            let x =
+                (1.0 + spec.sensors.tracker_scale[i]) * run.pose[i][k - 1] + spec.sensors.tracker_offset[i];
+            assert!(
+                (clean.pose[i][k] - x).abs() < 1e-13,
+                "tracker {i} at {k}: {} vs {x}",
+                clean.pose[i][k]
+            );
         }
     }
     let sn = o.noise;
-    let channels: [(&str, &[Vec<f64>; 3], &[Vec<f64>; 3], f64); 4] = [
+    type Channel<'a> = (&'a str, &'a [Vec<f64>; 3], &'a [Vec<f64>; 3], f64);
+    let channels: [Channel; 4] = [
         ("encoder", &noisy.q, &clean.q, sn.encoder),
         ("rate", &noisy.qd, &clean.qd, sn.rate),
         ("torque", &noisy.tau, &clean.tau, sn.torque),
         ("tracker", &noisy.pose, &clean.pose, sn.tracker),
     ];
     for (name, a, b, sigma) in channels {
-        let d: Vec<f64> = (0..3).flat_map(|i| a[i].iter().zip(&b[i]).map(|(x, y)| x - y).collect::<Vec<_>>()).collect();
+        let d: Vec<f64> = (0..3)
+            .flat_map(|i| a[i].iter().zip(&b[i]).map(|(x, y)| x - y).collect::<Vec<_>>())
+            .collect();
         let m = d.len() as f64;
         let mean = d.iter().sum::<f64>() / m;
         let sd = (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
         // 1503 draws: the standard error of σ̂ is σ/√(2·1502) = 1.8 %, of the mean σ/39.
-        assert!((sd / sigma - 1.0).abs() < 0.08, "{name}: σ̂ = {sd:e}, declared {sigma:e}");
+        assert!(
+            (sd / sigma - 1.0).abs() < 0.08,
+            "{name}: σ̂ = {sd:e}, declared {sigma:e}"
+        );
         assert!(mean.abs() < 4.0 * sigma / m.sqrt(), "{name}: mean {mean:e}");
     }
     // Another seed, other noise; no seed, no noise.
@@ -243,11 +271,23 @@ fn measure_nominal_vs_reference() {
         println!("{name}: steps {} wall {:.2} s", run.steps, run.wall_s);
         for i in 0..3 {
             let (m, s) = max_rms(&run.tau[i], &r.tau[i]);
-            println!("  tau{i}: max {:.4} rms {:.4} N·m = {:.2}/{:.2} noise", m, s, m / 0.02, s / 0.02);
+            println!(
+                "  tau{i}: max {:.4} rms {:.4} N·m = {:.2}/{:.2} noise",
+                m,
+                s,
+                m / 0.02,
+                s / 0.02
+            );
         }
         for i in 0..3 {
             let (m, s) = max_rms(&run.pose[i], &r.pose[i]);
-            println!("  x{i}: max {:.3e} rms {:.3e} m = {:.2}/{:.2} noise", m, s, m / 5e-6, s / 5e-6);
+            println!(
+                "  x{i}: max {:.3e} rms {:.3e} m = {:.2}/{:.2} noise",
+                m,
+                s,
+                m / 5e-6,
+                s / 5e-6
+            );
         }
     }
 }
@@ -259,9 +299,17 @@ fn dump_nominal_vs_reference() {
     let zlow = if shake > 0.0 { 0.30 } else { 0.32 };
     let ex = Excitation::random(11, zlow, shake);
     let mut spec = TruthSpec::nominal();
-    if let Ok(v) = std::env::var("RAMP") { spec.settle_ramp = v.parse().unwrap(); }
-    if let Ok(v) = std::env::var("HOLD") { spec.settle_hold = v.parse().unwrap(); }
-    if let Ok(v) = std::env::var("DAMP") { for d in spec.drives.iter_mut() { d.damping = v.parse().unwrap(); } }
+    if let Ok(v) = std::env::var("RAMP") {
+        spec.settle_ramp = v.parse().unwrap();
+    }
+    if let Ok(v) = std::env::var("HOLD") {
+        spec.settle_hold = v.parse().unwrap();
+    }
+    if let Ok(v) = std::env::var("DAMP") {
+        for d in spec.drives.iter_mut() {
+            d.damping = v.parse().unwrap();
+        }
+    }
     let o = opts(2.0);
     let run = simulate_run(&spec, &ex, &o).unwrap();
     let r = quasi_static_reference(&spec, &ex, &o).unwrap();
@@ -304,12 +352,26 @@ fn measure_tolerance_and_timing() {
         ("gentle", Excitation::random(11, 0.32, 0.0)),
         ("shaken", Excitation::random(11, 0.30, 10.0)),
     ] {
-        let mut spec = if which == "clearance" { clearance_spec() } else { TruthSpec::nominal() };
-        if let Ok(v) = std::env::var("RTOL") { spec.solver.rtol = v.parse().unwrap(); }
-        if let Ok(v) = std::env::var("ATOL") { spec.solver.atol = v.parse().unwrap(); }
-        if let Ok(v) = std::env::var("HMAX") { spec.solver.h_max = v.parse().unwrap(); }
-        if std::env::var("RESOLVE").is_ok() { spec.solver.damp_contact_rattle = false; }
-        if name == "gentle" && std::env::var("ONLY_SHAKEN").is_ok() { continue; }
+        let mut spec = if which == "clearance" {
+            clearance_spec()
+        } else {
+            TruthSpec::nominal()
+        };
+        if let Ok(v) = std::env::var("RTOL") {
+            spec.solver.rtol = v.parse().unwrap();
+        }
+        if let Ok(v) = std::env::var("ATOL") {
+            spec.solver.atol = v.parse().unwrap();
+        }
+        if let Ok(v) = std::env::var("HMAX") {
+            spec.solver.h_max = v.parse().unwrap();
+        }
+        if std::env::var("RESOLVE").is_ok() {
+            spec.solver.damp_contact_rattle = false;
+        }
+        if name == "gentle" && std::env::var("ONLY_SHAKEN").is_ok() {
+            continue;
+        }
         let o = opts(dur);
         let a = simulate_run(&spec, &ex, &o).unwrap();
         let mut t = spec.clone();
@@ -320,12 +382,35 @@ fn measure_tolerance_and_timing() {
         let simulated = dur + spec.settle_hold + spec.settle_ramp;
         println!(
             "{which} {name}: {:?} steps {} / {}, wall {:.2} s / {:.2} s = {:.2} / {:.2} s per simulated s",
-            spec.solver, a.steps, b.steps, a.wall_s, b.wall_s, a.wall_s / simulated, b.wall_s / simulated
+            spec.solver,
+            a.steps,
+            b.steps,
+            a.wall_s,
+            b.wall_s,
+            a.wall_s / simulated,
+            b.wall_s / simulated
         );
         for i in 0..3 {
             let (m, r) = max_rms(&a.tau[i], &b.tau[i]);
             let (mp, rp) = max_rms(&a.pose[i], &b.pose[i]);
-            let kmax = (0..a.t.len()).max_by(|&x, &y| (a.tau[i][x] - b.tau[i][x]).abs().total_cmp(&(a.tau[i][y] - b.tau[i][y]).abs())).unwrap();
+            let smooth = |x: &[f64]| -> Vec<f64> {
+                (2..x.len() - 2)
+                    .map(|k| x[k - 2..=k + 2].iter().sum::<f64>() / 5.0)
+                    .collect()
+            };
+            let (mf, rf) = max_rms(&smooth(&a.tau[i]), &smooth(&b.tau[i]));
+            println!(
+                "  channel {i}: 10 ms moving average: |Δτ| max {:.3} noise, rms {:.3} noise",
+                mf / 0.02,
+                rf / 0.02
+            );
+            let kmax = (0..a.t.len())
+                .max_by(|&x, &y| {
+                    (a.tau[i][x] - b.tau[i][x])
+                        .abs()
+                        .total_cmp(&(a.tau[i][y] - b.tau[i][y]).abs())
+                })
+                .unwrap();
             println!(
                 "  channel {i}: |Δτ| max {:.2e} N·m = {:.3} noise (t = {:.3} s), rms {:.3} noise; |Δx| max {:.2e} m = {:.3} noise, rms {:.3} noise",
                 m, m / 0.02, a.t[kmax], r / 0.02, mp, mp / 5e-6, rp / 5e-6

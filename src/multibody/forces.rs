@@ -259,7 +259,11 @@ impl RelativeRotation {
         };
         let (ai, aj) = (rot(i)?, rot(j)?);
         // Any direction perpendicular to the axis.
-        let helper = if u.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+        let helper = if u.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
         let x = (helper - u * helper.dot(&u)).normalize();
         Some(Self {
             i,

@@ -148,7 +148,15 @@ pub(crate) fn add_universal_joints(
         // Elbow: axis_i along the drive axis (arm side), axis_j across (forearm side); the
         // platform joint the other way round.
         let joints = [
-            (i, ELBOW_JOINTS[i], l.arms[i], l.forearms[i], l.elbows[i], l.axes[i], l.cross_axes[i]),
+            (
+                i,
+                ELBOW_JOINTS[i],
+                l.arms[i],
+                l.forearms[i],
+                l.elbows[i],
+                l.axes[i],
+                l.cross_axes[i],
+            ),
             (
                 3 + i,
                 PLATFORM_JOINTS[i],
@@ -162,7 +170,9 @@ pub(crate) fn add_universal_joints(
         for (k, name, bi, bj, point, axis_i, axis_j) in joints {
             match &designs[k] {
                 Some(design) => {
-                    let u = universal_with_clearance(mech, name, bi, bj, point, axis_i, axis_j, design, mp.cross)?;
+                    let u = universal_with_clearance(
+                        mech, name, bi, bj, point, axis_i, axis_j, design, mp.cross,
+                    )?;
                     crosses[k] = Some(u.cross);
                 }
                 None => ideal[k] = Some(mech.universal_at(name, bi, bj, point, axis_i, axis_j)),
@@ -207,10 +217,12 @@ mod tests {
         // All six equal: the same model as `clearance_model` (same bodies, joints, forces in
         // the same order, hence the same state layout and results).
         let a = clearance_model(&g, &mp, m1, None, &design).unwrap();
-        let b = clearance_model_per_joint(&g, &mp, &LinkSpec::nominal(&g), m1, None, &[Some(design); 6]).unwrap();
+        let b =
+            clearance_model_per_joint(&g, &mp, &LinkSpec::nominal(&g), m1, None, &[Some(design); 6]).unwrap();
         assert_eq!(a.mechanism.initial_guess(), b.mechanism.initial_guess());
         assert_eq!(a.mechanism.constraint_count(), b.mechanism.constraint_count());
-        let names = |m: &Mechanism| -> Vec<String> { m.forces().map(|(_, f)| f.name().to_string()).collect() };
+        let names =
+            |m: &Mechanism| -> Vec<String> { m.forces().map(|(_, f)| f.name().to_string()).collect() };
         assert_eq!(names(&a.mechanism), names(&b.mechanism));
         assert_eq!(a.crosses, b.crosses.map(Option::unwrap));
         assert!(b.ideal_joints.iter().all(Option::is_none));

@@ -76,7 +76,9 @@ use super::geometry::{Geometry, MassProperties};
 use super::ideal::{add_links, ideal_model_with, LinkSpec, Mr2120Error, DRIVE_JOINTS, ELBOW_JOINTS};
 use super::kinematics::{self, KinematicsError};
 use super::lumped::NOMINAL_COMPLIANCE;
-use super::record::{Excitation, RecordOptions, Recorded, Rng, BACKLASH_SCALE, CLEARANCE_SCALE, FRICTION_VELOCITY};
+use super::record::{
+    Excitation, RecordOptions, Recorded, Rng, BACKLASH_SCALE, CLEARANCE_SCALE, FRICTION_VELOCITY,
+};
 use crate::contact::BearingDesign;
 use crate::multibody::forces::{RelativeRotation, RotationalSpringDamper, RotationalTorque};
 use crate::multibody::{
@@ -143,7 +145,9 @@ pub struct StribeckFriction {
 impl StribeckFriction {
     /// The friction torque on the arm at rate `v` (rad/s), N·m.
     pub fn torque(&self, v: f64) -> f64 {
-        let level = self.coulomb + (self.stiction - self.coulomb) * (-(v / self.stribeck_velocity).abs().powf(self.exponent)).exp();
+        let level = self.coulomb
+            + (self.stiction - self.coulomb)
+                * (-(v / self.stribeck_velocity).abs().powf(self.exponent)).exp();
         -level * v / (v * v + self.regularisation * self.regularisation).sqrt() - self.viscous * v
     }
 }
@@ -197,23 +201,33 @@ impl ArmFriction {
         let bad = |what: &str, v: f64| TruthError::Invalid(format!("drive {drive}: {what} = {v}"));
         match *self {
             ArmFriction::Stribeck(s) => {
-                nonneg(s.coulomb).then_some(()).ok_or_else(|| bad("Stribeck Coulomb level (N·m, ≥ 0)", s.coulomb))?;
-                nonneg(s.stiction).then_some(()).ok_or_else(|| bad("Stribeck static level (N·m, ≥ 0)", s.stiction))?;
+                nonneg(s.coulomb)
+                    .then_some(())
+                    .ok_or_else(|| bad("Stribeck Coulomb level (N·m, ≥ 0)", s.coulomb))?;
+                nonneg(s.stiction)
+                    .then_some(())
+                    .ok_or_else(|| bad("Stribeck static level (N·m, ≥ 0)", s.stiction))?;
                 pos(s.stribeck_velocity)
                     .then_some(())
                     .ok_or_else(|| bad("Stribeck velocity (rad/s, > 0)", s.stribeck_velocity))?;
-                pos(s.exponent).then_some(()).ok_or_else(|| bad("Stribeck exponent (> 0)", s.exponent))?;
+                pos(s.exponent)
+                    .then_some(())
+                    .ok_or_else(|| bad("Stribeck exponent (> 0)", s.exponent))?;
                 pos(s.regularisation)
                     .then_some(())
                     .ok_or_else(|| bad("regularisation velocity (rad/s, > 0)", s.regularisation))?;
-                nonneg(s.viscous).then_some(()).ok_or_else(|| bad("viscous coefficient (N·m·s/rad, ≥ 0)", s.viscous))?;
+                nonneg(s.viscous)
+                    .then_some(())
+                    .ok_or_else(|| bad("viscous coefficient (N·m·s/rad, ≥ 0)", s.viscous))?;
             }
             ArmFriction::Drifting {
                 initial,
                 growth,
                 regularisation,
             } => {
-                nonneg(initial).then_some(()).ok_or_else(|| bad("drifting friction level (N·m, ≥ 0)", initial))?;
+                nonneg(initial)
+                    .then_some(())
+                    .ok_or_else(|| bad("drifting friction level (N·m, ≥ 0)", initial))?;
                 growth
                     .is_finite()
                     .then_some(())
@@ -227,7 +241,11 @@ impl ArmFriction {
                 periods,
                 phase,
             } => {
-                for (what, v) in [("cogging amplitude (N·m)", amplitude), ("cogging periods", periods), ("cogging phase (rad)", phase)] {
+                for (what, v) in [
+                    ("cogging amplitude (N·m)", amplitude),
+                    ("cogging periods", periods),
+                    ("cogging phase (rad)", phase),
+                ] {
                     v.is_finite().then_some(()).ok_or_else(|| bad(what, v))?;
                 }
             }
@@ -403,13 +421,22 @@ impl TruthSpec {
         for (i, d) in self.drives.iter().enumerate() {
             let n = DRIVE_JOINTS[i];
             if !pos(d.stiffness) {
-                return inv(format!("drive {n}: stiffness = {} N·m/rad (must be > 0)", d.stiffness));
+                return inv(format!(
+                    "drive {n}: stiffness = {} N·m/rad (must be > 0)",
+                    d.stiffness
+                ));
             }
             if !nonneg(d.damping) {
-                return inv(format!("drive {n}: damping = {} N·m·s/rad (must be ≥ 0)", d.damping));
+                return inv(format!(
+                    "drive {n}: damping = {} N·m·s/rad (must be ≥ 0)",
+                    d.damping
+                ));
             }
             if !pos(d.rotor_inertia) {
-                return inv(format!("drive {n}: rotor inertia = {} kg·m² (must be > 0)", d.rotor_inertia));
+                return inv(format!(
+                    "drive {n}: rotor inertia = {} kg·m² (must be > 0)",
+                    d.rotor_inertia
+                ));
             }
             for f in &d.friction {
                 f.validate(n)?;
@@ -448,9 +475,8 @@ impl TruthSpec {
         }
         for (k, d) in self.joints.iter().enumerate() {
             if let Some(d) = d {
-                d.validate().map_err(|e| {
-                    TruthError::Invalid(format!("joint {}: {e}", JOINT_NAMES[k]))
-                })?;
+                d.validate()
+                    .map_err(|e| TruthError::Invalid(format!("joint {}: {e}", JOINT_NAMES[k])))?;
             }
         }
         let s = &self.sensors;
@@ -590,12 +616,7 @@ fn blend(s: f64) -> f64 {
 }
 
 /// Sampled commanded motor angles q_i(t_k) (continuous in time) and their splines.
-fn commanded_laws(
-    g: &Geometry,
-    cmd: &CommandedPath,
-    t0: f64,
-    t1: f64,
-) -> Result<[MotionLaw; 3], TruthError> {
+fn commanded_laws(g: &Geometry, cmd: &CommandedPath, t0: f64, t1: f64) -> Result<[MotionLaw; 3], TruthError> {
     let n = ((t1 - t0) / KNOT_SPACING).ceil() as usize + 1;
     let mut times = Vec::with_capacity(n);
     let mut values: [Vec<f64>; 3] = Default::default();
@@ -604,7 +625,10 @@ fn commanded_laws(
         let t = t0 + k as f64 * KNOT_SPACING;
         let q = kinematics::inverse(g, cmd.at(t)).map_err(|source| TruthError::Path { t, source })?;
         let q: [f64; 3] = std::array::from_fn(|i| match prev {
-            Some(r) => r[i] + (q[i] - r[i] + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI) - std::f64::consts::PI,
+            Some(r) => {
+                r[i] + (q[i] - r[i] + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)
+                    - std::f64::consts::PI
+            }
             None => q[i],
         });
         prev = Some(q);
@@ -623,7 +647,11 @@ fn commanded_laws(
 /// Orthonormal frame with z along `z`.
 fn frame_z(z: Vector3<f64>) -> Matrix3<f64> {
     let z = z.normalize();
-    let helper = if z.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    let helper = if z.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
     let x = (helper - z * helper.dot(&z)).normalize();
     Matrix3::from_columns(&[x, z.cross(&x), z])
 }
@@ -652,7 +680,11 @@ pub struct TruthModel {
 /// Builds the truth model of `spec` at rest with the platform at `m_build` (m), the rotors
 /// following `laws` (absolute motor angles, rad). The recording time t of the arm-side
 /// torques is the simulation time.
-pub fn truth_model(spec: &TruthSpec, m_build: Vector3<f64>, laws: [MotionLaw; 3]) -> Result<TruthModel, TruthError> {
+pub fn truth_model(
+    spec: &TruthSpec,
+    m_build: Vector3<f64>,
+    laws: [MotionLaw; 3],
+) -> Result<TruthModel, TruthError> {
     spec.validate()?;
     let mut mech = Mechanism::new();
     let l = add_links(&mut mech, &spec.geometry, &spec.mass, &spec.links, m_build, None)?;
@@ -677,7 +709,13 @@ pub fn truth_model(spec: &TruthSpec, m_build: Vector3<f64>, laws: [MotionLaw; 3]
             .at(b.arm_centre)
             .oriented(&frame_z(axis)),
         );
-        let rj = mech.revolute_at(&format!("{name} rotor"), Attach::Ground, rotor, b.arm_centre, axis);
+        let rj = mech.revolute_at(
+            &format!("{name} rotor"),
+            Attach::Ground,
+            rotor,
+            b.arm_centre,
+            axis,
+        );
         motors.push(
             mech.drive(&format!("q{}", i + 1), rj, law, l.q[i])
                 .map_err(Mr2120Error::from)?,
@@ -711,9 +749,8 @@ pub fn truth_model(spec: &TruthSpec, m_build: Vector3<f64>, laws: [MotionLaw; 3]
         None => None,
         Some(p) => {
             let at = m_build + p.offset;
-            let body = mech.add_body(
-                RigidBody::new("payload", p.mass, Matrix3::from_diagonal(&p.inertia)).at(at),
-            );
+            let body =
+                mech.add_body(RigidBody::new("payload", p.mass, Matrix3::from_diagonal(&p.inertia)).at(at));
             match p.mount {
                 PayloadMount::Rigid => {
                     mech.fixed_at("payload mount", l.platform, body, at);
@@ -771,7 +808,7 @@ fn body_states(mech: &Mechanism, s: &Sample) -> Vec<BodyState> {
 
 fn check_options(opts: &RecordOptions) -> Result<usize, TruthError> {
     let samples = opts.duration * opts.rate;
-    if !(pos(opts.rate) && pos(opts.duration)) || !(2.0..1e7).contains(&samples) {
+    if !(pos(opts.rate) && pos(opts.duration) && (2.0..1e7).contains(&samples)) {
         return Err(TruthError::Invalid(format!(
             "duration {} s at {} Hz (rate and duration must be > 0, at least 3 samples)",
             opts.duration, opts.rate
@@ -781,7 +818,10 @@ fn check_options(opts: &RecordOptions) -> Result<usize, TruthError> {
         return Err(TruthError::Invalid("record torques, the tracker or both".into()));
     }
     let n = &opts.noise;
-    if ![n.encoder, n.rate, n.torque, n.tracker].iter().all(|&v| nonneg(v)) {
+    if ![n.encoder, n.rate, n.torque, n.tracker]
+        .iter()
+        .all(|&v| nonneg(v))
+    {
         return Err(TruthError::Invalid(format!("noise levels must be ≥ 0: {n:?}")));
     }
     Ok(samples.round() as usize + 1)
@@ -904,7 +944,11 @@ pub struct TruthRun {
 /// Simulates the truth and returns its true signals ([`TruthRun`]); [`simulate_truth`] adds
 /// the sensors. Torques come from a consistent acceleration analysis at each output state
 /// (not from the integrator's multipliers, which are outside its error test).
-pub fn simulate_run(spec: &TruthSpec, path: &Excitation, opts: &RecordOptions) -> Result<TruthRun, TruthError> {
+pub fn simulate_run(
+    spec: &TruthSpec,
+    path: &Excitation,
+    opts: &RecordOptions,
+) -> Result<TruthRun, TruthError> {
     let start = std::time::Instant::now();
     spec.validate()?;
     let n = check_options(opts)?;
@@ -993,11 +1037,16 @@ pub fn simulate_run(spec: &TruthSpec, path: &Excitation, opts: &RecordOptions) -
             wdot,
             lambda,
         };
-        let tau: [f64; 3] = std::array::from_fn(|i| snap.driver_effort(&mech, model.motors[i]).unwrap_or(f64::NAN));
+        let tau: [f64; 3] =
+            std::array::from_fn(|i| snap.driver_effort(&mech, model.motors[i]).unwrap_or(f64::NAN));
         tau_at.push(tau);
         pose_at.push(s.body_position(model.platform));
     }
-    let find = |t: f64| times.binary_search_by(|x| x.total_cmp(&t)).unwrap_or_else(|k| k.min(times.len() - 1));
+    let find = |t: f64| {
+        times
+            .binary_search_by(|x| x.total_cmp(&t))
+            .unwrap_or_else(|k| k.min(times.len() - 1))
+    };
     for k in 0..n {
         let t = out.t[k];
         let ks = find(t);
@@ -1073,7 +1122,13 @@ pub fn quasi_static_reference(
         links.payload += p.mass;
     }
     let placeholder = [0, 1, 2].map(|i| MotionLaw::Constant(laws[i].value(0.0)));
-    let model = ideal_model_with(&spec.geometry, &spec.mass, &links, path.at(0.0), Some(placeholder))?;
+    let model = ideal_model_with(
+        &spec.geometry,
+        &spec.mass,
+        &links,
+        path.at(0.0),
+        Some(placeholder),
+    )?;
     let mech = model.mechanism;
     let drivers: Vec<DriverHandle> = mech.drivers().map(|(h, _)| h).collect();
     let elbows: Vec<_> = ELBOW_JOINTS
@@ -1113,7 +1168,8 @@ pub fn quasi_static_reference(
             let s = analysis
                 .state_at(&mech, &mut data, t, &qg, &wg)
                 .map_err(|source| TruthError::Analysis { t, source })?;
-            let new: [f64; 3] = std::array::from_fn(|i| s.driver_effort(&mech, drivers[i]).unwrap_or(f64::NAN));
+            let new: [f64; 3] =
+                std::array::from_fn(|i| s.driver_effort(&mech, drivers[i]).unwrap_or(f64::NAN));
             let change = (0..3)
                 .map(|i| ((new[i] - tau[i]) / spec.drives[i].stiffness).abs())
                 .fold(0.0, f64::max);
@@ -1159,17 +1215,24 @@ mod tests {
     #[test]
     fn commanded_path_starts_at_rest_and_joins_the_path() {
         let path = Excitation::random(3, 0.32, 0.0);
-        let cmd = CommandedPath { path: &path, ramp: 0.5 };
+        let cmd = CommandedPath {
+            path: &path,
+            ramp: 0.5,
+        };
         let c = Vector3::from(path.centre);
         assert!((cmd.at(-0.6) - c).norm() < 1e-15);
         assert!((cmd.at(0.0) - path.at(0.0)).norm() < 1e-15);
         assert!((cmd.at(0.3) - path.at(0.3)).norm() < 1e-15);
         // C² at both ends of the ramp: finite-difference acceleration continuous.
-        let acc = |f: &dyn Fn(f64) -> Vector3<f64>, t: f64, h: f64| (f(t + h) - 2.0 * f(t) + f(t - h)) / (h * h);
+        let acc =
+            |f: &dyn Fn(f64) -> Vector3<f64>, t: f64, h: f64| (f(t + h) - 2.0 * f(t) + f(t - h)) / (h * h);
         let h = 1e-4;
         let a_cmd = acc(&|t| cmd.at(t), 0.0, h);
         let a_path = acc(&|t| path.at(t), 0.0, h);
-        assert!((a_cmd - a_path).norm() < 0.05 * a_path.norm().max(0.1), "{a_cmd:?} vs {a_path:?}");
+        assert!(
+            (a_cmd - a_path).norm() < 0.05 * a_path.norm().max(0.1),
+            "{a_cmd:?} vs {a_path:?}"
+        );
     }
 
     #[test]
