@@ -335,7 +335,11 @@ fn clearance_spec() -> TruthSpec {
     use lash::contact::BearingDesign;
     use lash::mechanisms::mr2120::clearance::DEFAULT_DAMPING;
     let mut spec = TruthSpec::nominal();
-    let mut d = BearingDesign::mr2120(6e-6, 6e-6, DEFAULT_DAMPING);
+    let damping = match std::env::var("ALPHA") {
+        Ok(v) => lash::contact::Damping::HuntCrossley(v.parse().unwrap()),
+        Err(_) => DEFAULT_DAMPING,
+    };
+    let mut d = BearingDesign::mr2120(6e-6, 6e-6, damping);
     d.material.e = lash::mechanisms::mr2120::paper::STEEL_E;
     spec.joints[2] = Some(d); // F: leg C's elbow
     spec.joints[5] = Some(d); // R: leg C's platform joint

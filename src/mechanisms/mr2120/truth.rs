@@ -33,17 +33,18 @@
 //! The motor angles follow the nominal inverse kinematics ([`kinematics::inverse`] on the
 //! nominal [`Geometry`]) of the platform path, sampled every [`KNOT_SPACING`] and
 //! interpolated by a natural cubic spline (`MotionLaw::Sampled`). The recording's t = 0 is
-//! preceded by a **pre-roll**: the platform rests at the path's centre for
-//! `settle_hold` seconds (the transmissions, the bearings and a sprung payload settle under
-//! gravity; the simulation starts with the springs unloaded), then the path is blended in
-//! over `settle_ramp` seconds: p(t) = c + w(t)·(path(t) − c) with the quintic smooth step
-//! w (w, ẇ, ẅ continuous, w = 1 from t = 0). From t = 0 the platform is commanded along
-//! `path` exactly. Defaults [`SETTLE_HOLD`] and [`SETTLE_RAMP`]. The slowest mode of the
+//! preceded by a **pre-roll** ([`TruthSpec::pre_roll`]): the platform rests at the path's
+//! centre c for `settle_hold` seconds (the transmissions, the bearings and a sprung payload
+//! settle under gravity; the simulation starts with the springs unloaded), then the path is
+//! blended in over `settle_ramp` seconds, p(t) = c + w(t)·(path(t) − c) with a C^∞ smooth
+//! step w (every derivative continuous), then the platform follows `path` exactly for
+//! `settle_run_in` seconds before the record's t = 0 (the path is defined for negative t).
+//! Defaults [`SETTLE_HOLD`], [`SETTLE_RAMP`], [`SETTLE_RUN_IN`]. The slowest mode of the
 //! nominal transmissions is the platform bouncing on the three springs (≈ 25 Hz, decaying at
-//! ≈ 16 s⁻¹ with the nominal damping); measured on the gentle path (seed 11), a 0.5 s ramp
-//! left it ringing at 0.045 N·m at t = 0, the 1 s ramp at ≤ 0.005 N·m. Paths that pass near
-//! the direct singularity ring it themselves (there the platform's stiffness on the
-//! transmissions vanishes): that is physics, in the pre-roll as in the record.
+//! ≈ 16 s⁻¹ with the nominal damping): the run-in lets what the ramp excited decay (by
+//! e⁻⁸) before the record. Paths that pass near the direct singularity ring that mode
+//! themselves (there the platform's stiffness on the transmissions vanishes): that is
+//! physics, and it shows in the record.
 //!
 //! # Example
 //! ```
@@ -62,6 +63,7 @@
 //! }));
 //! spec.settle_hold = 0.05;
 //! spec.settle_ramp = 0.05;
+//! spec.settle_run_in = 0.0;
 //! let opts = RecordOptions { duration: 0.02, rate: 500.0, ..Default::default() };
 //! let path = Excitation::random(1, 0.32, 0.0);
 //! let noise_free = simulate_truth(&spec, &path, &opts, None).unwrap();
@@ -112,6 +114,8 @@ pub const NOMINAL_TRANSMISSION_DAMPING: f64 = 12.649110640673518;
 pub const SETTLE_HOLD: f64 = 0.2;
 /// Default ramp that blends the path in, s.
 pub const SETTLE_RAMP: f64 = 1.0;
+/// Default run-in on the exact path before the record starts, s.
+pub const SETTLE_RUN_IN: f64 = 0.5;
 /// Spacing of the samples of the commanded motor angles that the drivers' splines
 /// interpolate, s.
 pub const KNOT_SPACING: f64 = 1e-3;
@@ -341,9 +345,19 @@ pub struct SensorModel {
     pub tracker_delay: f64,
 }
 
-/// Integrator settings of a truth simulation. The defaults ([`SolverSettings::default`]) keep
-/// the integration error of the recorded torques and positions below a tenth of the sensor
-/// noise (measured: see the module's tests and `tests/mr2120_truth.rs`).
+/// Integrator settings of a truth simulation.
+///
+/// Measured with the defaults against 10× tighter tolerances (rtol, atol / 10, h_max / √10;
+/// 2 s at 500 Hz, `Excitation::random(11, …)`, `measure_tolerance_and_timing` in
+/// `tests/mr2120_truth.rs`), in units of the default sensor noise (0.02 N·m, 5 µm):
+/// * ideal joints: torques max 0.001 (gentle) and 0.011 (shaken), tracker ≤ 0.002 — the
+///   integration error is far below the noise;
+/// * 6 µm play in leg C's joints F and R (default contact damping): gentle path torques max
+///   0.24, rms 0.1, tracker ≤ 0.07; shaken path torques max 11, rms 2.2, tracker max 1.2:
+///   under load reversals the bearings' impact sequence changes with the tolerance (rattle
+///   is sensitive to perturbations; 10× tighter again, or resolving the rattle with
+///   `damp_contact_rattle = false`, does not converge it either). Such records are valid
+///   samples of the physics, not reproducible to the noise point by point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolverSettings {
     /// Relative tolerance.
@@ -393,6 +407,8 @@ pub struct TruthSpec {
     pub settle_hold: f64,
     /// Pre-roll ramp, s (> 0).
     pub settle_ramp: f64,
+    /// Pre-roll run-in on the exact path before the record's t = 0, s (≥ 0).
+    pub settle_run_in: f64,
 }
 
 impl TruthSpec {
@@ -412,6 +428,20 @@ impl TruthSpec {
             solver: SolverSettings::default(),
             settle_hold: SETTLE_HOLD,
             settle_ramp: SETTLE_RAMP,
+            settle_run_in: SETTLE_RUN_IN,
+        }
+    }
+
+    /// Length of the pre-roll before the record's t = 0 (hold + ramp + run-in), s.
+    pub fn pre_roll(&self) -> f64 {
+        self.settle_hold + self.settle_ramp + self.settle_run_in
+    }
+
+    fn commanded<'a>(&self, path: &'a Excitation) -> CommandedPath<'a> {
+        CommandedPath {
+            path,
+            ramp: self.settle_ramp,
+            ramp_end: -self.settle_run_in,
         }
     }
 
@@ -496,13 +526,13 @@ impl TruthSpec {
                 return inv(format!("{what} delay = {d} s (must be in [0, {MAX_DELAY}] s)"));
             }
         }
-        if !nonneg(self.settle_hold) || !pos(self.settle_ramp) {
+        if !nonneg(self.settle_hold) || !pos(self.settle_ramp) || !nonneg(self.settle_run_in) {
             return inv(format!(
-                "pre-roll: hold {} s (≥ 0), ramp {} s (> 0)",
-                self.settle_hold, self.settle_ramp
+                "pre-roll: hold {} s (≥ 0), ramp {} s (> 0), run-in {} s (≥ 0)",
+                self.settle_hold, self.settle_ramp, self.settle_run_in
             ));
         }
-        if self.settle_hold + self.settle_ramp < s.torque_delay.max(s.tracker_delay) {
+        if self.pre_roll() < s.torque_delay.max(s.tracker_delay) {
             return inv("the pre-roll must be longer than the sensor delays".into());
         }
         let v = &self.solver;
@@ -585,18 +615,20 @@ pub enum TruthError {
     },
 }
 
-/// The commanded platform path with the pre-roll: the centre before `-ramp`, the blend
-/// during the ramp, `path` from t = 0.
+/// The commanded platform path with the pre-roll: the centre before `ramp_end − ramp`, the
+/// blend during the ramp, `path` from `ramp_end`.
 #[derive(Debug, Clone, Copy)]
 struct CommandedPath<'a> {
     path: &'a Excitation,
     ramp: f64,
+    /// End of the ramp, s (≤ 0: the path runs exactly from here).
+    ramp_end: f64,
 }
 
 impl CommandedPath<'_> {
     fn at(&self, t: f64) -> Vector3<f64> {
         let c = Vector3::from(self.path.centre);
-        c + blend((t + self.ramp) / self.ramp) * (self.path.at(t) - c)
+        c + blend((t - self.ramp_end + self.ramp) / self.ramp) * (self.path.at(t) - c)
     }
 }
 
@@ -954,11 +986,8 @@ pub fn simulate_run(
     let n = check_options(opts)?;
     let dt = 1.0 / opts.rate;
     let t_end = (n - 1) as f64 * dt;
-    let t0 = -(spec.settle_hold + spec.settle_ramp);
-    let cmd = CommandedPath {
-        path,
-        ramp: spec.settle_ramp,
-    };
+    let t0 = -spec.pre_roll();
+    let cmd = spec.commanded(path);
     let laws = commanded_laws(&spec.geometry, &cmd, t0, t_end + TAIL)?;
     let model = truth_model(spec, cmd.at(t0), laws)?;
     // Output times: the record's, and the delayed channels'.
@@ -1111,11 +1140,8 @@ pub fn quasi_static_reference(
     let n = check_options(opts)?;
     let dt = 1.0 / opts.rate;
     let t_end = (n - 1) as f64 * dt;
-    let t0 = -(spec.settle_hold + spec.settle_ramp);
-    let cmd = CommandedPath {
-        path,
-        ramp: spec.settle_ramp,
-    };
+    let t0 = -spec.pre_roll();
+    let cmd = spec.commanded(path);
     let laws = commanded_laws(&spec.geometry, &cmd, t0, t_end + TAIL)?;
     let mut links = spec.links;
     if let Some(p) = &spec.payload_body {
