@@ -1244,12 +1244,13 @@ mod tests {
         let cmd = CommandedPath {
             path: &path,
             ramp: 0.5,
+            ramp_end: 0.0,
         };
         let c = Vector3::from(path.centre);
         assert!((cmd.at(-0.6) - c).norm() < 1e-15);
         assert!((cmd.at(0.0) - path.at(0.0)).norm() < 1e-15);
         assert!((cmd.at(0.3) - path.at(0.3)).norm() < 1e-15);
-        // C² at both ends of the ramp: finite-difference acceleration continuous.
+        // Smooth at the ramp's end: finite-difference accelerations agree.
         let acc =
             |f: &dyn Fn(f64) -> Vector3<f64>, t: f64, h: f64| (f(t + h) - 2.0 * f(t) + f(t - h)) / (h * h);
         let h = 1e-4;
