@@ -257,6 +257,11 @@ fn noise_and_sensor_errors_are_as_declared() {
     assert_eq!(simulate_truth(&spec, &ex, &o, None).unwrap(), clean);
 }
 
+/// Measurement for the report (`--ignored --nocapture`): the nominal truth against the
+/// quasi-static reference on the gentle and the shaken path (2 s). The gentle path must stay
+/// within the bounds of `nominal_truth_matches_the_quasi_static_reference_near_the_noise`; the
+/// shaken one passes near the direct singularity, where the transmissions' dynamics are far
+/// above the noise (printed).
 #[test]
 #[ignore]
 fn measure_nominal_vs_reference() {
@@ -292,45 +297,6 @@ fn measure_nominal_vs_reference() {
     }
 }
 
-#[test]
-#[ignore]
-fn dump_nominal_vs_reference() {
-    let shake: f64 = std::env::var("SHAKE").map(|v| v.parse().unwrap()).unwrap_or(0.0);
-    let zlow = if shake > 0.0 { 0.30 } else { 0.32 };
-    let ex = Excitation::random(11, zlow, shake);
-    let mut spec = TruthSpec::nominal();
-    if let Ok(v) = std::env::var("RAMP") {
-        spec.settle_ramp = v.parse().unwrap();
-    }
-    if let Ok(v) = std::env::var("HOLD") {
-        spec.settle_hold = v.parse().unwrap();
-    }
-    if let Ok(v) = std::env::var("DAMP") {
-        for d in spec.drives.iter_mut() {
-            d.damping = v.parse().unwrap();
-        }
-    }
-    let o = opts(2.0);
-    let run = simulate_run(&spec, &ex, &o).unwrap();
-    let r = quasi_static_reference(&spec, &ex, &o).unwrap();
-    for k in (0..run.t.len()).step_by(std::env::var("STEP").map(|v| v.parse().unwrap()).unwrap_or(10)) {
-        println!(
-            "{:.3} tau {:8.4} {:8.4} dtau {:8.5} {:8.5} {:8.5} dz {:9.3e} qa-qm {:9.3e} ref {:9.3e} dm {:.4} z {:.4}",
-            run.t[k],
-            run.tau[0][k],
-            r.tau[0][k],
-            run.tau[0][k] - r.tau[0][k],
-            run.tau[1][k] - r.tau[1][k],
-            run.tau[2][k] - r.tau[2][k],
-            run.pose[2][k] - r.pose[2][k],
-            run.arm[0][k] - run.q[0][k],
-            -r.tau[0][k] / 1e4,
-            lash::mechanisms::mr2120::kinematics::singularity(&spec.geometry, [run.q[0][k], run.q[1][k], run.q[2][k]], ex.at(run.t[k])).direct_measure,
-            ex.at(run.t[k]).z
-        );
-    }
-}
-
 fn clearance_spec() -> TruthSpec {
     use lash::contact::BearingDesign;
     use lash::mechanisms::mr2120::clearance::DEFAULT_DAMPING;
@@ -346,6 +312,11 @@ fn clearance_spec() -> TruthSpec {
     spec
 }
 
+/// Measurement for the report (`--ignored --nocapture`; env WHICH=clearance for 6 µm play
+/// in leg C's joints F and R, DUR, RTOL, ATOL, HMAX, TIGHT, RESOLVE, ALPHA, ONLY_SHAKEN):
+/// the change of the recorded torques and platform position when the tolerances are
+/// tightened 10×, and the wall time per simulated second. With ideal joints the change must
+/// stay below a tenth of the noise; with clearance it is printed (see `SolverSettings`).
 #[test]
 #[ignore]
 fn measure_tolerance_and_timing() {
@@ -415,6 +386,12 @@ fn measure_tolerance_and_timing() {
                         .total_cmp(&(a.tau[i][y] - b.tau[i][y]).abs())
                 })
                 .unwrap();
+            if which == "ideal" {
+                assert!(
+                    m < 0.1 * 0.02 && mp < 0.1 * 5e-6,
+                    "channel {i}: {m:e} N·m, {mp:e} m"
+                );
+            }
             println!(
                 "  channel {i}: |Δτ| max {:.2e} N·m = {:.3} noise (t = {:.3} s), rms {:.3} noise; |Δx| max {:.2e} m = {:.3} noise, rms {:.3} noise",
                 m, m / 0.02, a.t[kmax], r / 0.02, mp, mp / 5e-6, rp / 5e-6
