@@ -399,3 +399,36 @@ fn measure_tolerance_and_timing() {
         }
     }
 }
+
+/// A payload on a stiff spring mount (200 Hz) behaves like the rigidly mounted one (the
+/// mount is pre-loaded to equilibrium at rest, so nothing rings at the start); on a 15 Hz
+/// mount the path excites the payload's bounce, which the motor torques show.
+#[test]
+fn sprung_payload_tends_to_the_rigid_one() {
+    let ex = path_gentle();
+    let o = opts(1.0);
+    let run = |mount: PayloadMount| {
+        let mut spec = TruthSpec::nominal();
+        spec.payload_body = Some(PayloadBody {
+            mount,
+            ..PayloadBody::example()
+        });
+        simulate_run(&spec, &ex, &o).unwrap()
+    };
+    let rigid = run(PayloadMount::Rigid);
+    let stiff = run(PayloadMount::Spring {
+        frequency: 200.0,
+        damping_ratio: 0.05,
+    });
+    let soft = run(PayloadMount::Spring {
+        frequency: 15.0,
+        damping_ratio: 0.05,
+    });
+    for i in 0..3 {
+        let (m_stiff, _) = max_rms(&stiff.tau[i], &rigid.tau[i]);
+        let (m_soft, _) = max_rms(&soft.tau[i], &rigid.tau[i]);
+        println!("drive {i}: 200 Hz mount {m_stiff:.2e} N·m, 15 Hz mount {m_soft:.2e} N·m from rigid");
+        assert!(m_stiff < 0.1 * 0.02, "drive {i}: {m_stiff:e}");
+        assert!(m_soft > 10.0 * m_stiff, "drive {i}: {m_soft:e} vs {m_stiff:e}");
+    }
+}
