@@ -593,14 +593,19 @@ impl MechanismModel {
                 let wd = (&w - &p.w_qs) / h;
                 if p.started == 2 {
                     let wdd = (&wd - &p.wd) / h;
-                    let m = built.analysis.driver_mass_matrix(&built.model, &mut built.data).ok();
+                    let m = built
+                        .analysis
+                        .driver_mass_matrix(&built.model, &mut built.data)
+                        .ok();
                     let damping: Vec<f64> = (0..n)
                         .map(|j| match self.sensors.encoders.get(j) {
                             Some(EncoderPlacement::MotorSide { damping, .. }) => *damping,
                             _ => 0.0,
                         })
                         .collect();
-                    let force = m.map(|m| &m * &wdd).unwrap_or_else(|| nalgebra::DVector::zeros(n))
+                    let force = m
+                        .map(|m| &m * &wdd)
+                        .unwrap_or_else(|| nalgebra::DVector::zeros(n))
                         + nalgebra::DVector::from_iterator(n, (0..n).map(|j| damping[j] * wd[j]));
                     let dynamic = nalgebra::DVector::from_iterator(n, (0..n).map(|j| -c[j] * force[j]));
                     Some(Windup {

@@ -372,3 +372,47 @@ impl ForceElement for RotationalTorque {
             .apply_torque(states, loads, &u, (self.law)(t, theta, rate));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::multibody::rotation::{from_axis_angle, rotation};
+    use crate::multibody::{Mechanism, RigidBody};
+
+    /// Body j turned by θ about the axis relative to body i, spinning at θ̇: the spring-damper
+    /// puts −k·θ − c·θ̇ on j and the opposite on i, about the axis.
+    #[test]
+    fn rotational_spring_damper_torque_and_sign() {
+        let mut mech = Mechanism::new();
+        let axis = Vector3::new(1.0, 2.0, -0.5).normalize();
+        let i = mech.add_body(RigidBody::new("i", 1.0, Matrix3::identity()));
+        let j = mech.add_body(RigidBody::new("j", 1.0, Matrix3::identity()));
+        let rel =
+            RelativeRotation::from_initial_poses(&mech, Attach::Body(i), Attach::Body(j), axis).unwrap();
+        let (k, c, theta, rate) = (200.0, 3.0, 0.3, -0.7);
+        let e = RotationalSpringDamper {
+            name: "s".into(),
+            rotation: rel.clone(),
+            stiffness: k,
+            damping: c,
+            free_angle: 0.05,
+        };
+        let aj = rotation(&from_axis_angle(&axis, theta));
+        let mut sj = BodyState::ground();
+        sj.a = aj;
+        sj.omega = aj.transpose() * (axis * rate);
+        let states = [BodyState::ground(), sj];
+        let (th, r, u) = rel.evaluate(&states);
+        assert!((th - theta).abs() < 1e-12 && (r - rate).abs() < 1e-12 && (u - axis).norm() < 1e-12);
+        let mut loads = [BodyLoad::default(); 2];
+        e.apply(0.0, &states, &mut loads);
+        let expected = -k * (theta - 0.05) - c * rate;
+        assert!(
+            (aj * loads[1].torque - axis * expected).norm() < 1e-9,
+            "{:?}",
+            loads[1]
+        );
+        assert!((loads[0].torque + axis * expected).norm() < 1e-9);
+        assert!(loads[0].force == Vector3::zeros() && loads[1].force == Vector3::zeros());
+    }
+}

@@ -206,4 +206,40 @@ mod tests {
             Err(Mr2120Error::UnknownClearanceSet(_))
         ));
     }
+
+    #[test]
+    fn per_joint_designs_build_the_same_models() {
+        use crate::multibody::{Analysis, MechanismData};
+        let g = Geometry::default();
+        let mp = MassProperties::default();
+        let m1 = Vector3::new(0.0, 0.0, 0.5);
+        let design = bearing_design(&clearance_set("L2").unwrap(), DEFAULT_DAMPING);
+        // All six equal: the same model as `clearance_model` (same bodies, joints, forces in
+        // the same order, hence the same state layout and results).
+        let a = clearance_model(&g, &mp, m1, None, &design).unwrap();
+        let b =
+            clearance_model_per_joint(&g, &mp, &LinkSpec::nominal(&g), m1, None, &[Some(design); 6]).unwrap();
+        assert_eq!(a.mechanism.initial_guess(), b.mechanism.initial_guess());
+        assert_eq!(a.mechanism.constraint_count(), b.mechanism.constraint_count());
+        let names =
+            |m: &Mechanism| -> Vec<String> { m.forces().map(|(_, f)| f.name().to_string()).collect() };
+        assert_eq!(names(&a.mechanism), names(&b.mechanism));
+        assert_eq!(a.crosses, b.crosses.map(Option::unwrap));
+        assert!(b.ideal_joints.iter().all(Option::is_none));
+        // None everywhere: the ideal model (3 degrees of freedom, no crosses).
+        let c = clearance_model_per_joint(&g, &mp, &LinkSpec::nominal(&g), m1, None, &[None; 6]).unwrap();
+        assert_eq!(c.mechanism.degrees_of_freedom(), 3);
+        assert_eq!(c.mechanism.bodies().len(), 7);
+        // Play in leg C's joints only (F and R): 3 + 2 × 10 degrees of freedom, 16 contacts.
+        let mut designs = [None; 6];
+        designs[2] = Some(design);
+        designs[5] = Some(design);
+        let d = clearance_model_per_joint(&g, &mp, &LinkSpec::nominal(&g), m1, None, &designs).unwrap();
+        assert_eq!(d.mechanism.degrees_of_freedom(), 23);
+        assert_eq!(d.mechanism.forces().count(), 8);
+        assert!(d.crosses[2].is_some() && d.crosses[0].is_none() && d.ideal_joints[0].is_some());
+        let an = Analysis::new(&d.mechanism).unwrap();
+        an.initial_state(&d.mechanism, &mut MechanismData::new(&d.mechanism), 0.0)
+            .unwrap();
+    }
 }
