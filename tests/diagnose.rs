@@ -822,3 +822,169 @@ fn a_ripple_alone_is_unexplained_and_nothing_is_claimed_as_found() {
         assert!(!e.stable || e.value.abs() < 2.0 * e.std, "{e:?}");
     }
 }
+
+/// The multibody MR2120 nominal model, and a mechanism model whose sensors are declared.
+mod declared_sensors {
+    use lash::diagnose::data::MotionData;
+    use lash::diagnose::mechanism::{EncoderPlacement, MechanismModel, PlaySite, PointSensor, Sensors};
+    use lash::diagnose::model::{InverseDynamicsModel, ModelParameter, ParameterFamily};
+    use lash::diagnose::{diagnose, DiagnoseError, DiagnoseOptions};
+    use lash::multibody::{Attach, Mechanism, MotionLaw, RigidBody};
+    use nalgebra::{Matrix3, Vector3};
+    use std::sync::Arc;
+
+    fn pendulum() -> MechanismModel {
+        MechanismModel::new(
+            "pendulum",
+            vec!["joint 1".into()],
+            vec![
+                ModelParameter {
+                    name: "bob mass".into(),
+                    unit: "kg".into(),
+                    nominal: 1.0,
+                    scale: 1.0,
+                    family: ParameterFamily::MassProperties,
+                },
+                ModelParameter {
+                    name: "drive compliance".into(),
+                    unit: "rad/(N m)".into(),
+                    nominal: 1e-3,
+                    scale: 1e-3,
+                    family: ParameterFamily::DriveCompliance,
+                },
+            ],
+            Arc::new(|theta: &[f64], laws: &[MotionLaw]| {
+                let mut m = Mechanism::new();
+                let bob = m.add_body(
+                    RigidBody::new("bob", theta[0], Matrix3::identity() * 1e-3)
+                        .at(Vector3::new(0.0, 0.0, -0.5)),
+                );
+                let j = m.revolute_at("pivot", Attach::Ground, bob, Vector3::zeros(), Vector3::y());
+                m.drive("q1", j, laws[0].clone(), 0.0)?;
+                Ok(m)
+            }),
+        )
+        .unwrap()
+    }
+
+    fn tracker(body: &str) -> Vec<PointSensor> {
+        vec![PointSensor {
+            name: "bob x".into(),
+            role: "x".into(),
+            body: body.into(),
+            point: Vector3::zeros(),
+            axis: 0,
+        }]
+    }
+
+    #[test]
+    fn a_sensor_placement_the_model_cannot_have_is_refused_naming_it() {
+        let bad_compliance = Sensors {
+            encoders: vec![EncoderPlacement::MotorSide {
+                compliance: 7,
+                rotor_inertia: 0.0,
+                damping: 0.0,
+            }],
+            outputs: vec![],
+        };
+        let e = pendulum().with_sensors(bad_compliance).unwrap_err();
+        assert!(matches!(e, DiagnoseError::Model { .. }), "{e}");
+        assert!(e.to_string().contains("compliance parameter 7"), "{e}");
+        let e = pendulum()
+            .with_sensors(Sensors {
+                encoders: vec![],
+                outputs: tracker("no such body"),
+            })
+            .unwrap_err();
+        assert!(e.to_string().contains("'no such body'"), "{e}");
+        let two = Sensors {
+            encoders: vec![EncoderPlacement::JointSide, EncoderPlacement::JointSide],
+            outputs: vec![],
+        };
+        let e = pendulum().with_sensors(two).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("2 encoder placements for 1 torque channels"),
+            "{e}"
+        );
+        let e = pendulum()
+            .with_play(vec![PlaySite {
+                joint: "pivot".into(),
+                play: lash::contact::play::UniversalPlay { ball_spacing: 0.024 },
+            }])
+            .unwrap_err();
+        assert!(e.to_string().contains("only the play of universal joints"), "{e}");
+    }
+
+    fn recording(n: usize, with_tracker: bool) -> MotionData {
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
+        let q: Vec<f64> = t.iter().map(|t| 0.3 * t.sin()).collect();
+        let qd: Vec<f64> = t.iter().map(|t| 0.3 * t.cos()).collect();
+        let qdd: Vec<f64> = t.iter().map(|t| -0.3 * t.sin()).collect();
+        MotionData {
+            name: "r".into(),
+            tau: vec![q.iter().map(|q| 4.905 * q.sin()).collect()],
+            y: if with_tracker {
+                vec![q.iter().map(|q| 0.5 * q.sin()).collect()]
+            } else {
+                vec![]
+            },
+            t,
+            q: vec![q],
+            qd: vec![qd],
+            qdd: vec![qdd],
+        }
+    }
+
+    #[test]
+    fn recordings_with_sensors_the_model_does_not_declare_or_too_short_for_a_fold_are_refused() {
+        let m = pendulum();
+        // A tracker channel the model declares no sensor for.
+        let e = diagnose(
+            &m,
+            &[recording(200, true)],
+            &[],
+            &DiagnoseOptions::default(),
+            |_, _| {},
+        )
+        .unwrap_err();
+        assert!(matches!(e, DiagnoseError::OutputCount { outputs: 0, .. }), "{e}");
+        // Too few samples for a fold (each recording is one cross-validation fold).
+        let e = diagnose(
+            &m,
+            &[recording(200, false), recording(10, false)],
+            &[],
+            &DiagnoseOptions::default(),
+            |_, _| {},
+        )
+        .unwrap_err();
+        assert!(matches!(e, DiagnoseError::TooFewSamples { found: 10, .. }), "{e}");
+    }
+
+    #[test]
+    fn a_motor_side_encoder_lags_the_joint_by_the_transmission_wind_up() {
+        let m = pendulum()
+            .with_sensors(Sensors {
+                encoders: vec![EncoderPlacement::MotorSide {
+                    compliance: 1,
+                    rotor_inertia: 0.0,
+                    damping: 0.0,
+                }],
+                outputs: tracker("bob"),
+            })
+            .unwrap();
+        let theta = [1.0, 1e-3];
+        // Held still at 0.5 rad (encoder): the joint sits c·τ lower, τ = m g r sin(q_joint).
+        let (mut tau, mut y) = ([0.0], [0.0]);
+        m.evaluate(&theta, &[0.5], &[0.0], &[0.0], &mut tau, &mut y);
+        // (Consistent to the wind-up passes' refinement: τ from the last full pass, within
+        // ∂τ/∂q · WINDUP_REFINE.)
+        let qa = 0.5 - 1e-3 * tau[0];
+        assert!(
+            tau[0] > 2.3 && (tau[0] - 9.81 * 0.5 * qa.sin()).abs() < 1e-5,
+            "{tau:?}"
+        );
+        assert!((y[0].abs() - 0.5 * qa.sin()).abs() < 1e-8, "{y:?}");
+        assert!(m.parameter_step(1) > 1e-9);
+    }
+}

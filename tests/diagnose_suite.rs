@@ -50,3 +50,66 @@ fn only_names_no_case_is_refused_before_anything_runs() {
         "the message lists the cases: {e}"
     );
 }
+
+#[test]
+fn the_multibody_suite_has_twelve_concealed_cases_a_null_a_pair_and_three_out_of_library() {
+    use lash::diagnose::suite::multibody::cases;
+    use lash::diagnose::suite::CaseKind::*;
+    let all = cases();
+    assert!(all.iter().filter(|c| c.kind == Concealed).count() >= 12);
+    assert_eq!(all.iter().filter(|c| c.kind == Null).count(), 1);
+    assert_eq!(all.iter().filter(|c| c.kind == Pair).count(), 1);
+    assert!(all.iter().filter(|c| c.kind == OutOfLibrary).count() >= 3);
+    for name in lash::diagnose::suite::multibody::REDUCED_CASES {
+        assert!(all.iter().any(|c| c.name == name), "{name}");
+    }
+}
+
+/// The multibody nominal model (ideal mechanism, transmissions integrated along the
+/// recording) against the simulated nominal truth (rotor bodies on torsional springs, BDF):
+/// two independent routes to the same physics must agree far below the sensor noise, or the
+/// diagnosis would explain their difference away.
+#[test]
+fn the_multibody_nominal_model_reproduces_the_simulated_nominal_truth_below_the_noise() {
+    use lash::diagnose::model::InverseDynamicsModel;
+    use lash::diagnose::signal::derivative_cubic;
+    use lash::mechanisms::mr2120::record::{RecordOptions, SensorNoise};
+    use lash::mechanisms::mr2120::truth::{simulate_run, TruthSpec};
+    use lash::mechanisms::mr2120::{Geometry, MassProperties};
+    let noise = SensorNoise::default();
+    for r in [1usize, 3] {
+        let path = lash::diagnose::suite::lumped::excitation(2026, r);
+        let opts = RecordOptions {
+            duration: 2.0,
+            rate: 500.0,
+            ..RecordOptions::default()
+        };
+        let run = simulate_run(&TruthSpec::nominal(), &path, &opts).unwrap();
+        let model =
+            lash::diagnose::mr2120::mr2120_model(&Geometry::default(), &MassProperties::default()).unwrap();
+        let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+        let qdd: Vec<Vec<f64>> = (0..3).map(|j| derivative_cubic(&run.t, &run.qd[j], 4)).collect();
+        let (mut ss_tau, mut n_tau, mut worst_y) = (0.0, 0.0, 0.0f64);
+        for i in 0..run.t.len() {
+            let q: Vec<f64> = (0..3).map(|j| run.q[j][i]).collect();
+            let qd: Vec<f64> = (0..3).map(|j| run.qd[j][i]).collect();
+            let a: Vec<f64> = (0..3).map(|j| qdd[j][i]).collect();
+            let (mut tau, mut y) = ([0.0; 3], [0.0; 3]);
+            model.evaluate_at(run.t[i], &theta, &q, &qd, &a, &mut tau, &mut y);
+            if !tau[0].is_finite() {
+                continue; // the start transient carries no weight
+            }
+            for j in 0..3 {
+                ss_tau += (run.tau[j][i] - tau[j]).powi(2);
+                n_tau += 1.0;
+                worst_y = worst_y.max((run.pose[j][i] - y[j]).abs());
+            }
+        }
+        let rms_tau = (ss_tau / n_tau).sqrt();
+        assert!(n_tau > 2000.0, "{n_tau}");
+        assert!(
+            rms_tau < 0.5 * noise.torque && worst_y < 2.0 * noise.tracker,
+            "path {r}: torque RMS {rms_tau} N m, largest tracker difference {worst_y} m"
+        );
+    }
+}

@@ -361,6 +361,24 @@ pub fn columns(
         }
         col
     };
+    // The nominal channels, for one-sided differences (a model that asks for them: each
+    // evaluation costs a pass through an iterative model).
+    let one_sided = model.one_sided_differences();
+    let nom_channels: Vec<Vec<f64>> = chans
+        .iter()
+        .map(|c| match *c {
+            Channel::Torque(j) => tau_nom[j].clone(),
+            Channel::Output(k) => y_nom[k].clone(),
+        })
+        .collect();
+    // (a − b)/(2h) for central differences, (a − nominal)/h for one-sided ones.
+    let difference = |plus: &dyn Fn() -> Vec<Vec<f64>>, minus: &dyn Fn() -> Vec<Vec<f64>>, h: f64| {
+        if one_sided {
+            stack(&plus(), &nom_channels, 0.5 * h)
+        } else {
+            stack(&plus(), &minus(), h)
+        }
+    };
     let lag: Vec<std::cell::OnceCell<Vec<f64>>> =
         (0..model.joints()).map(|_| std::cell::OnceCell::new()).collect();
     let lag_of = |j: usize| -> &Vec<f64> {
@@ -369,9 +387,9 @@ pub fn columns(
             let (mut dp, mut dm) = (d.clone(), d.clone());
             dp.q[j].iter_mut().for_each(|v| *v -= h);
             dm.q[j].iter_mut().for_each(|v| *v += h);
-            stack(
-                &dp.model_channels(model, &theta0),
-                &dm.model_channels(model, &theta0),
+            difference(
+                &|| dp.model_channels(model, &theta0),
+                &|| dm.model_channels(model, &theta0),
                 h,
             )
         })
@@ -425,9 +443,9 @@ pub fn columns(
                 let (mut tp, mut tm) = (theta0.clone(), theta0.clone());
                 tp[index] += h;
                 tm[index] -= h;
-                vec![stack(
-                    &d.model_channels(model, &tp),
-                    &d.model_channels(model, &tm),
+                vec![difference(
+                    &|| d.model_channels(model, &tp),
+                    &|| d.model_channels(model, &tm),
                     h,
                 )]
             }

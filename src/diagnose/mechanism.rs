@@ -866,6 +866,12 @@ impl InverseDynamicsModel for MechanismModel {
     fn parameters(&self) -> Vec<ModelParameter> {
         self.parameters.clone()
     }
+    /// One-sided: every evaluation is a pass of multibody analyses along the recording, and
+    /// with a step of [`PARAMETER_STEP`] of the scale the truncation error (1e-4 relative) is
+    /// far below what the estimates resolve.
+    fn one_sided_differences(&self) -> bool {
+        true
+    }
     /// [`PARAMETER_STEP`] of the parameter's scale.
     fn parameter_step(&self, k: usize) -> f64 {
         PARAMETER_STEP * self.parameters.get(k).map_or(1.0, |p| p.scale).max(1e-12)

@@ -111,6 +111,12 @@ pub trait InverseDynamicsModel {
     fn parameter_step(&self, k: usize) -> f64 {
         1e-6 * self.parameters().get(k).map_or(1.0, |p| p.scale).max(1e-12)
     }
+    /// Sensitivities by one-sided differences from the nominal evaluation (half the model
+    /// passes; truncation error of the order of the step) instead of central ones. Default:
+    /// central (false).
+    fn one_sided_differences(&self) -> bool {
+        false
+    }
     /// Joint torques (N·m) with parameter values `theta` (same order as
     /// [`parameters`](Self::parameters)) at joint positions, rates and accelerations.
     fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]);

@@ -139,6 +139,9 @@ impl InverseDynamicsModel for Shifted<'_> {
     fn parameter_step(&self, k: usize) -> f64 {
         self.inner.parameter_step(k)
     }
+    fn one_sided_differences(&self) -> bool {
+        self.inner.one_sided_differences()
+    }
     fn play_sites(&self) -> Vec<String> {
         self.inner.play_sites()
     }

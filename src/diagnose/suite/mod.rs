@@ -525,12 +525,31 @@ pub fn run_suite(
         .filter(|(_, c)| opts.only.is_empty() || opts.only.iter().any(|o| c.contains(o.as_str())))
         .collect();
     let mut results = vec![];
-    for (k, (i, name)) in chosen.iter().enumerate() {
-        progress(name, k as f64 / chosen.len() as f64);
-        let (r, d) = match opts.truth {
-            TruthSource::Multibody => multibody::run_case(&multibody::cases()[*i], opts, *i)?,
-            TruthSource::Lumped => lumped::run_case(&lumped::cases()[*i], opts, *i)?,
-        };
+    // Cases run side by side, one per core (each builds its own model); reports and
+    // results in case order.
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).max(1);
+    let run = |i: usize| match opts.truth {
+        TruthSource::Multibody => multibody::run_case(&multibody::cases()[i], opts, i),
+        TruthSource::Lumped => lumped::run_case(&lumped::cases()[i], opts, i),
+    };
+    let mut done = 0;
+    let mut outcomes = vec![];
+    for batch in chosen.chunks(workers) {
+        progress(batch[0].1, done as f64 / chosen.len() as f64);
+        let out: Vec<Result<(CaseResult, Diagnosis), SuiteError>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = batch.iter().map(|(i, _)| scope.spawn(move || run(*i))).collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+                .collect()
+        });
+        done += batch.len();
+        for ((_, name), o) in batch.iter().zip(out) {
+            outcomes.push(((*name).clone(), o?));
+        }
+    }
+    for (name, (r, d)) in outcomes {
+        let name = &name;
         if let Some(dir) = reports {
             super::report::write_report(&d, &dir.join(name.as_str())).map_err(|e| SuiteError::Report {
                 case: name.to_string(),

@@ -1194,50 +1194,6 @@ pub fn quasi_static_reference(
     Ok(out)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn commanded_path_starts_at_rest_and_joins_the_path() {
-        let path = Excitation::random(3, 0.32, 0.0);
-        let cmd = CommandedPath {
-            path: &path,
-            ramp: 0.5,
-            ramp_end: 0.0,
-        };
-        let c = Vector3::from(path.centre);
-        assert!((cmd.at(-0.6) - c).norm() < 1e-15);
-        assert!((cmd.at(0.0) - path.at(0.0)).norm() < 1e-15);
-        assert!((cmd.at(0.3) - path.at(0.3)).norm() < 1e-15);
-        // Smooth at the ramp's end: finite-difference accelerations agree.
-        let acc =
-            |f: &dyn Fn(f64) -> Vector3<f64>, t: f64, h: f64| (f(t + h) - 2.0 * f(t) + f(t - h)) / (h * h);
-        let h = 1e-4;
-        let a_cmd = acc(&|t| cmd.at(t), 0.0, h);
-        let a_path = acc(&|t| path.at(t), 0.0, h);
-        assert!(
-            (a_cmd - a_path).norm() < 0.05 * a_path.norm().max(0.1),
-            "{a_cmd:?} vs {a_path:?}"
-        );
-    }
-
-    #[test]
-    fn stribeck_law_limits() {
-        let s = StribeckFriction {
-            coulomb: 0.1,
-            stiction: 0.3,
-            stribeck_velocity: 0.02,
-            exponent: 1.5,
-            regularisation: 1e-3,
-            viscous: 0.0,
-        };
-        assert!((s.torque(1.0) + 0.1).abs() < 1e-3);
-        assert!((s.torque(-0.002) - 0.3 * 0.002 / (0.002f64.powi(2) + 1e-6).sqrt()).abs() < 0.02);
-        assert_eq!(s.torque(0.0), 0.0);
-    }
-}
-
 impl TruthRun {
     /// What the sensors of `spec` record of this run ([`simulate_truth`]'s channels without
     /// the tension-reversal count of the quasi-static reference, which stays 0): encoder
@@ -1294,5 +1250,49 @@ impl TruthRun {
             out.velocity_reversals[i] = reversals(&self.qd[i], FRICTION_VELOCITY);
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commanded_path_starts_at_rest_and_joins_the_path() {
+        let path = Excitation::random(3, 0.32, 0.0);
+        let cmd = CommandedPath {
+            path: &path,
+            ramp: 0.5,
+            ramp_end: 0.0,
+        };
+        let c = Vector3::from(path.centre);
+        assert!((cmd.at(-0.6) - c).norm() < 1e-15);
+        assert!((cmd.at(0.0) - path.at(0.0)).norm() < 1e-15);
+        assert!((cmd.at(0.3) - path.at(0.3)).norm() < 1e-15);
+        // Smooth at the ramp's end: finite-difference accelerations agree.
+        let acc =
+            |f: &dyn Fn(f64) -> Vector3<f64>, t: f64, h: f64| (f(t + h) - 2.0 * f(t) + f(t - h)) / (h * h);
+        let h = 1e-4;
+        let a_cmd = acc(&|t| cmd.at(t), 0.0, h);
+        let a_path = acc(&|t| path.at(t), 0.0, h);
+        assert!(
+            (a_cmd - a_path).norm() < 0.05 * a_path.norm().max(0.1),
+            "{a_cmd:?} vs {a_path:?}"
+        );
+    }
+
+    #[test]
+    fn stribeck_law_limits() {
+        let s = StribeckFriction {
+            coulomb: 0.1,
+            stiction: 0.3,
+            stribeck_velocity: 0.02,
+            exponent: 1.5,
+            regularisation: 1e-3,
+            viscous: 0.0,
+        };
+        assert!((s.torque(1.0) + 0.1).abs() < 1e-3);
+        assert!((s.torque(-0.002) - 0.3 * 0.002 / (0.002f64.powi(2) + 1e-6).sqrt()).abs() < 0.02);
+        assert_eq!(s.torque(0.0), 0.0);
     }
 }
