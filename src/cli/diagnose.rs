@@ -37,7 +37,9 @@ fn parse_window(s: &str) -> Result<Window, String> {
 #[derive(clap::Args)]
 pub struct Args {
     /// Nominal model (double-pendulum: the DFKI pendulum's rigid model from --params;
-    /// mr2120: the MR2120's closed-form rigid model).
+    /// mr2120: the MR2120's multibody ideal model with compliant drives (lash::diagnose::mr2120);
+    /// mr2120-lumped: its closed-form rigid model, the model `lash mr2120 record` makes
+    /// recordings from).
     #[arg(long, default_value = "double-pendulum")]
     model: String,
     /// README with the model's parameter table.

@@ -205,7 +205,7 @@ fn record(a: &RecordArgs) -> Result<Output, CliError> {
     );
     let file = |f: &WrittenRecording| f.file.clone();
     println!(
-        "diagnose them: lash diagnose --model mr2120 --fit {} --holdout {}",
+        "diagnose them: lash diagnose --model mr2120-lumped --fit {} --holdout {}",
         files
             .iter()
             .take(a.recordings.saturating_sub(1).max(1))

@@ -457,6 +457,16 @@ impl MechanismModel {
         Ok(())
     }
 
+    /// The transmissions' dampings, N·m·s/rad (0 for an encoder on its joint).
+    fn dampings(&self, n: usize) -> Vec<f64> {
+        (0..n)
+            .map(|j| match self.sensors.encoders.get(j) {
+                Some(EncoderPlacement::MotorSide { damping, .. }) => *damping,
+                _ => 0.0,
+            })
+            .collect()
+    }
+
     fn compliance(&self, theta: &[f64], j: usize) -> f64 {
         match self.sensors.encoders.get(j) {
             Some(EncoderPlacement::MotorSide { compliance, .. }) => theta[*compliance],
@@ -597,12 +607,7 @@ impl MechanismModel {
                         .analysis
                         .driver_mass_matrix(&built.model, &mut built.data)
                         .ok();
-                    let damping: Vec<f64> = (0..n)
-                        .map(|j| match self.sensors.encoders.get(j) {
-                            Some(EncoderPlacement::MotorSide { damping, .. }) => *damping,
-                            _ => 0.0,
-                        })
-                        .collect();
+                    let damping = self.dampings(n);
                     let force = m
                         .map(|m| &m * &wdd)
                         .unwrap_or_else(|| nalgebra::DVector::zeros(n))
@@ -729,12 +734,7 @@ impl MechanismModel {
         if !(h > 0.0 && h <= WINDUP_MAX_GAP) {
             return None;
         }
-        let damping: Vec<f64> = (0..n)
-            .map(|j| match self.sensors.encoders.get(j) {
-                Some(EncoderPlacement::MotorSide { damping, .. }) => *damping,
-                _ => 0.0,
-            })
-            .collect();
+        let damping = self.dampings(n);
         // A rigid transmission (c = 0) keeps w = 0: a stiffness far above any other.
         let k = nalgebra::DVector::from_iterator(n, c.iter().map(|&v| if v > 0.0 { 1.0 / v } else { 1e12 }));
         let d = nalgebra::DVector::from_column_slice(&damping);

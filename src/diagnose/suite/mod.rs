@@ -372,6 +372,43 @@ pub fn name_matches(candidate: &str, pattern: &str) -> bool {
     })
 }
 
+/// What a case is, for its scoring.
+pub(crate) struct CaseSpec<'a> {
+    pub name: &'a str,
+    pub kind: CaseKind,
+    pub concealment: &'a str,
+    pub truth: &'a [Truth],
+    pub rival: Option<&'a str>,
+}
+
+/// Diagnoses a case's recordings blind (default options) and scores the diagnosis.
+pub(crate) fn diagnose_and_score(
+    model: &dyn super::model::InverseDynamicsModel,
+    fit: &[MotionData],
+    held: &[MotionData],
+    spec: &CaseSpec,
+    concealment: Concealment,
+    noise: &SensorNoise,
+) -> Result<(CaseResult, Diagnosis), SuiteError> {
+    let d = super::diagnose(model, fit, held, &super::DiagnoseOptions::default(), |_, _| {}).map_err(
+        |source| SuiteError::Diagnose {
+            case: spec.name.into(),
+            source: Box::new(source),
+        },
+    )?;
+    let res = score(
+        spec.name,
+        spec.kind,
+        spec.concealment,
+        spec.truth,
+        spec.rival,
+        concealment,
+        &d,
+        noise,
+    );
+    Ok((res, d))
+}
+
 /// Scores one diagnosis against its truth.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn score(

@@ -16,8 +16,10 @@
 //! measured, are simulated once per path.
 
 use super::super::mr2120::mr2120_model;
-use super::super::{diagnose, DiagnoseOptions, Diagnosis};
-use super::{motion, score, CaseKind, CaseResult, Concealment, SuiteError, SuiteOptions, Truth};
+use super::super::Diagnosis;
+use super::{
+    diagnose_and_score, motion, CaseKind, CaseResult, CaseSpec, Concealment, SuiteError, SuiteOptions, Truth,
+};
 use crate::contact::BearingDesign;
 use crate::mechanisms::mr2120::clearance::DEFAULT_DAMPING;
 use crate::mechanisms::mr2120::lumped::{tilted_gravity, NOMINAL_COMPLIANCE};
@@ -399,25 +401,16 @@ pub fn run_case(
             held.push(d);
         }
     }
-    let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).map_err(|source| {
-        SuiteError::Diagnose {
-            case: case.name.clone(),
-            source: Box::new(source),
-        }
-    })?;
     let concealment = Concealment {
         below_noise_fraction: below as f64 / total.max(1) as f64,
         peak_snr: peak,
     };
-    let res = score(
-        &case.name,
-        case.kind,
-        &case.concealment,
-        &case.truth,
-        case.rival.as_deref(),
-        concealment,
-        &d,
-        &opts.record.noise,
-    );
-    Ok((res, d))
+    let spec = CaseSpec {
+        name: &case.name,
+        kind: case.kind,
+        concealment: &case.concealment,
+        truth: &case.truth,
+        rival: case.rival.as_deref(),
+    };
+    diagnose_and_score(&model, &fit, &held, &spec, concealment, &opts.record.noise)
 }

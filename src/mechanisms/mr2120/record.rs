@@ -263,7 +263,7 @@ pub struct Recorded {
 }
 
 /// Counts sign changes of a signal that pass beyond ±`scale` (hysteresis).
-fn reversals(x: &[f64], scale: f64) -> usize {
+pub(crate) fn reversals(x: &[f64], scale: f64) -> usize {
     let mut last = 0.0f64;
     let mut n = 0;
     for &v in x {

@@ -79,7 +79,7 @@ use super::ideal::{add_links, ideal_model_with, LinkSpec, Mr2120Error, DRIVE_JOI
 use super::kinematics::{self, KinematicsError};
 use super::lumped::NOMINAL_COMPLIANCE;
 use super::record::{
-    Excitation, RecordOptions, Recorded, Rng, BACKLASH_SCALE, CLEARANCE_SCALE, FRICTION_VELOCITY,
+    reversals, Excitation, RecordOptions, Recorded, Rng, BACKLASH_SCALE, CLEARANCE_SCALE, FRICTION_VELOCITY,
 };
 use crate::contact::BearingDesign;
 use crate::multibody::forces::{RelativeRotation, RotationalSpringDamper, RotationalTorque};
@@ -857,21 +857,6 @@ fn check_options(opts: &RecordOptions) -> Result<usize, TruthError> {
         return Err(TruthError::Invalid(format!("noise levels must be ≥ 0: {n:?}")));
     }
     Ok(samples.round() as usize + 1)
-}
-
-/// Counts sign changes of a signal that pass beyond ±`scale` (hysteresis).
-fn reversals(x: &[f64], scale: f64) -> usize {
-    let mut last = 0.0f64;
-    let mut n = 0;
-    for &v in x {
-        if v.abs() > scale {
-            if last != 0.0 && v.signum() != last {
-                n += 1;
-            }
-            last = v.signum();
-        }
-    }
-    n
 }
 
 /// Simulates the truth `spec` along the platform path `path` and records it at `opts.rate`
