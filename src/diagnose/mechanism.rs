@@ -651,7 +651,8 @@ impl MechanismModel {
             }),
             _ => None,
         };
-        built.dynamic = next;
+        // Only compliant transmissions have a state to carry (and a start transient).
+        built.dynamic = if c.iter().any(|&v| v > 0.0) { next } else { None };
         Some(tau)
     }
 
