@@ -457,6 +457,23 @@ impl MechanismModel {
         Ok(())
     }
 
+    /// Assembles the mechanism (positions only) with the joints at `qa` (their rates and
+    /// accelerations prescribed too), continuing from the last configuration; the state and
+    /// the last joint positions are left in `built`.
+    fn place_joints(built: &mut Built, qa: &[f64], qd: &[f64], qdd: &[f64]) -> Option<()> {
+        for (j, &h) in built.drivers.iter().enumerate() {
+            let _ = built.data.prescribe_driver(h, 0.0, [qa[j], qd[j], qdd[j]]);
+        }
+        let q_new = built
+            .analysis
+            .assemble(&built.model, &mut built.data, 0.0, &built.q)
+            .ok()?;
+        built.data.q.clone_from(&q_new);
+        built.q = q_new;
+        built.last = qa.to_vec();
+        Some(())
+    }
+
     /// The transmissions' dampings, N·m·s/rad (0 for an encoder on its joint).
     fn dampings(&self, n: usize) -> Vec<f64> {
         (0..n)
@@ -567,18 +584,7 @@ impl MechanismModel {
                 }
                 tau = Self::joint_torques(built, &qa, qd, qdd)?;
             }
-            for j in 0..n {
-                let _ = built
-                    .data
-                    .prescribe_driver(built.drivers[j], 0.0, [qa[j], qd[j], qdd[j]]);
-            }
-            let q_new = built
-                .analysis
-                .assemble(&built.model, &mut built.data, 0.0, &built.q)
-                .ok()?;
-            built.data.q.clone_from(&q_new);
-            built.q = q_new;
-            built.last = qa.clone();
+            Self::place_joints(built, &qa, qd, qdd)?;
         }
         let now: Vec<f64> = (0..n).map(|j| q[j] - qa[j]).collect();
         built.windup = [std::mem::take(&mut built.windup[1]), now];
@@ -764,19 +770,8 @@ impl MechanismModel {
         }
         // The joints where the step puts them (positions only).
         let qa: Vec<f64> = (0..n).map(|j| q[j] - w[j]).collect();
-        for j in 0..n {
-            let _ =
-                built
-                    .data
-                    .prescribe_driver(built.drivers[j], 0.0, [qa[j], qd[j] - wd[j], qdd[j] - wdd[j]]);
-        }
-        let q_new = built
-            .analysis
-            .assemble(&built.model, &mut built.data, 0.0, &built.q)
-            .ok()?;
-        built.data.q.clone_from(&q_new);
-        built.q = q_new;
-        built.last = qa;
+        let (qda, qdda): (Vec<f64>, Vec<f64>) = (0..n).map(|j| (qd[j] - wd[j], qdd[j] - wdd[j])).unzip();
+        Self::place_joints(built, &qa, &qda, &qdda)?;
         built.last_encoder = q[..n].to_vec();
         let tau: Vec<f64> = (0..n)
             .map(|j| {
