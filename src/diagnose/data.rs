@@ -189,14 +189,20 @@ impl MotionData {
     /// The model's value of every channel of [`channels`](Self::channels) at every sample.
     pub fn model_channels(&self, model: &dyn InverseDynamicsModel, theta: &[f64]) -> Vec<Vec<f64>> {
         let (tau, y) = self.model_all(model, theta);
-        let mut out = vec![];
-        for c in self.channels() {
-            out.push(match c {
+        self.channels_of(&tau, &y)
+    }
+
+    /// The values of every channel of [`channels`](Self::channels), picked from a model's
+    /// torques (per joint) and outputs (per output), as [`model_all`](Self::model_all) gives
+    /// them.
+    pub fn channels_of(&self, tau: &[Vec<f64>], y: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        self.channels()
+            .into_iter()
+            .map(|c| match c {
                 Channel::Torque(j) => tau[j].clone(),
                 Channel::Output(k) => y[k].clone(),
-            });
-        }
-        out
+            })
+            .collect()
     }
 
     /// The model's torques (per joint) and outputs (per output) at every sample.

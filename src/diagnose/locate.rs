@@ -152,19 +152,21 @@ impl StateScales {
 
 /// The windows of `opts.window_s` of one recording as sample ranges [a, b) with the state
 /// tags of each (velocity and load reversals, acceleration peaks, high speed, rest, and the
-/// model's configuration tags at parameters `theta`); `sigma` are the channels' noise floors
-/// (torque channels first), which set when a measured load counts as reversing.
+/// model's configuration tags at parameters `theta`, from its torques and outputs
+/// `model_values` there, as [`MotionData::model_all`] gives them); `sigma` are the channels'
+/// noise floors (torque channels first), which set when a measured load counts as reversing.
 pub(super) fn tagged_windows(
     model: &dyn InverseDynamicsModel,
     d: &MotionData,
     theta: &[f64],
+    model_values: &(Vec<Vec<f64>>, Vec<Vec<f64>>),
     sigma: &[f64],
     scales: &StateScales,
     opts: &LocateOptions,
 ) -> Vec<(usize, usize, Vec<String>)> {
     let nj = model.joints();
     let (acc_hi, spd_hi) = (&scales.acc_hi, &scales.spd_hi);
-    let (tau_model, y_model) = d.model_all(model, theta);
+    let (tau_model, y_model) = model_values;
     // Configuration tags per sample (e.g. near a singular configuration).
     let config: Vec<Option<String>> = (0..d.len())
         .map(|i| {
@@ -242,9 +244,12 @@ pub fn locate(
     let scales = StateScales::of(model, data);
     // (channel, rms, tags, finding)
     let mut windows: Vec<(usize, f64, Vec<String>, Finding)> = vec![];
-    for d in data {
-        let nominal = d.model_channels(model, theta);
-        for (a, b, tags) in tagged_windows(model, d, theta, sigma, &scales, opts) {
+    // The nominal model along every recording, once (each evaluation is a pass of the
+    // model's analyses along the recording).
+    let values: Vec<(Vec<Vec<f64>>, Vec<Vec<f64>>)> = data.iter().map(|d| d.model_all(model, theta)).collect();
+    for (d, v) in data.iter().zip(&values) {
+        let nominal = d.channels_of(&v.0, &v.1);
+        for (a, b, tags) in tagged_windows(model, d, theta, v, sigma, &scales, opts) {
             for j in 0..nc {
                 let meas = d.measured(chans[j]);
                 let res: Vec<f64> = (a..b)
@@ -280,9 +285,9 @@ pub fn locate(
             })
             .map(|n| (n, vec![]))
             .collect();
-        for d in data {
-            let nominal = d.model_channels(model, theta);
-            let tau_model = d.model_torques(model, theta);
+        for (d, v) in data.iter().zip(&values) {
+            let nominal = d.channels_of(&v.0, &v.1);
+            let tau_model = &v.0;
             let meas = d.measured(chans[j]);
             res.extend((0..d.len()).map(|i| {
                 let v = meas[i] - nominal[j][i];

@@ -51,10 +51,17 @@ pub(super) fn prepare(
                 b[j * n + i] = (meas[i] - nominal[j][i]) / sigma[j];
             }
         }
-        // Samples the model cannot evaluate (e.g. beyond a singular configuration) carry no
-        // weight.
+        // Samples the model cannot evaluate (e.g. beyond a singular configuration), or where
+        // a candidate's column is undefined (e.g. a time derivative next to such a sample),
+        // carry no weight.
         for i in 0..n {
-            if (0..nc).any(|j| !b[j * n + i].is_finite()) {
+            let undefined = (0..nc).any(|j| {
+                !b[j * n + i].is_finite()
+                    || per
+                        .iter()
+                        .any(|cc| cc.iter().any(|col| !col[j * n + i].is_finite()))
+            });
+            if undefined {
                 for j in 0..nc {
                     b[j * n + i] = 0.0;
                     for cc in per.iter_mut() {

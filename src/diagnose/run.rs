@@ -172,7 +172,15 @@ fn diagnose_once(
             } else {
                 fit_after[r].clone()
             },
-            windows: tagged_windows(model, d, &theta, &sigma, &scales, &opts.locate),
+            windows: tagged_windows(
+                model,
+                d,
+                &theta,
+                &d.model_all(model, &theta),
+                &sigma,
+                &scales,
+                &opts.locate,
+            ),
         })
         .collect();
     let mut adequacy = adequacy::assess(

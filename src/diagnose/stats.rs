@@ -84,6 +84,10 @@ impl Gram {
             }
             a[(p, p)] += 1e-12;
         }
+        // (nalgebra's SVD does not return on non-finite input.)
+        if !(a.iter().all(|v| v.is_finite()) && r.iter().all(|v| v.is_finite())) {
+            return vec![f64::NAN; k];
+        }
         let x = match a.clone().cholesky() {
             Some(c) => c.solve(&r),
             None => a
@@ -110,6 +114,9 @@ impl Gram {
     pub fn inverse(&self, idx: &[usize]) -> DMatrix<f64> {
         let k = idx.len();
         let a = DMatrix::from_fn(k, k, |p, q| self.g[(idx[p], idx[q])]);
+        if !a.iter().all(|v| v.is_finite()) {
+            return DMatrix::from_element(k, k, f64::NAN);
+        }
         a.clone()
             .try_inverse()
             .unwrap_or_else(|| a.pseudo_inverse(1e-14).unwrap_or_else(|_| DMatrix::zeros(k, k)))

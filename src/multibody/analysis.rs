@@ -5,8 +5,9 @@
 //! Every analysis borrows the model (`&Mechanism`) and works in a [`MechanismData`] (state
 //! and scratch); [`Analysis`] holds settings only.
 //!
-//! These use dense linear algebra (SVD for minimum-norm corrections, which tolerates
-//! redundant constraints); they run once per output point, not in the integrator's loop.
+//! These use dense linear algebra (LU for square, regular systems; SVD for minimum-norm
+//! corrections, which tolerates redundant constraints and singular configurations); they
+//! run once per output point, not in the integrator's loop.
 
 use super::body::Attach;
 use super::body::BodyHandle;
@@ -21,6 +22,17 @@ use super::model::Mechanism;
 use super::rotation::{d_rot, l_matrix};
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
+
+/// Largest relative backward error (residual over ‖A‖·‖x‖ + ‖b‖, ∞-norms) at which a
+/// square system's LU solution is accepted; above it (a singular or nearly singular
+/// configuration) the analyses take the minimum-norm SVD solution. Partial-pivoting LU
+/// reaches about n·1e-16 on a regular system.
+pub const LU_BACKWARD_ERROR: f64 = 1e-10;
+
+/// A chord step (with an earlier iterate's factorised Jacobian) in position assembly is
+/// accepted when it shrinks the constraint residual at least by this factor; otherwise the
+/// Jacobian is factorised afresh.
+pub const CHORD_CONTRACTION: f64 = 0.25;
 
 /// A consistent state of the mechanism at time t. Typed access by handle:
 /// [`body_position`](Self::body_position), [`body_velocity`](Self::body_velocity),
@@ -149,19 +161,37 @@ impl Analysis {
     /// The solution of a square, regular system by LU; otherwise (more unknowns than
     /// equations, redundant constraints, a singular configuration) the minimum-norm
     /// least-squares solution by SVD. The LU result is used only when it is finite and
-    /// solves the system to 1e-9 of its right-hand side.
+    /// backward stable: its residual is below [`LU_BACKWARD_ERROR`] of ‖A‖·‖x‖ + ‖b‖
+    /// (∞-norms). (A test against ‖b‖ alone refused every Newton step near convergence,
+    /// where b is tiny, and sent it to the SVD: three quarters of a diagnosis's time.)
     fn solve_square_or_min_norm(a: DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, ModelError> {
         if a.is_square() {
             if let Some(x) = a.clone().lu().solve(b) {
-                let res = (&a * &x - b).amax();
-                if x.iter().all(|v| v.is_finite()) && res <= 1e-9 * b.amax().max(1e-300) {
+                if Self::backward_stable(&a, &x, b) {
                     return Ok(x);
                 }
             }
         }
+        if !(a.iter().all(|v| v.is_finite()) && b.iter().all(|v| v.is_finite())) {
+            // (nalgebra's SVD does not return on non-finite input.)
+            return Err(ModelError::Output("non-finite linear system in an analysis".into()));
+        }
         a.svd(true, true)
             .solve(b, 1e-12)
             .map_err(|e| ModelError::Output(e.to_string()))
+    }
+
+    /// Whether `x` is finite and solves A·x = b to [`LU_BACKWARD_ERROR`] of ‖A‖·‖x‖ + ‖b‖.
+    fn backward_stable(a: &DMatrix<f64>, x: &DVector<f64>, b: &DVector<f64>) -> bool {
+        if !x.iter().all(|v| v.is_finite()) {
+            return false;
+        }
+        let res = (a * x - b).amax();
+        let a_norm = a
+            .row_iter()
+            .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
+            .fold(0.0, f64::max);
+        res <= LU_BACKWARD_ERROR * (a_norm * x.amax() + b.amax()).max(1e-300)
     }
 
     /// Velocity Jacobian B (m × 6nb) and Φ_t at the state last set.
@@ -251,23 +281,54 @@ impl Analysis {
             return Ok(q);
         }
         let mut last = f64::INFINITY;
+        // Chord steps: the factorisation of a square Jacobian is kept while the steps it
+        // gives contract the residual by CHORD_CONTRACTION or better (near a solution, where
+        // assembly usually starts along a trajectory, one factorisation serves every
+        // iteration); otherwise the Jacobian is factorised afresh.
+        let mut chord: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>> = None;
+        let (mut f, mut j) = Self::position_system(&mut data.ev, t, &q);
         for _ in 0..self.options.max_iterations {
-            let (f, j) = Self::position_system(&mut data.ev, t, &q);
             let norm = f.amax();
             if norm <= self.options.tolerance {
                 return Ok(q);
             }
-            let step = Self::solve_square_or_min_norm(j, &f)?;
+            if let Some(lu) = &chord {
+                if let Some(step) = lu.solve(&f) {
+                    let trial: Vec<f64> = q.iter().zip(step.iter()).map(|(a, b)| a - b).collect();
+                    let (ft, jt) = Self::position_system(&mut data.ev, t, &trial);
+                    if ft.amax() <= CHORD_CONTRACTION * norm {
+                        (q, f, j) = (trial, ft, jt);
+                        last = norm;
+                        continue;
+                    }
+                }
+                chord = None;
+            }
+            let step = if j.is_square() {
+                let lu = j.clone().lu();
+                match lu.solve(&f) {
+                    Some(x) if Self::backward_stable(&j, &x, &f) => {
+                        chord = Some(lu);
+                        x
+                    }
+                    _ => Self::solve_square_or_min_norm(j.clone(), &f)?,
+                }
+            } else {
+                Self::solve_square_or_min_norm(j.clone(), &f)?
+            };
             let mut alpha = 1.0;
             // Damped step: halve while the residual grows a lot (far from the solution).
             for _ in 0..10 {
                 let trial: Vec<f64> = q.iter().zip(step.iter()).map(|(a, b)| a - alpha * b).collect();
-                let (ft, _) = Self::position_system(&mut data.ev, t, &trial);
+                let (ft, jt) = Self::position_system(&mut data.ev, t, &trial);
                 if ft.amax() < norm.max(1e-300) * 1.5 || alpha < 1e-3 {
-                    q = trial;
+                    (q, f, j) = (trial, ft, jt);
                     break;
                 }
                 alpha *= 0.5;
+            }
+            if alpha < 1.0 {
+                chord = None;
             }
             if (last - norm).abs() < 1e-16 && norm > self.options.tolerance * 1e3 {
                 break;
@@ -420,8 +481,15 @@ impl Analysis {
             .copy_from(&bm.transpose());
         k.view_mut((n, 0), (lay.constraints(), n)).copy_from(&bm);
         rhs.rows_mut(n, lay.constraints()).copy_from(&gamma);
+        let finite = k.iter().chain(rhs.iter()).all(|v| v.is_finite());
         let sol = match k.clone().lu().solve(&rhs) {
             Some(s) if s.iter().all(|v| v.is_finite()) => s,
+            // (nalgebra's SVD does not return on non-finite input.)
+            _ if !finite => {
+                return Err(ModelError::Output(format!(
+                    "non-finite acceleration system at t = {t} s"
+                )))
+            }
             _ => k
                 .svd(true, true)
                 .solve(&rhs, 1e-12)
@@ -644,6 +712,9 @@ impl Analysis {
             if n > 0.0 {
                 r /= n;
             }
+        }
+        if !bm.iter().all(|v| v.is_finite()) {
+            return f64::NAN;
         }
         let sv = bm.singular_values();
         let max = sv.iter().copied().fold(0.0, f64::max);
