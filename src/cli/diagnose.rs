@@ -241,7 +241,7 @@ fn suite(reduced: bool, truth: &str, only: &str, dir: &Path, as_json: bool) -> R
         board.noise.torque, board.noise.tracker, board.noise.encoder, board.noise.rate
     );
     println!(
-        "{:<24} {:>7} {:>6}  {:<6} {:<22} {:>8} {:>9}  {:<5}  selected first",
+        "{:<24} {:>7} {:>6}  {:<6} {:<22} {:>8} {:>9}  {:<5}  found first",
         "case", "<noise", "peak", "ranked", "estimate (rel. err.)", "held/σ", "explained", "pass"
     );
     for c in &board.cases {
@@ -271,11 +271,7 @@ fn suite(reduced: bool, truth: &str, only: &str, dir: &Path, as_json: bool) -> R
             c.holdout_noise_ratio,
             100.0 * c.explained_fraction,
             if c.pass { "yes" } else { "NO" },
-            if c.selected.is_empty() {
-                "nothing (no significant mismatch)".to_string()
-            } else {
-                c.selected.iter().take(3).cloned().collect::<Vec<_>>().join("; ")
-            }
+            c.found_text()
         );
         if let Some(x) = &c.confounded {
             println!("{:<24} flagged as confounded; separating experiment: {x}", "");

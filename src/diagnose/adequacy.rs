@@ -368,8 +368,19 @@ pub(super) fn refresh(d: &mut Diagnosis) {
     d.adequacy.explained_fraction = overall_explained_fraction(&ratios);
     d.adequacy.unexplained = d.adequacy.channels.iter().any(|c| c.unexplained);
     d.adequacy.unstable = unstable_names(&d.estimates);
+    d.found = found_effects(&d.selected, &d.estimates);
+    d.no_significant_mismatch = d.found.is_empty();
     d.explained_fraction = d.adequacy.explained_fraction;
     d.unexplained = d.adequacy.unexplained;
+}
+
+/// The selected effects whose estimates are all stable, in selection order.
+pub(super) fn found_effects(selected: &[String], estimates: &[Estimate]) -> Vec<String> {
+    selected
+        .iter()
+        .filter(|s| estimates.iter().filter(|e| &e.candidate == *s).all(|e| e.stable))
+        .cloned()
+        .collect()
 }
 
 /// "candidate (parameter)" of every unstable estimate.

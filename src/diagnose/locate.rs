@@ -246,7 +246,8 @@ pub fn locate(
     let mut windows: Vec<(usize, f64, Vec<String>, Finding)> = vec![];
     // The nominal model along every recording, once (each evaluation is a pass of the
     // model's analyses along the recording).
-    let values: Vec<(Vec<Vec<f64>>, Vec<Vec<f64>>)> = data.iter().map(|d| d.model_all(model, theta)).collect();
+    let values: Vec<(Vec<Vec<f64>>, Vec<Vec<f64>>)> =
+        data.iter().map(|d| d.model_all(model, theta)).collect();
     for (d, v) in data.iter().zip(&values) {
         let nominal = d.channels_of(&v.0, &v.1);
         for (a, b, tags) in tagged_windows(model, d, theta, v, sigma, &scales, opts) {

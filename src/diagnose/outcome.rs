@@ -151,6 +151,9 @@ pub struct Diagnosis {
     pub steps: Vec<Step>,
     /// Selected effects, in order.
     pub selected: Vec<String>,
+    /// The selected effects whose estimates are all stable (see the `adequacy` module): the
+    /// physics the diagnosis claims as found. The others only soak up model error.
+    pub found: Vec<String>,
     /// Estimates.
     pub estimates: Vec<Estimate>,
     /// Estimate pairs correlated beyond ±0.8: (a, b, correlation).
@@ -159,7 +162,8 @@ pub struct Diagnosis {
     pub confounded: Vec<Confound>,
     /// Per channel, before/after.
     pub channels: Vec<ChannelFit>,
-    /// True if nothing significant is missing.
+    /// True if the diagnosis finds no missing physics: no selected effect with stable
+    /// estimates (`found` empty).
     pub no_significant_mismatch: bool,
     /// Fraction of the mismatch power above the noise (in noise-floor units, summed over the
     /// channels) that the selected physics removes; see the `adequacy` module.

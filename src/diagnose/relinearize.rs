@@ -66,7 +66,8 @@ pub(super) fn against_nominal(
     second.location = first.location;
     second.ranking = first.ranking;
     second.model = first.model;
-    second.no_significant_mismatch = second.selected.is_empty();
+    second.found = super::adequacy::found_effects(&second.selected, &second.estimates);
+    second.no_significant_mismatch = second.found.is_empty();
     second.verdict = verdict_text(model, &second, cands);
     second
 }

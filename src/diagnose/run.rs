@@ -151,7 +151,6 @@ fn diagnose_once(
         channel_fits(model, fit, holdout, &prep, &set, &x, &weight_scale, &sigma, opts)?;
     let factor: Vec<f64> = (0..nj).map(|j| weight_scale[j] / sigma[j]).collect();
     let cv_rms_noise_units = prep.cv_rms_rescaled(&set, &factor, &lens);
-    let no_mismatch = set.is_empty();
     // Is what remains noise? On the held-out recordings if any, else on the fit ones.
     progress("adequacy", 0.95);
     let held_out = !holdout.is_empty();
@@ -196,6 +195,8 @@ fn diagnose_once(
         .collect();
     adequacy::honest_uncertainty(&mut estimates, &shares, &ratio);
     adequacy.unstable = adequacy::unstable_names(&estimates);
+    let selected: Vec<String> = set.iter().map(|&c| cands[c].name.clone()).collect();
+    let found = adequacy::found_effects(&selected, &estimates);
     let verdict = verdict(
         model,
         &set,
@@ -216,12 +217,13 @@ fn diagnose_once(
         location,
         ranking,
         steps,
-        selected: set.iter().map(|&c| cands[c].name.clone()).collect(),
+        no_significant_mismatch: found.is_empty(),
+        found,
+        selected,
         estimates,
         correlations,
         confounded,
         channels,
-        no_significant_mismatch: no_mismatch,
         explained_fraction: adequacy.explained_fraction,
         unexplained: adequacy.unexplained,
         adequacy,

@@ -204,6 +204,36 @@ pub(super) fn select(
                 bic_cur = b2;
             }
         }
+        // Backward elimination: an effect chosen early may only have stood in for one found
+        // later (a length error for a base tilt); the member that would not join now —
+        // given all the others, its test is not significant, it lowers the cross-validated
+        // error by less than `min_gain` or it does not lower the information criterion — is
+        // dropped, the weakest first, until every member earns its place.
+        loop {
+            let weakest = (0..set.len())
+                .filter_map(|pos| {
+                    let mut rest = set.clone();
+                    let c = rest.remove(pos);
+                    if !prep.plausible(&rest) {
+                        return None;
+                    }
+                    let k = prep.cols_of[c].len() + cands[c].grid_parameters;
+                    let p = chi2_sf(lr(prep.rss(&rest), prep.rss(&set)), k);
+                    let cv_rest = prep.cv_rss(&rest);
+                    let gain = 1.0 - (cv_cur / cv_rest.max(1e-300)).sqrt();
+                    let bic_rest = bic(&rest);
+                    (p > opts.significance || gain < opts.min_gain || bic_cur >= bic_rest)
+                        .then_some((pos, gain, cv_rest, bic_rest))
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let Some((pos, _, cv_rest, bic_rest)) = weakest else {
+                break;
+            };
+            set.remove(pos);
+            steps.remove(pos);
+            cv_cur = cv_rest;
+            bic_cur = bic_rest;
+        }
         // Re-weigh once: the channel scales the selected physics leaves (a large effect
         // found first no longer inflates its channel's weight, so what hides under it can
         // show).

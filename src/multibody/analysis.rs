@@ -174,7 +174,9 @@ impl Analysis {
         }
         if !(a.iter().all(|v| v.is_finite()) && b.iter().all(|v| v.is_finite())) {
             // (nalgebra's SVD does not return on non-finite input.)
-            return Err(ModelError::Output("non-finite linear system in an analysis".into()));
+            return Err(ModelError::Output(
+                "non-finite linear system in an analysis".into(),
+            ));
         }
         a.svd(true, true)
             .solve(b, 1e-12)

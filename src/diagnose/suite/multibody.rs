@@ -31,7 +31,8 @@ use std::collections::HashMap;
 use std::sync::{Mutex, OnceLock};
 
 /// The cases `lash diagnose --suite --reduced` runs: the null case, one of each kind of
-/// physics, two out-of-library cases and the pair. No clearance case: a truth with bearings
+/// physics, two out-of-library cases and the pair (names matched as `--only` matches them:
+/// "payload" also runs tilt-under-payload and sprung-payload, nine cases in all). No clearance case: a truth with bearings
 /// with clearance simulates at 13–30 s per simulated second (Hertz contact rattle), minutes
 /// per recording; the full suite runs them.
 pub const REDUCED_CASES: [&str; 7] = [
@@ -201,13 +202,15 @@ pub fn cases() -> Vec<Case> {
         ),
         mk(
             "tilt-under-payload",
-            "base tilted 0.2 mrad about x under a 0.5 kg payload body",
+            "base tilted 3 mrad about x under a 0.5 kg payload body",
             Concealed,
-            |s| s.links.gravity = tilted_gravity(2e-4, 0.0),
+            // (0.2 mrad, the lumped suite's tilt, moves no channel by more than 0.1 noise
+            // floors here: not concealed but invisible.)
+            |s| s.links.gravity = tilted_gravity(3e-3, 0.0),
             Some(|s| s.payload_body = Some(payload(0.5, PayloadMount::Rigid))),
             vec![
                 t("error in payload on the platform", 0.5, false),
-                t("error in base tilt about x", 2e-4, true),
+                t("error in base tilt about x", 3e-3, true),
             ],
         ),
         mk(
