@@ -129,7 +129,7 @@ fn the_multibody_nominal_model_follows_a_payload_truth_through_the_direct_singul
     let noise = SensorNoise::default();
     let mut spec = TruthSpec::nominal();
     let body = PayloadBody::example();
-    spec.payload_body = Some(body.clone());
+    spec.payload_body = Some(body);
     let path = lash::diagnose::suite::lumped::excitation(2026, 2);
     let opts = RecordOptions {
         duration: 4.0,
@@ -148,7 +148,7 @@ fn the_multibody_nominal_model_follows_a_payload_truth_through_the_direct_singul
     theta[payload] = body.mass;
     let qdd: Vec<Vec<f64>> = (0..3).map(|j| derivative_cubic(&run.t, &run.qd[j], 4)).collect();
     // Per 0.5 s window: (sum of squares, count).
-    let mut windows = vec![(0.0f64, 0.0f64); 8];
+    let mut windows = [(0.0f64, 0.0f64); 8];
     for i in 0..run.t.len() {
         let q: Vec<f64> = (0..3).map(|j| run.q[j][i]).collect();
         let qd: Vec<f64> = (0..3).map(|j| run.qd[j][i]).collect();

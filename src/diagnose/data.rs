@@ -5,6 +5,10 @@ use super::model::InverseDynamicsModel;
 use super::recording::{Recording, RecordingError, MIN_SAMPLES};
 use super::signal::{derivative, derivative_cubic};
 
+/// A model's values along a recording: torques per joint, then outputs per output, each
+/// per sample (as [`MotionData::model_all`] gives them).
+pub type ModelValues = (Vec<Vec<f64>>, Vec<Vec<f64>>);
+
 /// One recording in equation-error form.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MotionData {
@@ -206,11 +210,7 @@ impl MotionData {
     }
 
     /// The model's torques (per joint) and outputs (per output) at every sample.
-    pub fn model_all(
-        &self,
-        model: &dyn InverseDynamicsModel,
-        theta: &[f64],
-    ) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    pub fn model_all(&self, model: &dyn InverseDynamicsModel, theta: &[f64]) -> ModelValues {
         let nj = model.joints();
         let no = model.outputs();
         let mut out = vec![vec![0.0; self.len()]; nj];

@@ -2,7 +2,7 @@
 //! mechanism those places share (velocity reversals, load reversals, acceleration peaks,
 //! high speed).
 
-use super::data::MotionData;
+use super::data::{ModelValues, MotionData};
 use super::model::InverseDynamicsModel;
 use super::signal::rms;
 use serde::Serialize;
@@ -159,7 +159,7 @@ pub(super) fn tagged_windows(
     model: &dyn InverseDynamicsModel,
     d: &MotionData,
     theta: &[f64],
-    model_values: &(Vec<Vec<f64>>, Vec<Vec<f64>>),
+    model_values: &ModelValues,
     sigma: &[f64],
     scales: &StateScales,
     opts: &LocateOptions,
@@ -246,8 +246,7 @@ pub fn locate(
     let mut windows: Vec<(usize, f64, Vec<String>, Finding)> = vec![];
     // The nominal model along every recording, once (each evaluation is a pass of the
     // model's analyses along the recording).
-    let values: Vec<(Vec<Vec<f64>>, Vec<Vec<f64>>)> =
-        data.iter().map(|d| d.model_all(model, theta)).collect();
+    let values: Vec<ModelValues> = data.iter().map(|d| d.model_all(model, theta)).collect();
     for (d, v) in data.iter().zip(&values) {
         let nominal = d.channels_of(&v.0, &v.1);
         for (a, b, tags) in tagged_windows(model, d, theta, v, sigma, &scales, opts) {
