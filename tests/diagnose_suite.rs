@@ -65,6 +65,28 @@ fn the_multibody_suite_has_twelve_concealed_cases_a_null_a_pair_and_three_out_of
     }
 }
 
+/// The nominal model along a simulated run (accelerations by local cubics over ±4 samples
+/// of the rates): (sample, torques, outputs) at every sample past the start transient.
+fn along(
+    model: &dyn lash::diagnose::model::InverseDynamicsModel,
+    theta: &[f64],
+    run: &lash::mechanisms::mr2120::truth::TruthRun,
+) -> Vec<(usize, [f64; 3], [f64; 3])> {
+    use lash::diagnose::signal::derivative_cubic;
+    let qdd: Vec<Vec<f64>> = (0..3).map(|j| derivative_cubic(&run.t, &run.qd[j], 4)).collect();
+    (0..run.t.len())
+        .filter_map(|i| {
+            let q: Vec<f64> = (0..3).map(|j| run.q[j][i]).collect();
+            let qd: Vec<f64> = (0..3).map(|j| run.qd[j][i]).collect();
+            let a: Vec<f64> = (0..3).map(|j| qdd[j][i]).collect();
+            let (mut tau, mut y) = ([0.0; 3], [0.0; 3]);
+            model.evaluate_at(run.t[i], theta, &q, &qd, &a, &mut tau, &mut y);
+            // The start transient carries no weight.
+            tau[0].is_finite().then_some((i, tau, y))
+        })
+        .collect()
+}
+
 /// The multibody nominal model (ideal mechanism, transmissions integrated along the
 /// recording) against the simulated nominal truth (rotor bodies on torsional springs, BDF):
 /// two independent routes to the same physics must agree far below the sensor noise, or the
@@ -72,7 +94,6 @@ fn the_multibody_suite_has_twelve_concealed_cases_a_null_a_pair_and_three_out_of
 #[test]
 fn the_multibody_nominal_model_reproduces_the_simulated_nominal_truth_below_the_noise() {
     use lash::diagnose::model::InverseDynamicsModel;
-    use lash::diagnose::signal::derivative_cubic;
     use lash::mechanisms::mr2120::record::{RecordOptions, SensorNoise};
     use lash::mechanisms::mr2120::truth::{simulate_run, TruthSpec};
     use lash::mechanisms::mr2120::{Geometry, MassProperties};
@@ -88,17 +109,8 @@ fn the_multibody_nominal_model_reproduces_the_simulated_nominal_truth_below_the_
         let model =
             lash::diagnose::mr2120::mr2120_model(&Geometry::default(), &MassProperties::default()).unwrap();
         let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
-        let qdd: Vec<Vec<f64>> = (0..3).map(|j| derivative_cubic(&run.t, &run.qd[j], 4)).collect();
         let (mut ss_tau, mut n_tau, mut worst_y) = (0.0, 0.0, 0.0f64);
-        for i in 0..run.t.len() {
-            let q: Vec<f64> = (0..3).map(|j| run.q[j][i]).collect();
-            let qd: Vec<f64> = (0..3).map(|j| run.qd[j][i]).collect();
-            let a: Vec<f64> = (0..3).map(|j| qdd[j][i]).collect();
-            let (mut tau, mut y) = ([0.0; 3], [0.0; 3]);
-            model.evaluate_at(run.t[i], &theta, &q, &qd, &a, &mut tau, &mut y);
-            if !tau[0].is_finite() {
-                continue; // the start transient carries no weight
-            }
+        for (i, tau, y) in along(&model, &theta, &run) {
             for j in 0..3 {
                 ss_tau += (run.tau[j][i] - tau[j]).powi(2);
                 n_tau += 1.0;
@@ -122,7 +134,6 @@ fn the_multibody_nominal_model_reproduces_the_simulated_nominal_truth_below_the_
 #[test]
 fn the_multibody_nominal_model_follows_a_payload_truth_through_the_direct_singularity() {
     use lash::diagnose::model::InverseDynamicsModel;
-    use lash::diagnose::signal::derivative_cubic;
     use lash::mechanisms::mr2120::record::{RecordOptions, SensorNoise};
     use lash::mechanisms::mr2120::truth::{simulate_run, PayloadBody, TruthSpec};
     use lash::mechanisms::mr2120::{Geometry, MassProperties};
@@ -146,18 +157,9 @@ fn the_multibody_nominal_model_follows_a_payload_truth_through_the_direct_singul
         .position(|p| p.name.contains("payload"))
         .unwrap();
     theta[payload] = body.mass;
-    let qdd: Vec<Vec<f64>> = (0..3).map(|j| derivative_cubic(&run.t, &run.qd[j], 4)).collect();
     // Per 0.5 s window: (sum of squares, count).
     let mut windows = [(0.0f64, 0.0f64); 8];
-    for i in 0..run.t.len() {
-        let q: Vec<f64> = (0..3).map(|j| run.q[j][i]).collect();
-        let qd: Vec<f64> = (0..3).map(|j| run.qd[j][i]).collect();
-        let a: Vec<f64> = (0..3).map(|j| qdd[j][i]).collect();
-        let (mut tau, mut y) = ([0.0; 3], [0.0; 3]);
-        model.evaluate_at(run.t[i], &theta, &q, &qd, &a, &mut tau, &mut y);
-        if !tau[0].is_finite() {
-            continue; // the start transient carries no weight
-        }
+    for (i, tau, _) in along(&model, &theta, &run) {
         let k = (((run.t[i] - run.t[0]) / 0.5) as usize).min(7);
         for j in 0..3 {
             windows[k].0 += (run.tau[j][i] - tau[j]).powi(2);
