@@ -1,6 +1,7 @@
 //! Selection: rank every candidate by its likelihood-ratio test at the nominal model, add
 //! effects greedily by cross-validated error and an information criterion (among the
-//! candidates the data cannot tell apart, the simpler law), re-weigh the channels once, then
+//! candidates the data cannot tell apart, the simpler law), drop members that no longer earn
+//! their place given the others (backward elimination), re-weigh the channels once, then
 //! estimate the selected parameters with their uncertainty and flag the effects the data
 //! cannot separate.
 //!
