@@ -315,17 +315,20 @@ fn nominal_runs() -> &'static Mutex<HashMap<RunKey, TruthRun>> {
     RUNS.get_or_init(|| Mutex::new(HashMap::new()))
 }
 
-/// Largest contribution of a hidden effect, per sample, in noise units over the recorded
-/// channels: `with` − `without`, noise-free.
-fn contribution(with: &TruthRun, without: &TruthRun, opts: &RecordOptions, torques: bool) -> Vec<f64> {
+/// Largest contribution of a hidden effect, per sample, in noise units over the channels the
+/// diagnosis compares with its model (torques when recorded, tracker): `with` − `without` as
+/// the sensors read them (offsets, scales and delays included), noise-free. An encoder
+/// offset changes no compared channel (it moves the model's input, so it shows only through
+/// the model): its case measures 0.
+fn contribution(with: &Recorded, without: &Recorded, opts: &RecordOptions, torques: bool) -> Vec<f64> {
     (0..with.t.len())
         .map(|k| {
             let mut r = 0.0f64;
             for i in 0..3 {
                 if torques {
-                    r = r.max((with.tau_delayed[i][k] - without.tau_delayed[i][k]).abs() / opts.noise.torque);
+                    r = r.max((with.tau[i][k] - without.tau[i][k]).abs() / opts.noise.torque);
                 }
-                r = r.max((with.pose_delayed[i][k] - without.pose_delayed[i][k]).abs() / opts.noise.tracker);
+                r = r.max((with.pose[i][k] - without.pose[i][k]).abs() / opts.noise.tracker);
             }
             r
         })
@@ -386,7 +389,9 @@ pub fn run_case(
         } else {
             run.clone()
         };
-        for c in contribution(&hidden_run, &nominal, &ropts, case.torques) {
+        let sensed_hidden = hidden_run.sensed(&hidden_spec, &path, &ropts, None);
+        let sensed_nominal = nominal.sensed(&TruthSpec::nominal(), &path, &ropts, None);
+        for c in contribution(&sensed_hidden, &sensed_nominal, &ropts, case.torques) {
             peak = peak.max(c);
             below += usize::from(c < 1.0);
             total += 1;
