@@ -827,13 +827,9 @@ impl MechanismModel {
                 tau[..n].copy_from_slice(&x);
                 self.outputs_now(y);
             }
-            Some(_) => {
-                // Within the transmissions' start transient: the model does not know the
-                // wind-up's state yet (NaN: the sample carries no weight).
-                tau[..n].iter_mut().for_each(|v| *v = f64::NAN);
-                y.iter_mut().for_each(|v| *v = f64::NAN);
-            }
-            None => {
+            // Not evaluable, or within the transmissions' start transient (the model does not
+            // know the wind-up's state yet): NaN, the sample carries no weight.
+            _ => {
                 tau[..n].iter_mut().for_each(|v| *v = f64::NAN);
                 y.iter_mut().for_each(|v| *v = f64::NAN);
             }

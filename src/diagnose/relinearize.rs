@@ -66,8 +66,7 @@ pub(super) fn against_nominal(
     second.location = first.location;
     second.ranking = first.ranking;
     second.model = first.model;
-    second.found = super::adequacy::found_effects(&second.selected, &second.estimates);
-    second.no_significant_mismatch = second.found.is_empty();
+    // (`found` and `no_significant_mismatch` follow in `adequacy::refresh`.)
     second.verdict = verdict_text(model, &second, cands);
     second
 }

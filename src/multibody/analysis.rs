@@ -172,6 +172,11 @@ impl Analysis {
                 }
             }
         }
+        Self::min_norm(a, b)
+    }
+
+    /// The minimum-norm least-squares solution by SVD; an error for a non-finite system.
+    fn min_norm(a: DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, ModelError> {
         if !(a.iter().all(|v| v.is_finite()) && b.iter().all(|v| v.is_finite())) {
             // (nalgebra's SVD does not return on non-finite input.)
             return Err(ModelError::Output(
@@ -313,10 +318,10 @@ impl Analysis {
                         chord = Some(lu);
                         x
                     }
-                    _ => Self::solve_square_or_min_norm(j.clone(), &f)?,
+                    _ => Self::min_norm(j.clone(), &f)?,
                 }
             } else {
-                Self::solve_square_or_min_norm(j.clone(), &f)?
+                Self::min_norm(j.clone(), &f)?
             };
             let mut alpha = 1.0;
             // Damped step: halve while the residual grows a lot (far from the solution).

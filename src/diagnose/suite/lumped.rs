@@ -52,11 +52,7 @@ pub struct Case {
 }
 
 fn t(candidate: &str, value: f64, hidden: bool) -> Truth {
-    Truth {
-        candidate: candidate.into(),
-        value,
-        hidden,
-    }
+    Truth::new(candidate, value, hidden)
 }
 
 /// The suite's cases (values in SI units; see the module documentation).

@@ -57,6 +57,17 @@ pub struct Truth {
     pub hidden: bool,
 }
 
+impl Truth {
+    /// The effect named by the start `candidate` of its candidates' names, with its value.
+    pub fn new(candidate: &str, value: f64, hidden: bool) -> Self {
+        Self {
+            candidate: candidate.into(),
+            value,
+            hidden,
+        }
+    }
+}
+
 /// What a case tests.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]

@@ -70,11 +70,7 @@ pub struct Case {
 }
 
 fn t(candidate: &str, value: f64, hidden: bool) -> Truth {
-    Truth {
-        candidate: candidate.into(),
-        value,
-        hidden,
-    }
+    Truth::new(candidate, value, hidden)
 }
 
 /// Stribeck friction of level `coulomb` (N·m), breakaway `stiction`, Stribeck velocity 0.02
