@@ -30,6 +30,7 @@
 use super::data::{Channel, MotionData};
 use super::model::{InverseDynamicsModel, OutputSensitivities, ParameterFamily};
 use super::signal::derivative;
+use super::transmission::{self, TransmissionDynamics};
 use serde::Serialize;
 
 /// Every tunable of the candidate library.
@@ -50,7 +51,10 @@ impl Default for LibraryOptions {
     /// scales 1, 5 and 20 N.
     fn default() -> Self {
         Self {
-            coulomb_velocity: 0.05,
+            coulomb_velocity: std::env::var("LASH_VC")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(0.05),
             stribeck_velocities: vec![0.1, 0.3, 1.0],
             play_load_scales: vec![1.0, 5.0, 20.0],
         }
@@ -331,23 +335,33 @@ pub fn columns(
             Channel::Torque(_) => None,
         })
         .collect();
-    // Output sensitivities per sample (only when outputs are recorded).
-    let sens: Vec<Option<OutputSensitivities>> = if output_rows.is_empty() {
-        vec![]
+    // Output sensitivities and the transmissions' dynamics per sample (walking the
+    // recording again, so a model with internal dynamics answers at each sample's state;
+    // only when outputs are recorded or a transmission is compliant).
+    let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta0, j) != 0.0);
+    let (sens, dynamics): (
+        Vec<Option<OutputSensitivities>>,
+        Vec<Option<TransmissionDynamics>>,
+    ) = if output_rows.is_empty() && !compliant {
+        (vec![], vec![])
     } else {
         let (mut tau, mut yy) = (vec![0.0; model.joints()], vec![0.0; model.outputs()]);
         (0..n)
             .map(|i| {
                 let (q, qd, qdd) = d.motion_at(i);
                 let y: Vec<f64> = y_nom.iter().map(|v| v[i]).collect();
-                // Walk the recording again, so a model with internal dynamics answers at
-                // each sample's state.
                 yy.copy_from_slice(&y);
                 model.evaluate_at(d.t[i], &theta0, &q, &qd, &qdd, &mut tau, &mut yy);
-                model.output_sensitivities(&theta0, &q, &qd, &qdd, &y)
+                let s = if output_rows.is_empty() {
+                    None
+                } else {
+                    model.output_sensitivities(&theta0, &q, &qd, &qdd, &y)
+                };
+                (s, model.transmission_dynamics(&theta0))
             })
-            .collect()
+            .unzip()
     };
+    let dynamic = dynamics.iter().any(|x| x.is_some());
     let sgn = |v: f64| (v / opts.coulomb_velocity).tanh();
     // −∂(every channel)/∂q_j: how the model's channels move when arm j lags its encoder
     // (central differences of the whole model, wind-up included).
@@ -395,9 +409,38 @@ pub fn columns(
         })
     };
     // A torque g(i) acting on the joint side of drive j: the torque channel, and — through
-    // the wind-up c_j·g of the transmission — every channel as the arm lags its encoder.
+    // the wind-up of the transmission — every channel as the arm lags its encoder. With the
+    // transmissions' dynamics known, the wind-up is their linear response δw (every drive's:
+    // the mass matrix couples them), the torque sensors read K·δw + D·δẇ, and the outputs
+    // move by Σ_k δw_k·(−∂y/∂q_k) as the arms lag their encoders (the torques' own
+    // configuration coupling is left out, see `transmission`); else the quasi-static wind-up
+    // c_j·g.
     let joint_torque = |j: usize, g: &dyn Fn(usize) -> f64| {
         let mut c = vec![0.0; nc * n];
+        if dynamic {
+            let nj = model.joints();
+            let drives: Vec<usize> = (0..nj)
+                .filter(|&k| model.drive_compliance(&theta0, k) != 0.0)
+                .collect();
+            let response = transmission::joint_torque_response(&d.t, &dynamics, j, g);
+            for (i, x) in response.iter().enumerate() {
+                let Some((w, wd)) = x else { continue };
+                let Some(dy) = &dynamics[i] else { continue };
+                let k = dy.stiffness();
+                for a in 0..nj {
+                    if let Some(r) = torque_row(a) {
+                        c[r * n + i] = k[a] * w[a] + dy.damping[a] * wd[a];
+                    }
+                }
+                for &b in &drives {
+                    let l = lag_of(b);
+                    for &(r, _) in &output_rows {
+                        c[r * n + i] += w[b] * l[r * n + i];
+                    }
+                }
+            }
+            return c;
+        }
         if let Some(r) = torque_row(j) {
             for i in 0..n {
                 c[r * n + i] = g(i);

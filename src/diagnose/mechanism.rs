@@ -65,6 +65,7 @@
 
 use super::error::DiagnoseError;
 use super::model::{InverseDynamicsModel, ModelParameter, OutputSensitivities, PlayData};
+use super::transmission::{self, TransmissionDynamics};
 use crate::contact::play::UniversalPlay;
 use crate::multibody::{
     Analysis, BodyHandle, DriverHandle, JointHandle, JointKind, Mechanism, MechanismData, ModelError,
@@ -193,8 +194,9 @@ pub const CONTINUATION_STEP: f64 = 0.1;
 pub const WINDUP_REFINE: f64 = 1e-6;
 
 /// Largest time step between samples of one recording over which the transmission
-/// dynamics is integrated, s; a larger gap starts quasi-statically.
-pub const WINDUP_MAX_GAP: f64 = 0.05;
+/// dynamics is integrated, s; a larger gap starts quasi-statically (the candidates'
+/// responses use the same, [`transmission::MAX_GAP`]).
+pub const WINDUP_MAX_GAP: f64 = transmission::MAX_GAP;
 
 /// Evaluations of the joint-side torques per sample along a recording (at the predicted
 /// wind-up; a second one at the wind-up the step arrives at changed the torques of a
@@ -206,9 +208,6 @@ pub const WINDUP_CORRECTIONS: usize = 1;
 /// on simulated MR2120 recordings the start error was 0.018 N m RMS over 0.3–0.5 s under a
 /// 0.5 kg payload, 0.001 N m after).
 pub const WINDUP_SETTLING: f64 = 0.5;
-
-/// Newmark substeps of the transmission dynamics per sample interval.
-pub const WINDUP_SUBSTEPS: usize = 8;
 
 /// Central-difference step of the parameter sensitivities, relative to each parameter's
 /// scale: large against the assembly tolerance (1e-12), small
@@ -668,13 +667,11 @@ impl MechanismModel {
         Some(tau)
     }
 
-    /// Newmark substeps (average acceleration) of M·ẅ + D·ẇ + K·w = τ over `h` from
-    /// `prev`, τ and M interpolated linearly in time from the previous sample's to `tau_s`
-    /// and `m`: the transmission mode may be a few tens of hertz near a singular position,
-    /// and a few steps per period would shift its phase. (With M held at the sample's value
-    /// the error was first order in the sample interval: 0.07 N m RMS near the direct
-    /// singularity of a simulated MR2120 at 500 Hz; interpolated, 0.010 N m, second order.)
-    #[allow(clippy::type_complexity)]
+    /// The wind-up over `h` from `prev` ([`transmission::newmark_interval`]), τ and M
+    /// linear in time from the previous sample's to `tau_s` and `m`. (With M held at the
+    /// sample's value the error was first order in the sample interval: 0.07 N m RMS near
+    /// the direct singularity of a simulated MR2120 at 500 Hz; interpolated, 0.010 N m,
+    /// second order.)
     fn newmark(
         prev: &Windup,
         tau_s: &nalgebra::DVector<f64>,
@@ -682,45 +679,20 @@ impl MechanismModel {
         k: &nalgebra::DVector<f64>,
         d: &nalgebra::DVector<f64>,
         h: f64,
-    ) -> Option<(
-        nalgebra::DVector<f64>,
-        nalgebra::DVector<f64>,
-        nalgebra::DVector<f64>,
-    )> {
-        let n = k.len();
-        let tau_0 = prev.tau_s.clone().unwrap_or_else(|| tau_s.clone());
-        let hs = h / WINDUP_SUBSTEPS as f64;
-        let (beta, gamma) = (0.25, 0.5);
-        let a0 = 1.0 / (beta * hs * hs);
-        let a1 = gamma / (beta * hs);
-        let a2 = 1.0 / (beta * hs);
-        let a3 = 1.0 / (2.0 * beta) - 1.0;
-        let a4 = gamma / beta - 1.0;
-        let a5 = hs * (gamma / (2.0 * beta) - 1.0);
-        let m_0 = prev.m.clone().unwrap_or_else(|| m.clone());
-        let (mut w, mut wd, mut wdd) = (prev.w.clone(), prev.wd.clone(), prev.wdd.clone());
-        for step in 1..=WINDUP_SUBSTEPS {
-            let f_frac = step as f64 / WINDUP_SUBSTEPS as f64;
-            let load = &tau_0 * (1.0 - f_frac) + tau_s * f_frac;
-            // The mass matrix, like the load, linear in time over the step (near a singular
-            // position it changes fast; held at either end the error is first order in the
-            // sample interval).
-            let m = &m_0 * (1.0 - f_frac) + m * f_frac;
-            let mut kh = &m * a0;
-            for j in 0..n {
-                kh[(j, j)] += k[j] + a1 * d[j];
-            }
-            let lu = kh.lu();
-            let inertial = &w * a0 + &wd * a2 + &wdd * a3;
-            let viscous = &w * a1 + &wd * a4 + &wdd * a5;
-            let f = load + &m * inertial + d.component_mul(&viscous);
-            let w1 = lu.solve(&f)?;
-            let wdd1 = (&w1 - &w) * a0 - &wd * a2 - &wdd * a3;
-            wd = &wd + (&wdd * (1.0 - gamma) + &wdd1 * gamma) * hs;
-            wdd = wdd1;
-            w = w1;
-        }
-        Some((w, wd, wdd))
+    ) -> Option<transmission::State> {
+        let stiffness = nalgebra::DMatrix::from_diagonal(k);
+        let start = transmission::End {
+            mass: prev.m.as_ref().unwrap_or(m),
+            stiffness: &stiffness,
+            load: prev.tau_s.as_ref().unwrap_or(tau_s),
+        };
+        let end = transmission::End {
+            mass: m,
+            stiffness: &stiffness,
+            load: tau_s,
+        };
+        let state = (prev.w.clone(), prev.wd.clone(), prev.wdd.clone());
+        transmission::newmark_interval(&state, &start, &end, d, h)
     }
 
     /// One step of the transmissions' wind-up dynamics to time `t`, from the state of the
@@ -927,6 +899,28 @@ impl InverseDynamicsModel for MechanismModel {
     }
     fn drive_compliance(&self, theta: &[f64], j: usize) -> f64 {
         self.compliance(theta, j)
+    }
+    fn transmission_dynamics(&self, theta: &[f64]) -> Option<TransmissionDynamics> {
+        let n = self.joints.len();
+        let compliance: Vec<f64> = (0..n).map(|j| self.compliance(theta, j)).collect();
+        if !compliance.iter().any(|&c| c > 0.0) {
+            return None;
+        }
+        let mut b = self.built.borrow_mut();
+        let built = b.as_mut()?;
+        if built.theta != theta {
+            return None;
+        }
+        // The mass matrix where the last sample left the joints.
+        let mass = built
+            .analysis
+            .driver_mass_matrix(&built.model, &mut built.data)
+            .ok()?;
+        mass.iter().all(|v| v.is_finite()).then(|| TransmissionDynamics {
+            mass,
+            compliance,
+            damping: self.dampings(n),
+        })
     }
     fn play_sites(&self) -> Vec<String> {
         self.play.iter().map(|s| s.joint.clone()).collect()

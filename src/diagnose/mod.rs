@@ -9,6 +9,7 @@
 //! | `model.rs` | the nominal model (torques from measured motion, outputs such as a tracked platform position), its perturbable parameters; the DFKI pendulum and the MR2120 |
 //! | `mechanism.rs` | any mechanism built with the multibody API as a nominal model: declared sensors (encoder placement, trackers), joints with play |
 //! | `mr2120.rs` | the MR2120's multibody nominal model (the diagnosis' nominal for the MR2120) |
+//! | `transmission.rs` | the drive transmissions' wind-up dynamics: one Newmark integrator for the nominal model's wind-up and the candidates' linear response to a joint-side torque |
 //! | `data.rs` | measured motion and torques of one recording, checked against the model |
 //! | `candidates.rs` | the library of candidate physics and their regressors |
 //! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
@@ -79,6 +80,7 @@ mod selection;
 pub mod signal;
 pub mod stats;
 pub mod suite;
+pub mod transmission;
 mod verdict;
 
 pub use error::DiagnoseError;

@@ -196,6 +196,18 @@ pub trait InverseDynamicsModel {
     fn drive_compliance(&self, _theta: &[f64], _j: usize) -> f64 {
         0.0
     }
+    /// The drive transmissions' dynamics at the sample the model last evaluated with
+    /// [`evaluate_at`](Self::evaluate_at) (mass matrix in drive coordinates, compliances,
+    /// dampings), for a model that integrates its transmissions' wind-up along a
+    /// recording: the candidate library then winds the transmissions up dynamically under a
+    /// joint-side torque ([`crate::diagnose::transmission`]). Default None: quasi-static
+    /// wind-up c·τ.
+    fn transmission_dynamics(
+        &self,
+        _theta: &[f64],
+    ) -> Option<crate::diagnose::transmission::TransmissionDynamics> {
+        None
+    }
     /// Joints with play (names), in the order of [`OutputSensitivities::play`]. Default:
     /// none.
     fn play_sites(&self) -> Vec<String> {
