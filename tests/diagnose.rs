@@ -96,9 +96,11 @@ fn coulomb_runs(c: f64) -> (Vec<MotionData>, Vec<MotionData>) {
 
 /// Checks that Coulomb friction in joint 2 was selected first; returns its estimate.
 fn first_is_coulomb_in_joint_2(d: &lash::diagnose::Diagnosis) -> &lash::diagnose::Estimate {
-    assert_eq!(
-        d.selected.first().map(String::as_str),
-        Some("Coulomb friction in joint 2 (elbow)"),
+    // (One candidate per velocity scale of the smooth sign: any of them.)
+    assert!(
+        d.selected
+            .first()
+            .is_some_and(|s| s.starts_with("Coulomb friction in joint 2 (elbow)")),
         "{:?}",
         d.steps
     );
@@ -624,7 +626,7 @@ fn an_effect_outside_the_library_is_flagged_unexplained_with_honest_error_bars()
     let c = d
         .estimates
         .iter()
-        .find(|e| e.candidate == "Coulomb friction in joint 2 (elbow)")
+        .find(|e| e.candidate.starts_with("Coulomb friction in joint 2 (elbow)"))
         .unwrap_or_else(|| panic!("{:?}", d.selected));
     assert!(c.stable && (c.value / 0.05 - 1.0).abs() < 0.1, "{c:?}");
     for e in d

@@ -6,9 +6,9 @@
 //! | effect | torque term on joint j |
 //! |---|---|
 //! | viscous friction | b·q̇_j |
-//! | Coulomb friction | c·tanh(q̇_j/v_c) |
+//! | Coulomb friction | c·tanh(q̇_j/v_c) for each v_c of the grid |
 //! | Stribeck friction | s·tanh(q̇_j/v_c)·exp(−(q̇_j/v_s)²) for each v_s of the grid |
-//! | direction-asymmetric friction | c₊·max(tanh(q̇_j/v_c), 0) + c₋·min(tanh(q̇_j/v_c), 0) (nests Coulomb) |
+//! | direction-asymmetric friction | c₊·max(tanh(q̇_j/v_c), 0) + c₋·min(tanh(q̇_j/v_c), 0) (nests Coulomb) for each v_c |
 //! | reflected rotor inertia | J·q̈_j, plus the coupling of a drive carried by a moving link (model-specific) |
 //! | torque-sensor offset | o |
 //! | torque-sensor scale | (k − 1)·τ_j,nominal |
@@ -36,8 +36,11 @@ use serde::Serialize;
 /// Every tunable of the candidate library.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LibraryOptions {
-    /// Velocity scale of the smooth sign in the friction laws, rad/s.
-    pub coulomb_velocity: f64,
+    /// Velocity scales of the smooth sign in the friction laws, rad/s: how sharply friction
+    /// changes sign as a joint reverses is not known, so Coulomb and direction-asymmetric
+    /// friction get one candidate each per scale and cross-validation picks among them;
+    /// Stribeck friction uses the first.
+    pub coulomb_velocities: Vec<f64>,
     /// Stribeck velocities tried, rad/s (one candidate each).
     pub stribeck_velocities: Vec<f64>,
     /// Load scales over which a joint with play moves across its clearance, N (one
@@ -46,15 +49,14 @@ pub struct LibraryOptions {
 }
 
 impl Default for LibraryOptions {
-    /// v_c = 0.05 rad/s (well above the rate noise of encoder-differentiated velocities,
-    /// well below typical motion); Stribeck velocities 0.1, 0.3 and 1 rad/s; play load
+    /// v_c = 0.05 and 0.01 rad/s (above the rate noise of encoder-differentiated
+    /// velocities, well below typical motion; a simulated Stribeck law regularised at
+    /// 0.004 rad/s was named as Stribeck friction with 0.05 alone, as Coulomb friction with
+    /// 0.01); Stribeck velocities 0.1, 0.3 and 1 rad/s; play load
     /// scales 1, 5 and 20 N.
     fn default() -> Self {
         Self {
-            coulomb_velocity: std::env::var("LASH_VC")
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(0.05),
+            coulomb_velocities: vec![0.05, 0.01],
             stribeck_velocities: vec![0.1, 0.3, 1.0],
             play_load_scales: vec![1.0, 5.0, 20.0],
         }
@@ -67,14 +69,20 @@ pub enum Effect {
     /// Viscous joint friction, N·m·s/rad.
     Viscous,
     /// Coulomb joint friction, N·m.
-    Coulomb,
+    Coulomb {
+        /// Velocity scale of the smooth sign, rad/s.
+        v_c: f64,
+    },
     /// Stribeck friction (extra static friction decaying with speed), N·m, at velocity v_s.
     Stribeck {
         /// Stribeck velocity, rad/s.
         v_s: f64,
     },
     /// Direction-asymmetric Coulomb friction (two levels), N·m.
-    AsymmetricFriction,
+    AsymmetricFriction {
+        /// Velocity scale of the smooth sign, rad/s.
+        v_c: f64,
+    },
     /// Reflected rotor inertia of the drive, kg·m².
     RotorInertia,
     /// Torque-sensor offset, N·m.
@@ -174,7 +182,25 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
             0,
             &[pos],
         ));
-        out.push(mk("Coulomb friction", Effect::Coulomb, &["c [N m]"], 0, &[pos]));
+        let sharpness = |v_c: f64| {
+            if opts.coulomb_velocities.len() > 1 {
+                (format!(" (v_c = {v_c} rad/s)"), 1)
+            } else {
+                (String::new(), 0)
+            }
+        };
+        for &v_c in &opts.coulomb_velocities {
+            let (suffix, grid) = sharpness(v_c);
+            let mut c = mk(
+                "Coulomb friction",
+                Effect::Coulomb { v_c },
+                &["c [N m]"],
+                grid,
+                &[pos],
+            );
+            c.name += &suffix;
+            out.push(c);
+        }
         for &v_s in &opts.stribeck_velocities {
             out.push(mk(
                 &format!("Stribeck friction (v_s = {v_s} rad/s)"),
@@ -184,13 +210,18 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
                 &[pos],
             ));
         }
-        out.push(mk(
-            "direction-asymmetric friction",
-            Effect::AsymmetricFriction,
-            &["c+ [N m]", "c- [N m]"],
-            0,
-            &[pos, pos],
-        ));
+        for &v_c in &opts.coulomb_velocities {
+            let (suffix, grid) = sharpness(v_c);
+            let mut c = mk(
+                "direction-asymmetric friction",
+                Effect::AsymmetricFriction { v_c },
+                &["c+ [N m]", "c- [N m]"],
+                grid,
+                &[pos, pos],
+            );
+            c.name += &suffix;
+            out.push(c);
+        }
         out.push(mk(
             "reflected rotor inertia",
             Effect::RotorInertia,
@@ -362,7 +393,8 @@ pub fn columns(
             .unzip()
     };
     let dynamic = dynamics.iter().any(|x| x.is_some());
-    let sgn = |v: f64| (v / opts.coulomb_velocity).tanh();
+    let sgn_at = |v: f64, v_c: f64| (v / v_c).tanh();
+    let first_vc = opts.coulomb_velocities.first().copied().unwrap_or(0.05);
     // −∂(every channel)/∂q_j: how the model's channels move when arm j lags its encoder
     // (central differences of the whole model, wind-up included).
     let stack = |a: &[Vec<f64>], b: &[Vec<f64>], h: f64| {
@@ -568,13 +600,13 @@ pub fn columns(
                 let qd = &d.qd[j];
                 match e {
                     Effect::Viscous => vec![joint_torque(j, &|i| qd[i])],
-                    Effect::Coulomb => vec![joint_torque(j, &|i| sgn(qd[i]))],
-                    Effect::Stribeck { v_s } => {
-                        vec![joint_torque(j, &|i| sgn(qd[i]) * (-(qd[i] / v_s).powi(2)).exp())]
-                    }
-                    Effect::AsymmetricFriction => vec![
-                        joint_torque(j, &|i| sgn(qd[i]).max(0.0)),
-                        joint_torque(j, &|i| sgn(qd[i]).min(0.0)),
+                    Effect::Coulomb { v_c } => vec![joint_torque(j, &|i| sgn_at(qd[i], v_c))],
+                    Effect::Stribeck { v_s } => vec![joint_torque(j, &|i| {
+                        sgn_at(qd[i], first_vc) * (-(qd[i] / v_s).powi(2)).exp()
+                    })],
+                    Effect::AsymmetricFriction { v_c } => vec![
+                        joint_torque(j, &|i| sgn_at(qd[i], v_c).max(0.0)),
+                        joint_torque(j, &|i| sgn_at(qd[i], v_c).min(0.0)),
                     ],
                     Effect::RotorInertia => {
                         let mut col = vec![0.0; nc * n];
@@ -622,7 +654,12 @@ pub fn separating_experiment(a: &Candidate, b: &Candidate) -> String {
             .map(|j| format!("joint {}", j + 1))
             .unwrap_or("the joints".into())
     };
-    let friction = |e: Effect| matches!(e, Viscous | Coulomb | Stribeck { .. } | AsymmetricFriction);
+    let friction = |e: Effect| {
+        matches!(
+            e,
+            Viscous | Coulomb { .. } | Stribeck { .. } | AsymmetricFriction { .. }
+        )
+    };
     let play = |e: Effect| matches!(e, Backlash | Clearance { .. } | Play { .. });
     match (a.effect, b.effect) {
         (x, y) if (friction(x) && play(y)) || (play(x) && friction(y)) => format!(

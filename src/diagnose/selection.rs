@@ -408,7 +408,7 @@ pub(super) fn confounded(sel: &Selection, cands: &[Candidate], opts: &DiagnoseOp
 fn same_family(a: &Candidate, b: &Candidate) -> bool {
     use Effect::*;
     let fam = |e: Effect| match e {
-        Coulomb | Stribeck { .. } | AsymmetricFriction => 1,
+        Coulomb { .. } | Stribeck { .. } | AsymmetricFriction { .. } => 1,
         Viscous => 2,
         RotorInertia => 3,
         TorqueOffset => 4,
