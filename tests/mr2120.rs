@@ -205,9 +205,13 @@ fn quasi_static_envelope_agrees_on_the_singular_z_sensitivity() {
     let ex = accuracy::Excitation::default();
     let (m1, _) = accuracy::static_envelope(&g, &mp, &paper::TABLE2[0], &l1, &ex).unwrap();
     let (m3, _) = accuracy::static_envelope(&g, &mp, &paper::TABLE2[2], &l1, &ex).unwrap();
-    let span = |r: (f64, f64)| r.1 - r.0;
+    // Near the direct singularity the play lets the platform sink: the largest |d_zM| at M3
+    // is ≥ 10× the one at M1 (measured 12.9 mm against 0.34 mm). The spans of the two
+    // envelopes are not the measure: at equilibrium the 10 N loads move the sagged platform
+    // at M3 by 0.6 mm only (an unsettled relaxation once made that span look 16× M1's).
+    let largest = |r: (f64, f64)| r.0.abs().max(r.1.abs());
     assert!(
-        span(m3[2]) >= 10.0 * span(m1[2]),
+        largest(m3[2]) >= 10.0 * largest(m1[2]),
         "M3 {:?} vs M1 {:?}",
         m3[2],
         m1[2]

@@ -7,6 +7,7 @@
 //! | `mr2120.rs` | `lash bench mr2120`: the 63-DOF clearance model at equal accuracy, every solver through [`Integrator`] |
 //! | `mr2120_options.rs` | its settings, their defaults and their check ([`mr2120::Mr2120BenchOptions`]) |
 //! | `scaling.rs` | `lash bench scaling`: cost per step of a clearance chain against its length |
+//! | `statics.rs` | `lash bench statics`: the static Table 3 envelope, direct equilibrium solver against dynamic relaxation |
 //! | `exudyn.rs` | the MR2120 model exported for the Exudyn comparison (`benches/exudyn/`) |
 //! | `charts.rs` | work-precision and log-log diagrams (feature `plot`) |
 
@@ -16,6 +17,7 @@ pub mod exudyn;
 pub mod mr2120;
 mod mr2120_options;
 pub mod scaling;
+pub mod statics;
 
 use crate::dae::explicit::{Dopri5, Dopri5Options, SymplecticEuler};
 use crate::dae::{BdfOptions, BdfSolver, DaeSystem, Integrator};

@@ -42,6 +42,23 @@ pub enum BenchWhat {
     /// Dormand–Prince, symplectic Euler and diffsol's BDF at equal accuracy (platform centre
     /// within --target of a tight reference).
     Mr2120(Mr2120BenchArgs),
+    /// The static envelope of the paper's Table 3 (13 load cases per point and clearance set)
+    /// by the direct equilibrium solver against dynamic relaxation, alternated in one run:
+    /// wall times, speed-up, and the largest difference between the two envelopes.
+    Statics {
+        /// Points, comma-separated (M1, M2, M3).
+        #[arg(long, default_value = "M1,M2,M3")]
+        points: String,
+        /// Clearance sets, comma-separated (L1, L2, L3).
+        #[arg(long, default_value = "L1,L2,L3")]
+        sets: String,
+        /// Repeats per timing (alternated direct, relaxation; the best of each is kept).
+        #[arg(long, default_value_t = 1)]
+        repeats: usize,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 /// A comma-separated list of positive numbers (empty: none), shown as it is parsed.
@@ -139,7 +156,80 @@ pub fn run(what: BenchWhat) -> Result<Output, CliError> {
             json,
         } => scaling(&links, t_end, &out, json),
         BenchWhat::Mr2120(a) => mr2120(&a),
+        BenchWhat::Statics {
+            points,
+            sets,
+            repeats,
+            json,
+        } => statics(&points, &sets, repeats, json),
     }
+}
+
+fn statics(points: &str, sets: &str, repeats: usize, as_json: bool) -> Result<Output, CliError> {
+    use lash::mechanisms::mr2120::{clearance, geometry, paper};
+    let points = items(points)
+        .map(|n| {
+            paper::TABLE2
+                .iter()
+                .find(|p| p.name.eq_ignore_ascii_case(n))
+                .copied()
+                .ok_or_else(|| {
+                    CliError::Input(format!("--points: unknown point '{n}'; expected M1, M2 or M3"))
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let sets = items(sets)
+        .map(|n| clearance::clearance_set(n).map_err(|e| CliError::Input(format!("--sets: {e}"))))
+        .collect::<Result<Vec<_>, _>>()?;
+    if points.is_empty() || sets.is_empty() {
+        return Err(CliError::input("--points and --sets must name at least one each"));
+    }
+    if repeats == 0 {
+        return Err(CliError::input("--repeats must be at least 1"));
+    }
+    let total = points.len() * sets.len();
+    let mut progress = Progress::new("bench statics", total as f64);
+    let b = lash::bench::statics::statics_bench(
+        &geometry::Geometry::default(),
+        &geometry::MassProperties::default(),
+        &points,
+        &sets,
+        repeats,
+        |k, _| progress.update(k as f64),
+    );
+    progress.finish();
+    let b = b.map_err(CliError::run)?;
+    if as_json {
+        println!("{}", json(&b));
+        return Ok(Output::OK);
+    }
+    println!(
+        "{:<4} {:<4} {:>12} {:>14} {:>9} {:>12} {:>14} {:>18}",
+        "pt", "set", "direct s", "relaxation s", "speed-up", "direct steps", "relax. steps", "max range diff"
+    );
+    for r in &b.rows {
+        println!(
+            "{:<4} {:<4} {:>12.4} {:>14.3} {:>8.0}x {:>12} {:>14} {:>17.2}%",
+            r.point,
+            r.set,
+            r.direct_s,
+            r.relaxation_s,
+            r.speedup,
+            r.direct_steps,
+            r.relaxation_steps,
+            100.0 * r.max_rel_difference
+        );
+    }
+    println!(
+        "total: direct {:.3} s ({:.2} ms per load case), dynamic relaxation {:.2} s: {:.0}x faster, measured in this run (best of {} alternated repeats); envelopes differ by at most {:.2} % of a range's width",
+        b.direct_total_s,
+        1e3 * b.direct_per_case_s,
+        b.relaxation_total_s,
+        b.speedup,
+        b.repeats,
+        100.0 * b.max_rel_difference
+    );
+    Ok(Output::OK)
 }
 
 fn dae(as_json: bool, repeats: usize, plots: Option<&Path>) -> Result<Output, CliError> {

@@ -130,6 +130,24 @@ pub enum DaeError {
         /// Equations with the largest residual.
         culprits: Vec<Culprit>,
     },
+    /// Pseudo-transient continuation ([`steady_state`](super::steady_state)) did not reach a
+    /// steady state within its iteration budget.
+    #[error("steady state not found at t = {t:e} after {iterations} pseudo-steps (τ = {tau:e}, last update {update_norm:.3e} of its tolerance, residual norm {residual_norm:.3e}){}", fmt_culprits(.culprits))]
+    SteadyState {
+        /// The fixed time.
+        t: f64,
+        /// Pseudo-time step reached.
+        tau: f64,
+        /// Pseudo-steps taken.
+        iterations: usize,
+        /// Weighted RMS of the last accepted update (≤ 1 would be converged).
+        update_norm: f64,
+        /// 2-norm of F(t, y, 0) at the last accepted iterate.
+        residual_norm: f64,
+        /// Components with the largest weighted last update (or residual, if no step was
+        /// accepted).
+        culprits: Vec<Culprit>,
+    },
     /// A requested output time lies outside what the solver can deliver.
     #[error("requested time {t:e} is outside [{lo:e}, {hi:e}]")]
     OutOfRange {

@@ -7,6 +7,9 @@
 //!   form) on a pluggable linear solver ([`LinearSolver`]; faer's sparse LU by default).
 //! * [`explicit`] — baselines for ODEs y' = f(t, y): adaptive Dormand–Prince 5(4) and the
 //!   fixed-step symplectic Euler of game-style contact engines.
+//! * [`steady_state`] — the steady state F(t, y, 0) = 0 of a damped system by
+//!   pseudo-transient continuation (backward-Euler steps of growing length, Newton in the
+//!   limit), on the BDF's matrix machinery.
 //! * [`Integrator`] — the one interface over all of them (and the diffsol peer in
 //!   [`crate::peers`]): advance to a time, time and state, work counters.
 //!
@@ -19,6 +22,7 @@
 //! | `error.rs` | [`DaeError`] and the named [`Culprit`]s of a failure |
 //! | `integrator.rs` | the [`Integrator`] trait, its common [`WorkStats`], and its implementations |
 //! | `linear_solver.rs` | the linear-solver seam: [`LinearSolver`], [`SparseLu`](crate::sparse::SparseLu) and [`DenseLu`], [`LinearSolverKind`] |
+//! | `steady.rs` | steady states by pseudo-transient continuation ([`steady_state`], [`SteadyOptions`]) |
 //! | `bdf/mod.rs` | the BDF state struct, construction, norms, accessors |
 //! | `bdf/step.rs` | the step loop body: coefficients, predictor, error test, order/step selection |
 //! | `bdf/output.rs` | the output-time driver, dense output, stop times, events, restarts |
@@ -35,6 +39,7 @@ mod integrator;
 mod linear_solver;
 mod options;
 mod problem;
+mod steady;
 
 pub use bdf::{BdfSolver, Outcome, MAX_ORDER};
 pub use error::{Culprit, DaeError};
@@ -42,3 +47,4 @@ pub use integrator::{Integrator, IntegratorError, WorkStats};
 pub use linear_solver::{DenseLu, LinearSolver, LinearSolverKind};
 pub use options::{AbsTol, BdfOptions, PhaseTimes, Statistics};
 pub use problem::{DaeSystem, EvalError, JacobianSource, VarKind};
+pub use steady::{steady_state, SteadyOptions, SteadyStats};

@@ -47,6 +47,9 @@ pub enum ModelError {
     /// The integrator failed.
     #[error("integration failed: {0}")]
     Integration(#[from] DaeError),
+    /// No static equilibrium was found ([`static_equilibrium`](super::statics::static_equilibrium)).
+    #[error("static equilibrium: {0}")]
+    Statics(DaeError),
     /// Output could not be written.
     #[error("output: {0}")]
     Output(String),

@@ -17,6 +17,7 @@
 //! | `analysis.rs` | assembly, velocity/acceleration analysis, reactions, singularity measure on `(&Mechanism, &mut MechanismData)` |
 //! | `explicit.rs` | the same equations as an ODE (index-1, Baumgarte) for explicit integrators |
 //! | `simulation.rs` | the pipeline: initial state → BDF → samples, singularity watch; `SimulationOptions` and every default |
+//! | `statics.rs` | quasi-static equilibrium (drivers held, loads balanced) by pseudo-transient continuation |
 //! | `output.rs` | CSV per body and per joint |
 
 pub mod analysis;
@@ -35,6 +36,7 @@ pub mod model;
 pub mod output;
 pub mod rotation;
 pub mod simulation;
+pub mod statics;
 
 pub use analysis::{Analysis, AssemblyOptions, Reaction, Snapshot};
 pub use body::{Attach, BodyHandle, BodySet, RigidBody};
@@ -47,3 +49,4 @@ pub use formulation::{FormulationOptions, Layout, MultibodyDae};
 pub use joints::{Joint, JointFrame, JointHandle, JointKind};
 pub use model::{Driver, DriverHandle, ForceHandle, Marker, MarkerHandle, Mechanism, STANDARD_GRAVITY};
 pub use simulation::{RunEnd, Sample, Simulation, SimulationOptions, SingularityEvent, Trajectory};
+pub use statics::{static_equilibrium, Equilibrium, StaticsOptions};

@@ -31,6 +31,25 @@ pub struct IdealModel {
     pub q_build: [f64; 3],
 }
 
+/// A static equilibrium of the accuracy study that was not found, with its point, clearance
+/// set and load case.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("static equilibrium at {point}, clearance set {set}, load case {case} (force {force:?} N, torque {torque:?} N·m on the platform): {source}")]
+pub struct EquilibriumError {
+    /// Point (M1, M2, M3).
+    pub point: String,
+    /// Clearance set.
+    pub set: String,
+    /// Index of the load case in `accuracy::static_load_cases`.
+    pub case: usize,
+    /// Force on the platform, N.
+    pub force: [f64; 3],
+    /// Torque on the platform, N·m.
+    pub torque: [f64; 3],
+    /// The solver's error.
+    pub source: ModelError,
+}
+
 /// Errors building an MR2120 model.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Mr2120Error {
@@ -43,6 +62,9 @@ pub enum Mr2120Error {
     /// Contact data are invalid.
     #[error(transparent)]
     Contact(#[from] crate::contact::ContactError),
+    /// A static equilibrium of the accuracy study was not found.
+    #[error(transparent)]
+    Equilibrium(Box<EquilibriumError>),
     /// An unknown clearance set name.
     #[error("unknown clearance set '{0}'; expected none, L1, L2, L3 or all")]
     UnknownClearanceSet(String),
