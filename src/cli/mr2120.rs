@@ -28,7 +28,7 @@ pub enum Mr2120What {
         /// Clearance sets, comma-separated (L1, L2, L3).
         #[arg(long, default_value = "L1,L2,L3")]
         sets: String,
-        /// Method: dynamic (the paper's excitation), static (envelope of equilibria, solved directly), relaxation (the same equilibria by dynamic relaxation, slower) or both (dynamic and static).
+        /// Method: dynamic (the paper's excitation), static (envelope of equilibria, solved directly), relaxation (the same equilibria by dynamic relaxation, slower), linear (first order in the clearances) or both (dynamic and static).
         #[arg(long, default_value = "dynamic", value_parser = parse_methods)]
         method: Methods,
         /// Print the rows as JSON.
@@ -315,6 +315,7 @@ fn accuracy_cmd(
     println!("MR2120 positioning accuracy (paper Table 3): ranges min..max; d in mm, delta in deg");
     println!("method (a): drives locked at q(M), settle {} s, then half-sine pulses of {} N along +-x, +-y, +-z and {} N m about +-x, +-y, +-z, {} s each", ex.settle, ex.force, ex.torque, ex.pulse);
     println!("method (b): static equilibria (solved directly; `--method relaxation`: by dynamic relaxation) under no load and constant {} N / {} N m along/about +-x, +-y, +-z", ex.force, ex.torque);
+    println!("method (c), --method linear: the same load cases to first order in the clearances (the ideal model's joint reactions push each joint across its play; no contact elasticity; none at singular configurations)");
     let names = ["d_xM", "d_yM", "d_zM", "dx", "dy", "dz"];
     for r in &rows {
         println!("{} {} {} ({} steps)", r.point, r.set, r.method, r.steps);

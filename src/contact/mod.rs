@@ -11,6 +11,7 @@
 //! | `bearing.rs` | a ball end in a cylindrical socket with radial and axial clearance (force element) |
 //! | `joints.rs` | clearance pairs: universal (cross + four bearings), revolute, spherical |
 //! | `play.rs` | the quasi-static play of a clearance joint: where the load pushes it within its clearance |
+//! | `play_bound.rs` | the first-order pose error of a body from every joint's play (the clearance-design study's linearised bound) |
 //!
 //! All quantities SI: N, m, Pa, s.
 //!
@@ -33,6 +34,7 @@ mod dual;
 pub mod joints;
 pub mod laws;
 pub mod play;
+pub mod play_bound;
 pub mod stiffness;
 
 pub use bearing::{BallInSocket, ClearanceBearing};
