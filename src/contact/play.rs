@@ -9,16 +9,21 @@
 //! h_a (total, ±h_a/2). Pushed by a force F (the joint's force on side j), each pair's
 //! bearings sit against the bore wall opposite F's component across the pair's axis, and
 //! against the end opposite F's component along it; a moment M about n = z_i × z_j (the
-//! rotation a universal joint locks) tilts each pair by up to 2h/s. So side j sits, from
-//! side i,
+//! rotation a universal joint locks) tilts each pair by up to 2h/s, as far as the force
+//! across the pair lets its balls part. So side j sits, from side i,
 //!
-//! * across the axes: −h·(û_i + û_j), û_k the unit part of F perpendicular to axis z_k;
-//! * along the axes: −(h_a/2)·(sign(F·z_i) z_i + sign(F·z_j) z_j);
-//! * tilted about n by −(4h/s)·sign(M·n).
+//! * per pair (axis z): its two balls at ±(s/2)·z carry f± = F⊥/2 ± (M⊥ × z)/s across the
+//!   axis (F⊥, M⊥ the parts of F and M perpendicular to z); each ball sits h against the wall
+//!   opposite its own load, −h·f̂±; the pair moves by the mean, −(h/2)·(f̂₊ + f̂₋), and turns by
+//!   −h·z × (f̂₊ − f̂₋)/s. So a pair pressed by a force much larger than the couple of the moment
+//!   only shifts (both balls on the same side), and a pure moment tilts it by 2h/s;
+//! * across the axes: the two pairs' shifts added; tilted about n by the two pairs' turns
+//!   about n (up to 4h/s);
+//! * along the axes: −(h_a/2)·(sign(F·z_i) z_i + sign(F·z_j) z_j).
 //!
 //! Signs and unit vectors are smoothed over a load scale F_c (N): sign(x) → x/√(x² + F_c²),
-//! û → F⊥/√(|F⊥|² + F_c²) — below F_c the joint floats in its play. The moment enters as
-//! the force couple it makes on the bearings, M/s. F_c is not a property of the joint but
+//! f̂ → f/√(|f|² + (F_c/2)²) per ball (half the joint's scale: one ball's share) — below F_c
+//! the joint floats in its play. F_c is not a property of the joint but
 //! of how firmly a load must press to move it across the play (friction, preload): the
 //! diagnosis chooses it by cross-validation. Units: m, rad, N, N·m.
 
@@ -76,21 +81,33 @@ impl UniversalPlay {
         moment: &Vector3<f64>,
         load_scale: f64,
     ) -> PlayShift {
-        let across = |z: &Vector3<f64>| {
-            let perp = force - z * force.dot(z);
-            let d = (perp.norm_squared() + load_scale * load_scale).sqrt();
-            if d > 0.0 {
-                perp / d
-            } else {
-                Vector3::zeros()
-            }
-        };
         let n = z_i.cross(z_j);
         let n = if n.norm() > 0.0 { n.normalize() } else { n };
         let s = self.ball_spacing;
+        // Per trunnion pair (axis z): its two balls at ±(s/2)·z carry F⊥/2 ± (M⊥ × z)/s
+        // across the axis; each sits against the wall opposite its own load (a unit vector
+        // smoothed over half the load scale, one ball's share). The pair moves by the mean
+        // of its balls' shifts and turns by z × (difference)/s.
+        let pair = |z: &Vector3<f64>| -> (Vector3<f64>, Vector3<f64>) {
+            let f_perp = force - z * force.dot(z);
+            let m_perp = moment - z * moment.dot(z);
+            let g = m_perp.cross(z) / s;
+            let unit = |f: Vector3<f64>| {
+                let d = (f.norm_squared() + 0.25 * load_scale * load_scale).sqrt();
+                if d > 0.0 {
+                    f / d
+                } else {
+                    Vector3::zeros()
+                }
+            };
+            let (u_plus, u_minus) = (unit(0.5 * f_perp + g), unit(0.5 * f_perp - g));
+            (-0.5 * (u_plus + u_minus), -z.cross(&(u_plus - u_minus)) / s)
+        };
+        let (t_i, th_i) = pair(z_i);
+        let (t_j, th_j) = pair(z_j);
         PlayShift {
-            radial_translation: -(across(z_i) + across(z_j)),
-            radial_tilt: -(4.0 / s) * smooth_sign(moment.dot(&n) / s, load_scale),
+            radial_translation: t_i + t_j,
+            radial_tilt: (th_i + th_j).dot(&n),
             axial_translation: -0.5
                 * (z_i * smooth_sign(force.dot(z_i), load_scale)
                     + z_j * smooth_sign(force.dot(z_j), load_scale)),
