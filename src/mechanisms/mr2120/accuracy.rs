@@ -9,7 +9,7 @@
 //! through its play, one pulse after the other. The errors are recorded after settling.
 //! The paper does not state its excitation; these amplitudes are lash's documented choice.
 
-use super::clearance::{bearing_design, clearance_model, DEFAULT_DAMPING};
+use super::clearance::{bearing_design, clearance_model, ClearanceModel, DEFAULT_DAMPING};
 use super::geometry::{Geometry, MassProperties};
 use super::ideal::{ideal_model, EquilibriumError, Mr2120Error, ELBOW_JOINTS, PLATFORM_JOINTS};
 use super::kinematics::inverse;
@@ -110,14 +110,7 @@ pub fn dynamic_envelope(
     ex: &Excitation,
 ) -> Result<(Ranges, usize), Mr2120Error> {
     let m = Vector3::from(point.m);
-    let q = inverse(g, m)?;
-    let mut model = clearance_model(
-        g,
-        mp,
-        m,
-        Some(q.map(MotionLaw::Constant)),
-        &bearing_design(set, DEFAULT_DAMPING),
-    )?;
+    let mut model = locked_clearance_model(g, mp, point, set)?;
     let platform = model.platform;
     model.mechanism.add_force(Box::new(PlatformPulses {
         body: platform,
@@ -251,6 +244,25 @@ pub fn table3(
     Ok(rows)
 }
 
+/// The clearance model (the bearings of `set`, lash's default contact damping) with its
+/// drives locked at the angles that put the ideal platform at `point`.
+pub fn locked_clearance_model(
+    g: &Geometry,
+    mp: &MassProperties,
+    point: &Table2Point,
+    set: &ClearanceSet,
+) -> Result<ClearanceModel, Mr2120Error> {
+    let m = Vector3::from(point.m);
+    let q = inverse(g, m)?;
+    clearance_model(
+        g,
+        mp,
+        m,
+        Some(q.map(MotionLaw::Constant)),
+        &bearing_design(set, DEFAULT_DAMPING),
+    )
+}
+
 /// The 13 load cases of method (b): none, then a force of `ex.force` along +x, −x, +y, −y,
 /// +z, −z, then a torque of `ex.torque` about the same directions (N, N·m; on the platform).
 pub fn static_load_cases(ex: &Excitation) -> Vec<(Vector3<f64>, Vector3<f64>)> {
@@ -282,14 +294,7 @@ pub fn static_envelope(
     ex: &Excitation,
 ) -> Result<(Ranges, usize), Mr2120Error> {
     let m = Vector3::from(point.m);
-    let q = inverse(g, m)?;
-    let model = clearance_model(
-        g,
-        mp,
-        m,
-        Some(q.map(MotionLaw::Constant)),
-        &bearing_design(set, DEFAULT_DAMPING),
-    )?;
+    let model = locked_clearance_model(g, mp, point, set)?;
     let platform = model.platform;
     let mut mech = Arc::new(model.mechanism);
     let opts = StaticsOptions::default();
@@ -425,14 +430,7 @@ pub fn relaxation_case(
     time: f64,
 ) -> Result<([f64; 6], usize), Mr2120Error> {
     let m = Vector3::from(point.m);
-    let q = inverse(g, m)?;
-    let mut model = clearance_model(
-        g,
-        mp,
-        m,
-        Some(q.map(MotionLaw::Constant)),
-        &bearing_design(set, DEFAULT_DAMPING),
-    )?;
+    let mut model = locked_clearance_model(g, mp, point, set)?;
     let platform = model.platform;
     let free: Vec<BodyHandle> = model
         .forearms
@@ -528,15 +526,7 @@ mod tests {
         for (point, case) in [(&TABLE2[0], 0), (&TABLE2[0], 1), (&TABLE2[2], 0)] {
             let set = &TABLE1[0];
             let m = Vector3::from(point.m);
-            let q = inverse(&g, m).unwrap();
-            let mut model = clearance_model(
-                &g,
-                &mp,
-                m,
-                Some(q.map(MotionLaw::Constant)),
-                &bearing_design(set, DEFAULT_DAMPING),
-            )
-            .unwrap();
+            let mut model = locked_clearance_model(&g, &mp, point, set).unwrap();
             let (force, torque) = cases[case];
             if case > 0 {
                 model.mechanism.add_force(Box::new(ConstantLoad {
