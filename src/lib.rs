@@ -17,7 +17,8 @@
 //! 5. [`mechanisms`] — the WUT MR2120 (ideal and clearance models, the paper's studies), the
 //!    DFKI pendulum, a clearance chain.
 //! 6. [`diagnose`] — where a model and recordings disagree, the missing physics, its fit and
-//!    the held-out improvement.
+//!    the held-out improvement; [`design`] — the allowable clearance for a required
+//!    accuracy (first order and verified by the nonlinear equilibria).
 //!
 //! A multibody model is a constant [`multibody::Mechanism`] beside a
 //! [`multibody::MechanismData`] (state and scratch), with typed access by handle and every
@@ -55,6 +56,7 @@
 pub mod bench;
 pub mod contact;
 pub mod dae;
+pub mod design;
 pub mod diagnose;
 pub mod mechanisms;
 pub mod multibody;

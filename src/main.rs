@@ -35,6 +35,11 @@ enum Command {
     /// show the held-out improvement (equation error: measured motion -> inverse dynamics ->
     /// measured torques). Defaults: the DFKI double pendulum, fit on runs 00-05, held out 12-13.
     Diagnose(cli::diagnose::Args),
+    /// Clearance design: the allowable clearance for a required positioning accuracy.
+    Design {
+        #[command(subcommand)]
+        what: cli::design::DesignWhat,
+    },
     /// The WUT MR2120 parallel mechanism of the reference paper.
     Mr2120 {
         #[command(subcommand)]
@@ -49,6 +54,7 @@ fn main() -> ExitCode {
         Command::Validate(a) => cli::validate::run(a),
         Command::Bench { what } => cli::bench::run(what),
         Command::Diagnose(a) => cli::diagnose::run(a),
+        Command::Design { what } => cli::design::run(what),
         Command::Mr2120 { what } => cli::mr2120::run(what),
     };
     cli::exit(result)

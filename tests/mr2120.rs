@@ -225,3 +225,25 @@ fn quasi_static_envelope_agrees_on_the_singular_z_sensitivity() {
         assert!(String::from_utf8_lossy(&out.stderr).contains("unknown method 'sideways'"));
     }
 }
+
+#[cfg(all(feature = "cli", feature = "plot", feature = "peers"))]
+#[test]
+fn design_clearance_refuses_bad_accuracies_and_points_with_exit_2() {
+    for args in [
+        &["design", "clearance", "--accuracy=-0.1mm", "--points", "M1"][..],
+        &["design", "clearance", "--accuracy", "0.1", "--points", "M1"],
+        &["design", "clearance", "--accuracy", "0.1mm,2", "--points", "M1"],
+        &["design", "clearance", "--accuracy", "0.1mm", "--points", "M4"],
+    ] {
+        let out = lash(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("error:"), "{args:?}");
+    }
+    let out = lash(&["design", "clearance", "--accuracy", "0.2mm,0.5deg", "--points", "M1", "--json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let h = v["uniform"]["h_lr"].as_f64().unwrap();
+    assert!(h > 1e-6 && h < 1e-4, "{v}");
+    assert_eq!(v["verified"], true);
+    assert!(v["accuracy"]["position_m"].as_f64().unwrap() == 2e-4);
+}

@@ -2,6 +2,7 @@
 //! results into messages and exit codes.
 
 pub mod bench;
+pub mod design;
 pub mod diagnose;
 pub mod mr2120;
 pub mod progress;

@@ -1,0 +1,231 @@
+//! The largest uniform clearance h (radial h_LR = axial h_LW = h in every universal joint)
+//! for which the MR2120's platform stays within a required accuracy at given poses, under
+//! the load cases of the static accuracy study
+//! ([`static_load_cases`](crate::mechanisms::mr2120::accuracy::static_load_cases)).
+//!
+//! Two answers per pose, side by side:
+//! * **first order**: the play bound is linear in h ([`linear_case`]), so the allowable h is
+//!   the accuracy divided by the largest error per metre of clearance over the load cases
+//!   and the six errors of eq. (4.1). None at a singular configuration.
+//! * **nonlinear**: the largest h at which every static equilibrium of the clearance model
+//!   ([`static_envelope`]) meets the accuracy, by bisection on h (relative width
+//!   [`BISECTION_TOLERANCE`]); it includes the contact elasticity the first order leaves out
+//!   (which alone may break the accuracy: then no clearance is allowable, and it says so).
+//!
+//! Accuracy: every |d_x|, |d_y|, |d_z| ≤ `position` (m) and every |δx|, |δy|, |δz| ≤
+//! `rotation` (rad), the errors measured from the ideal pose as in the paper.
+
+use crate::mechanisms::mr2120::accuracy::{linear_case, static_envelope, static_load_cases, Excitation};
+use crate::mechanisms::mr2120::geometry::{Geometry, MassProperties};
+use crate::mechanisms::mr2120::ideal::Mr2120Error;
+use crate::mechanisms::mr2120::paper::{ClearanceSet, Table2Point};
+use crate::multibody::ModelError;
+use serde::Serialize;
+
+/// Relative width of the bracket at which the nonlinear bisection stops.
+pub const BISECTION_TOLERANCE: f64 = 0.01;
+/// Largest clearance the nonlinear search considers, m (1 mm: far beyond any bearing).
+pub const MAX_CLEARANCE: f64 = 1e-3;
+
+/// A required positioning accuracy.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Accuracy {
+    /// Largest |d_x|, |d_y|, |d_z| of the platform centre, m.
+    pub position: f64,
+    /// Largest |δx|, |δy|, |δz| of the platform, rad.
+    pub rotation: f64,
+}
+
+/// Bad input or a failed model evaluation.
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    /// A non-positive or non-finite accuracy.
+    #[error("accuracy must be positive and finite: position {position} m, rotation {rotation} rad")]
+    BadAccuracy {
+        /// Position accuracy, m.
+        position: f64,
+        /// Rotation accuracy, rad.
+        rotation: f64,
+    },
+    /// The model failed.
+    #[error(transparent)]
+    Model(#[from] Mr2120Error),
+}
+
+/// The allowable uniform clearance at one pose.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AllowablePoint {
+    /// Pose (M1, M2, M3).
+    pub point: String,
+    /// First-order allowable h, m (`None` at a singular configuration).
+    pub linear_h: Option<f64>,
+    /// The error that limits the first-order answer ("d_x", …, "δz").
+    pub linear_limit: Option<String>,
+    /// Nonlinear allowable h, m (`None` when even the smallest clearance breaks the accuracy:
+    /// contact elasticity alone does).
+    pub nonlinear_h: Option<f64>,
+    /// The largest |error| per component of the equilibria at `nonlinear_h` (d in m, δ in
+    /// rad), or at the smallest clearance tried when none is allowable.
+    pub nonlinear_errors: [f64; 6],
+    /// The nonlinear answer meets the accuracy (checked at `nonlinear_h`).
+    pub verified: bool,
+}
+
+const NAMES: [&str; 6] = ["d_x", "d_y", "d_z", "δx", "δy", "δz"];
+
+fn limit(acc: &Accuracy, k: usize) -> f64 {
+    if k < 3 {
+        acc.position
+    } else {
+        acc.rotation
+    }
+}
+
+fn worst(r: &[(f64, f64); 6]) -> [f64; 6] {
+    std::array::from_fn(|k| r[k].0.abs().max(r[k].1.abs()))
+}
+
+fn meets(e: &[f64; 6], acc: &Accuracy) -> bool {
+    (0..6).all(|k| e[k] <= limit(acc, k))
+}
+
+/// The allowable uniform clearance at each of `points` (see the [module docs](self)).
+pub fn allowable_uniform(
+    g: &Geometry,
+    mp: &MassProperties,
+    points: &[Table2Point],
+    accuracy: Accuracy,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Vec<AllowablePoint>, DesignError> {
+    if !(accuracy.position > 0.0
+        && accuracy.position.is_finite()
+        && accuracy.rotation > 0.0
+        && accuracy.rotation.is_finite())
+    {
+        return Err(DesignError::BadAccuracy {
+            position: accuracy.position,
+            rotation: accuracy.rotation,
+        });
+    }
+    let ex = Excitation::default();
+    let set = |h: f64| ClearanceSet {
+        name: "uniform",
+        radial: h,
+        axial: h,
+    };
+    let mut out = vec![];
+    for (i, p) in points.iter().enumerate() {
+        progress(i, points.len());
+        // First order: errors per metre of uniform clearance, worst over the load cases.
+        let mut per_m = [0.0f64; 6];
+        let mut singular = false;
+        for (force, torque) in static_load_cases(&ex) {
+            match linear_case(g, mp, p, &set(1e-5), force, torque) {
+                Ok(e) => {
+                    let e = e.at(1.0, 1.0);
+                    for k in 0..6 {
+                        per_m[k] = per_m[k].max(e[k].abs());
+                    }
+                }
+                Err(Mr2120Error::Model(ModelError::Singular { .. })) => {
+                    singular = true;
+                    break;
+                }
+                Err(e) => return Err(e.into()),
+            }
+        }
+        let (linear_h, linear_limit) = if singular {
+            (None, None)
+        } else {
+            let (k, h) = (0..6)
+                .map(|k| (k, limit(&accuracy, k) / per_m[k]))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .expect("six errors");
+            (Some(h), Some(NAMES[k].to_string()))
+        };
+        // Nonlinear: bisection on h between a clearance that meets the accuracy and one
+        // that does not.
+        let errors_at = |h: f64| -> Result<[f64; 6], DesignError> {
+            let (r, _) = static_envelope(g, mp, p, &set(h), &ex)?;
+            Ok(worst(&r))
+        };
+        let h_min = 1e-8;
+        let e_min = errors_at(h_min)?;
+        let (nonlinear_h, nonlinear_errors) = if !meets(&e_min, &accuracy) {
+            (None, e_min)
+        } else {
+            let mut lo = (h_min, e_min);
+            let mut hi = linear_h.unwrap_or(1e-5).clamp(2.0 * h_min, MAX_CLEARANCE);
+            // Grow the upper end until it fails (or reaches the largest clearance).
+            loop {
+                let e = errors_at(hi)?;
+                if !meets(&e, &accuracy) {
+                    break;
+                }
+                lo = (hi, e);
+                if hi >= MAX_CLEARANCE {
+                    break;
+                }
+                hi = (hi * 2.0).min(MAX_CLEARANCE);
+            }
+            if lo.0 < hi {
+                while (hi - lo.0) > BISECTION_TOLERANCE * lo.0 {
+                    let mid = (lo.0 * hi).sqrt();
+                    let e = errors_at(mid)?;
+                    if meets(&e, &accuracy) {
+                        lo = (mid, e);
+                    } else {
+                        hi = mid;
+                    }
+                }
+            }
+            (Some(lo.0), lo.1)
+        };
+        out.push(AllowablePoint {
+            point: p.name.into(),
+            linear_h,
+            linear_limit,
+            nonlinear_h,
+            verified: nonlinear_h.is_some() && meets(&nonlinear_errors, &accuracy),
+            nonlinear_errors,
+        });
+    }
+    progress(points.len(), points.len());
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mechanisms::mr2120::paper::TABLE2;
+
+    #[test]
+    fn a_non_positive_accuracy_is_an_error() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let bad = Accuracy {
+            position: 0.0,
+            rotation: 1e-3,
+        };
+        assert!(matches!(
+            allowable_uniform(&g, &mp, &TABLE2[..1], bad, |_, _| {}),
+            Err(DesignError::BadAccuracy { .. })
+        ));
+    }
+
+    /// At M1 the first-order and the nonlinear allowable clearance agree within 30 %, and the
+    /// nonlinear one meets the accuracy; at M3 (singular) there is no first-order answer.
+    #[test]
+    fn allowable_clearance_at_m1_and_m3() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let acc = Accuracy {
+            position: 0.2e-3,
+            rotation: 0.5f64.to_radians(),
+        };
+        let r = allowable_uniform(&g, &mp, &[TABLE2[0], TABLE2[2]], acc, |_, _| {}).unwrap();
+        let (m1, m3) = (&r[0], &r[1]);
+        let (l, n) = (m1.linear_h.unwrap(), m1.nonlinear_h.unwrap());
+        assert!(m1.verified, "{m1:?}");
+        assert!((l / n - 1.0).abs() < 0.3, "{m1:?}");
+        assert!(m3.linear_h.is_none(), "{m3:?}");
+    }
+}
