@@ -237,9 +237,20 @@ fn design_clearance_refuses_bad_accuracies_and_points_with_exit_2() {
     ] {
         let out = lash(args);
         assert_eq!(out.status.code(), Some(2), "{args:?}");
-        assert!(String::from_utf8_lossy(&out.stderr).contains("error:"), "{args:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("error:"),
+            "{args:?}"
+        );
     }
-    let out = lash(&["design", "clearance", "--accuracy", "0.2mm,0.5deg", "--points", "M1", "--json"]);
+    let out = lash(&[
+        "design",
+        "clearance",
+        "--accuracy",
+        "0.2mm,0.5deg",
+        "--points",
+        "M1",
+        "--json",
+    ]);
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let h = v["uniform"]["h_lr"].as_f64().unwrap();
