@@ -24,6 +24,23 @@ pub enum DesignWhat {
         #[arg(long)]
         json: bool,
     },
+    /// The allowable uniform clearance along the paper's path on the z axis, from M1 down
+    /// towards the direct singularity M3, against the distance to M3: first order and
+    /// nonlinear, a table and a chart (PNG and SVG).
+    Curve {
+        /// Required accuracy, as for `design clearance` (e.g. 0.2mm,0.5deg).
+        #[arg(long)]
+        accuracy: String,
+        /// Number of poses, log-spaced in the distance to M3 from 1 mm to M1 (249.1 mm).
+        #[arg(long, default_value_t = 10)]
+        poses: usize,
+        /// Output folder for the chart.
+        #[arg(long, default_value = "out/design-curve")]
+        out: std::path::PathBuf,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 /// A length or an angle with its unit, in SI (m or rad).
@@ -57,21 +74,18 @@ pub fn run(what: DesignWhat) -> Result<Output, CliError> {
             points,
             json,
         } => clearance(&accuracy, &points, json),
+        DesignWhat::Curve {
+            accuracy,
+            poses,
+            out,
+            json,
+        } => curve(&accuracy, poses, &out, json),
     }
 }
 
 fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliError> {
-    let mut parts = accuracy.split(',');
-    let position = quantity(parts.next().unwrap_or(""), "position")?;
-    let rotation = match parts.next() {
-        Some(r) => quantity(r, "rotation")?,
-        None => 1f64.to_radians(),
-    };
-    if parts.next().is_some() {
-        return Err(CliError::input(
-            "--accuracy takes a position and at most one rotation",
-        ));
-    }
+    let acc = parse_accuracy(accuracy)?;
+    let (position, rotation) = (acc.position, acc.rotation);
     let pts = items(points)
         .map(|n| {
             paper::TABLE2
@@ -86,7 +100,6 @@ fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliE
     if pts.is_empty() {
         return Err(CliError::input("--points names no pose"));
     }
-    let acc = Accuracy { position, rotation };
     let mut progress = Progress::new("design clearance", pts.len() as f64);
     let r = allowable_uniform(
         &Geometry::default(),
@@ -163,4 +176,99 @@ fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliE
         );
     }
     Ok(Output::OK)
+}
+
+fn curve(accuracy: &str, poses: usize, out: &std::path::Path, as_json: bool) -> Result<Output, CliError> {
+    let acc = parse_accuracy(accuracy)?;
+    if poses < 2 {
+        return Err(CliError::input("--poses must be at least 2"));
+    }
+    let far = paper::TABLE2[0].m[2] - paper::TABLE2[2].m[2];
+    let near = 1e-3;
+    let distances: Vec<f64> = (0..poses)
+        .map(|k| near * (far / near).powf(k as f64 / (poses - 1) as f64))
+        .collect();
+    let mut progress = Progress::new("design curve", poses as f64);
+    let r = lash::design::allowable_along(
+        &Geometry::default(),
+        &MassProperties::default(),
+        &distances,
+        acc,
+        |k, _| progress.update(k as f64),
+    );
+    progress.finish();
+    let r = r.map_err(CliError::run)?;
+    {
+        use lash::plot::{LineChart, Series};
+        let pts = |f: &dyn Fn(&lash::design::CurvePoint) -> Option<f64>| -> Vec<(f64, f64)> {
+            r.iter()
+                .filter_map(|p| f(p).map(|h| (p.distance_to_m3 * 1e3, h * 1e6)))
+                .collect()
+        };
+        let chart = LineChart {
+            title: format!(
+                "MR2120: allowable uniform clearance for |d| <= {:.3} mm, |delta| <= {:.3} deg",
+                acc.position * 1e3,
+                acc.rotation.to_degrees()
+            ),
+            x_label: "distance to the direct singularity M3 along z, mm".into(),
+            y_label: "allowable clearance h_LR = h_LW, um".into(),
+            series: vec![
+                Series {
+                    name: "nonlinear equilibria".into(),
+                    points: pts(&|p| p.nonlinear_h),
+                },
+                Series {
+                    name: "first order (play bound)".into(),
+                    points: pts(&|p| p.linear_h),
+                },
+            ],
+            y_range: None,
+        };
+        std::fs::create_dir_all(out).map_err(|e| CliError::run(format!("{}: {e}", out.display())))?;
+        chart
+            .save(&out.join("allowable-clearance"))
+            .map_err(CliError::run)?;
+        if !as_json {
+            println!("chart: {}/allowable-clearance.png (.svg)", out.display());
+        }
+    }
+    if as_json {
+        println!("{}", json(&r));
+        return Ok(Output::OK);
+    }
+    println!(
+        "{:>12} {:>14} {:>16} {:>16}",
+        "to M3, mm", "direct meas.", "first order um", "nonlinear um"
+    );
+    let um = |h: Option<f64>| {
+        h.map(|h| format!("{:.3}", h * 1e6))
+            .unwrap_or_else(|| "none".into())
+    };
+    for p in &r {
+        println!(
+            "{:>12.2} {:>14.2e} {:>16} {:>16}",
+            p.distance_to_m3 * 1e3,
+            p.direct_measure,
+            um(p.linear_h),
+            um(p.nonlinear_h)
+        );
+    }
+    Ok(Output::OK)
+}
+
+/// `--accuracy`: a position with its unit and, after a comma, an optional rotation.
+fn parse_accuracy(accuracy: &str) -> Result<Accuracy, CliError> {
+    let mut parts = accuracy.split(',');
+    let position = quantity(parts.next().unwrap_or(""), "position")?;
+    let rotation = match parts.next() {
+        Some(r) => quantity(r, "rotation")?,
+        None => 1f64.to_radians(),
+    };
+    if parts.next().is_some() {
+        return Err(CliError::input(
+            "--accuracy takes a position and at most one rotation",
+        ));
+    }
+    Ok(Accuracy { position, rotation })
 }

@@ -194,6 +194,62 @@ pub fn allowable_uniform(
     Ok(out)
 }
 
+/// One pose of [`allowable_along`]: the allowable uniform clearance against the distance to
+/// the direct singularity M3.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CurvePoint {
+    /// Platform centre height z_M, m (x_M = y_M = 0).
+    pub z: f64,
+    /// Distance to M3 along z, m.
+    pub distance_to_m3: f64,
+    /// Direct-singularity measure |det J_x| / L2³ of the ideal model (0 at M3).
+    pub direct_measure: f64,
+    /// First-order allowable h, m (`None` at a singular configuration).
+    pub linear_h: Option<f64>,
+    /// Nonlinear allowable h, m (`None`: no clearance meets the accuracy).
+    pub nonlinear_h: Option<f64>,
+    /// The nonlinear answer was checked at `nonlinear_h`.
+    pub verified: bool,
+}
+
+/// The allowable uniform clearance along the paper's path on the z axis, at the given
+/// distances above M3 (m): the curve the paper states only in words (accuracy needs tighter
+/// clearances near a singular configuration).
+pub fn allowable_along(
+    g: &Geometry,
+    mp: &MassProperties,
+    distances: &[f64],
+    accuracy: Accuracy,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Vec<CurvePoint>, DesignError> {
+    let m3 = crate::mechanisms::mr2120::paper::TABLE2[2].m[2];
+    let mut out = vec![];
+    for (i, &d) in distances.iter().enumerate() {
+        progress(i, distances.len());
+        let z = m3 + d;
+        let m = nalgebra::Vector3::new(0.0, 0.0, z);
+        let q = crate::mechanisms::mr2120::kinematics::inverse(g, m).map_err(Mr2120Error::from)?;
+        let direct_measure = crate::mechanisms::mr2120::kinematics::singularity(g, q, m).direct_measure;
+        let pose = Table2Point {
+            name: "path",
+            m: [0.0, 0.0, z],
+            q_deg: q.map(f64::to_degrees),
+        };
+        let r = allowable_uniform(g, mp, &[pose], accuracy, |_, _| {})?;
+        let p = &r[0];
+        out.push(CurvePoint {
+            z,
+            distance_to_m3: d,
+            direct_measure,
+            linear_h: p.linear_h,
+            nonlinear_h: p.nonlinear_h,
+            verified: p.verified,
+        });
+    }
+    progress(distances.len(), distances.len());
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -227,5 +283,26 @@ mod tests {
         assert!(m1.verified, "{m1:?}");
         assert!((l / n - 1.0).abs() < 0.3, "{m1:?}");
         assert!(m3.linear_h.is_none(), "{m3:?}");
+    }
+
+    /// Along the z path the allowable clearance shrinks towards M3, and near it the first
+    /// order promises a clearance the equilibria refuse (contact elasticity alone breaks the
+    /// accuracy within 5 mm of the singularity).
+    #[test]
+    fn allowable_clearance_shrinks_towards_the_singularity() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let acc = Accuracy {
+            position: 0.2e-3,
+            rotation: 0.5f64.to_radians(),
+        };
+        let r = allowable_along(&g, &mp, &[5e-3, 0.1, 0.249], acc, |_, _| {}).unwrap();
+        assert!(
+            r[0].nonlinear_h.is_none() && r[0].linear_h.is_some(),
+            "{:?}",
+            r[0]
+        );
+        let (mid, far) = (r[1].nonlinear_h.unwrap(), r[2].nonlinear_h.unwrap());
+        assert!(mid < far, "{r:?}");
+        assert!(r[0].direct_measure < r[1].direct_measure && r[1].direct_measure < r[2].direct_measure);
     }
 }

@@ -7,4 +7,4 @@
 
 pub mod allowable;
 
-pub use allowable::{allowable_uniform, Accuracy, AllowablePoint, DesignError};
+pub use allowable::{allowable_along, allowable_uniform, Accuracy, AllowablePoint, CurvePoint, DesignError};
