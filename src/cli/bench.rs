@@ -166,18 +166,8 @@ pub fn run(what: BenchWhat) -> Result<Output, CliError> {
 }
 
 fn statics(points: &str, sets: &str, repeats: usize, as_json: bool) -> Result<Output, CliError> {
-    use lash::mechanisms::mr2120::{clearance, geometry, paper};
-    let points = items(points)
-        .map(|n| {
-            paper::TABLE2
-                .iter()
-                .find(|p| p.name.eq_ignore_ascii_case(n))
-                .copied()
-                .ok_or_else(|| {
-                    CliError::Input(format!("--points: unknown point '{n}'; expected M1, M2 or M3"))
-                })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    use lash::mechanisms::mr2120::{clearance, geometry};
+    let points = super::mr2120_points(points)?;
     let sets = items(sets)
         .map(|n| clearance::clearance_set(n).map_err(|e| CliError::Input(format!("--sets: {e}"))))
         .collect::<Result<Vec<_>, _>>()?;

@@ -1,7 +1,7 @@
 //! `lash design`: clearance design for a required positioning accuracy.
 
 use super::progress::Progress;
-use super::{items, json, CliError, Output};
+use super::{json, CliError, Output};
 use lash::design::{allowable_uniform, Accuracy};
 use lash::mechanisms::mr2120::geometry::{Geometry, MassProperties};
 use lash::mechanisms::mr2120::paper;
@@ -86,17 +86,7 @@ pub fn run(what: DesignWhat) -> Result<Output, CliError> {
 fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliError> {
     let acc = parse_accuracy(accuracy)?;
     let (position, rotation) = (acc.position, acc.rotation);
-    let pts = items(points)
-        .map(|n| {
-            paper::TABLE2
-                .iter()
-                .find(|p| p.name.eq_ignore_ascii_case(n))
-                .copied()
-                .ok_or_else(|| {
-                    CliError::Input(format!("--points: unknown point '{n}'; expected M1, M2 or M3"))
-                })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let pts = super::mr2120_points(points)?;
     if pts.is_empty() {
         return Err(CliError::input("--points names no pose"));
     }

@@ -75,6 +75,17 @@ pub fn items(s: &str) -> impl Iterator<Item = &str> {
     s.split(',').map(str::trim).filter(|x| !x.is_empty())
 }
 
+/// The MR2120 points a comma-separated `--points` names (M1, M2, M3), or an input error.
+pub fn mr2120_points(s: &str) -> Result<Vec<lash::mechanisms::mr2120::paper::Table2Point>, CliError> {
+    items(s)
+        .map(|n| {
+            lash::mechanisms::mr2120::paper::table2_point(n).ok_or_else(|| {
+                CliError::Input(format!("--points: unknown point '{n}'; expected M1, M2 or M3"))
+            })
+        })
+        .collect()
+}
+
 /// Pretty JSON of a result the library serialises.
 pub fn json(v: &impl serde::Serialize) -> String {
     serde_json::to_string_pretty(v).expect("lash's results serialise")

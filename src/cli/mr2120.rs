@@ -279,17 +279,7 @@ fn accuracy_cmd(
     methods: &[accuracy::Method],
     as_json: bool,
 ) -> Result<Output, CliError> {
-    let pts = points
-        .split(',')
-        .map(str::trim)
-        .map(|name| {
-            paper::TABLE2
-                .iter()
-                .find(|p| p.name.eq_ignore_ascii_case(name))
-                .copied()
-                .ok_or_else(|| CliError::Input(format!("unknown point '{name}'; expected M1, M2 or M3")))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let pts = super::mr2120_points(points)?;
     let ss = sets
         .split(',')
         .map(str::trim)

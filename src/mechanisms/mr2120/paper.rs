@@ -47,6 +47,14 @@ pub const TABLE2: [Table2Point; 3] = [
     },
 ];
 
+/// The point of Table 2 named `name` (M1, M2, M3; case-insensitive).
+pub fn table2_point(name: &str) -> Option<Table2Point> {
+    TABLE2
+        .iter()
+        .find(|p| p.name.eq_ignore_ascii_case(name.trim()))
+        .copied()
+}
+
 /// A clearance set of Table 1: radial and axial clearance of the universal-joint bearings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ClearanceSet {
