@@ -115,7 +115,7 @@ pub fn statics_bench(
     progress(total, total);
     let direct_total_s: f64 = rows.iter().map(|r| r.direct_s).sum();
     let relaxation_total_s: f64 = rows.iter().map(|r| r.relaxation_s).sum();
-    let cases = super::super::mechanisms::mr2120::accuracy::static_load_cases(&ex).len() * rows.len().max(1);
+    let cases = crate::mechanisms::mr2120::accuracy::static_load_cases(&ex).len() * rows.len().max(1);
     Ok(StaticsBench {
         direct_total_s,
         relaxation_total_s,

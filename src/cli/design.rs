@@ -104,16 +104,17 @@ fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliE
         other => CliError::run(other),
     })?;
     let verified = r.iter().all(|p| p.verified);
-    let uniform = r
+    // The uniform answer over all poses: the smallest nonlinear h, none if any pose has none.
+    let uniform: Option<f64> = r
         .iter()
-        .filter_map(|p| p.nonlinear_h)
-        .fold(f64::INFINITY, f64::min);
+        .map(|p| p.nonlinear_h)
+        .try_fold(f64::INFINITY, |m, h| h.map(|h| m.min(h)));
     if as_json {
         let out = serde_json::json!({
             "accuracy": { "position_m": position, "rotation_rad": rotation },
             "uniform": {
-                "h_lr": if uniform.is_finite() && r.iter().all(|p| p.nonlinear_h.is_some()) { Some(uniform) } else { None },
-                "h_lw": if uniform.is_finite() && r.iter().all(|p| p.nonlinear_h.is_some()) { Some(uniform) } else { None },
+                "h_lr": uniform,
+                "h_lw": uniform,
             },
             "per_point": r,
             "per_joint": serde_json::Value::Null,
@@ -156,14 +157,13 @@ fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliE
             e[5].to_degrees()
         );
     }
-    if r.iter().any(|p| p.nonlinear_h.is_none()) {
-        println!("at a pose marked 'none' even 0.01 um of clearance breaks the accuracy: contact elasticity or the singular sag alone exceeds it");
-    } else {
-        println!(
+    match uniform {
+        None => println!("at a pose marked 'none' even 0.01 um of clearance breaks the accuracy: contact elasticity or the singular sag alone exceeds it"),
+        Some(h) => println!(
             "uniform over these poses: h_LR = h_LW = {:.3} um (nonlinear, verified: {})",
-            uniform * 1e6,
+            h * 1e6,
             if verified { "yes" } else { "no" }
-        );
+        ),
     }
     Ok(Output::OK)
 }

@@ -14,6 +14,27 @@ pub struct Culprit {
     pub weighted: f64,
 }
 
+/// The `k` components of `sys` with the largest |x_i|·w_i, named (zero ones left out; NaN
+/// ones kept).
+pub(crate) fn largest<P: super::DaeSystem>(sys: &P, x: &[f64], w: &[f64], k: usize) -> Vec<Culprit> {
+    let mut idx: Vec<(usize, f64)> = x
+        .iter()
+        .zip(w)
+        .map(|(a, b)| (a * b).abs())
+        .enumerate()
+        .filter(|(_, v)| *v > 0.0 || v.is_nan())
+        .collect();
+    idx.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Less));
+    idx.into_iter()
+        .take(k)
+        .map(|(i, v)| Culprit {
+            index: i,
+            name: sys.component_name(i),
+            weighted: v,
+        })
+        .collect()
+}
+
 fn fmt_culprits(c: &[Culprit]) -> String {
     if c.is_empty() {
         return String::new();

@@ -11,6 +11,35 @@ pub enum AbsTol {
     Vector(Vec<f64>),
 }
 
+impl AbsTol {
+    /// One absolute tolerance per component of a system of `n` unknowns, each checked to be
+    /// positive and finite (`name(i)` names component i in the error).
+    pub(crate) fn expand(
+        &self,
+        n: usize,
+        name: impl Fn(usize) -> String,
+    ) -> Result<Vec<f64>, super::DaeError> {
+        let atol = match self {
+            AbsTol::Scalar(a) => vec![*a; n],
+            AbsTol::Vector(v) if v.len() != n => {
+                return Err(super::DaeError::InvalidInput(format!(
+                    "atol has length {}, expected {n}",
+                    v.len()
+                )))
+            }
+            AbsTol::Vector(v) => v.clone(),
+        };
+        match atol.iter().position(|a| !(*a > 0.0 && a.is_finite())) {
+            Some(i) => Err(super::DaeError::InvalidInput(format!(
+                "atol must be positive, got {} for {}",
+                atol[i],
+                name(i)
+            ))),
+            None => Ok(atol),
+        }
+    }
+}
+
 /// Every tunable of the BDF solver. Defaults follow SUNDIALS IDA where it has one.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BdfOptions {

@@ -25,7 +25,7 @@
 //! [`LinearSolver`](super::LinearSolver) seam) is the BDF's.
 
 use super::bdf::linsys::IterationMatrix;
-use super::error::{Culprit, DaeError};
+use super::error::{largest, Culprit, DaeError};
 use super::linear_solver::LinearSolverKind;
 use super::options::{timed, AbsTol, PhaseTimes};
 use super::problem::{DaeSystem, EvalError, VarKind};
@@ -123,6 +123,7 @@ pub fn steady_state<P: DaeSystem>(
 ) -> Result<SteadyStats, DaeError> {
     let n = sys.dim();
     validate(opts, n, y.len())?;
+    let atol = opts.atol.expand(n, |i| sys.component_name(i))?;
     let pattern = sys.jacobian_pattern();
     let mut mat = IterationMatrix::new(pattern, sys.jacobian_source(), opts.linear_solver)
         .map_err(|e| DaeError::InvalidInput(format!("Jacobian pattern: {e}")))?;
@@ -150,11 +151,14 @@ pub fn steady_state<P: DaeSystem>(
     // contact) but never far above the best iterate, so a chain of growing steps cannot
     // carry the iteration away.
     let mut best = rnorm;
-    let mut last = (f64::INFINITY, Vec::new());
+    // The last accepted update and its weighted norm (for the error report).
+    let (mut last_norm, mut last_dy, mut accepted) = (f64::INFINITY, vec![0.0; n], false);
     let mut iterations = 0;
     while iterations < opts.max_iterations {
         iterations += 1;
-        weights(opts, y, &mut ewt);
+        for ((w, yi), a) in ewt.iter_mut().zip(y.iter()).zip(&atol) {
+            *w = 1.0 / (opts.rtol * yi.abs() + a);
+        }
         // The iteration matrix dF/dy + (1/τ)·dF/dy' at (y_k, 0), factorised.
         stats.residual_evals += mat.fd_cost();
         let setup = timed(&mut stats.time.jacobian_s, || {
@@ -200,7 +204,9 @@ pub fn steady_state<P: DaeSystem>(
             continue;
         }
         let unorm = update_norm(&dy, &ewt, &kinds, opts.suppress_algebraic);
-        last = (unorm, dy.clone());
+        last_norm = unorm;
+        last_dy.copy_from_slice(&dy);
+        accepted = true;
         y.copy_from_slice(&y_new);
         std::mem::swap(&mut r, &mut r_new);
         let ratio = if new_norm > 0.0 {
@@ -230,34 +236,18 @@ pub fn steady_state<P: DaeSystem>(
             tau = tau.max((tau * opts.max_growth).min(opts.settle_time));
         }
     }
-    let (unorm, dy) = last;
-    let mut culprits: Vec<Culprit> = if dy.is_empty() {
-        r.iter()
-            .enumerate()
-            .map(|(i, v)| Culprit {
-                index: i,
-                name: sys.component_name(i),
-                weighted: v.abs(),
-            })
-            .collect()
+    // Culprits: the largest weighted last update, or the largest residuals if no step was
+    // accepted.
+    let culprits = if accepted {
+        largest(sys, &last_dy, &ewt, 5)
     } else {
-        dy.iter()
-            .zip(&ewt)
-            .enumerate()
-            .map(|(i, (d, w))| Culprit {
-                index: i,
-                name: sys.component_name(i),
-                weighted: (d * w).abs(),
-            })
-            .collect()
+        largest(sys, &r, &vec![1.0; n], 5)
     };
-    culprits.sort_by(|a, b| b.weighted.total_cmp(&a.weighted));
-    culprits.truncate(5);
     Err(DaeError::SteadyState {
         t,
         tau,
         iterations,
-        update_norm: unorm,
+        update_norm: last_norm,
         residual_norm: rnorm,
         culprits,
     })
@@ -301,17 +291,7 @@ fn validate(opts: &SteadyOptions, n: usize, ylen: usize) -> Result<(), DaeError>
             "steady state: y has {ylen} components, the system {n}"
         )));
     }
-    match &opts.atol {
-        AbsTol::Scalar(a) if !(*a > 0.0 && a.is_finite()) => Err(bad("atol", *a)),
-        AbsTol::Vector(v) if v.len() != n => Err(DaeError::InvalidInput(format!(
-            "steady state: atol has {} components, the system {n}",
-            v.len()
-        ))),
-        AbsTol::Vector(v) if v.iter().any(|a| !(*a > 0.0 && a.is_finite())) => Err(DaeError::InvalidInput(
-            "steady state: every atol must be > 0 and finite".into(),
-        )),
-        _ => Ok(()),
-    }
+    Ok(())
 }
 
 fn eval<P: DaeSystem>(
@@ -325,16 +305,6 @@ fn eval<P: DaeSystem>(
 ) -> Result<(), EvalError> {
     stats.residual_evals += 1;
     timed(&mut stats.time.residual_s, || sys.residual(t, y, yp, p, r))
-}
-
-fn weights(opts: &SteadyOptions, y: &[f64], ewt: &mut [f64]) {
-    for (i, (w, yi)) in ewt.iter_mut().zip(y).enumerate() {
-        let a = match &opts.atol {
-            AbsTol::Scalar(a) => *a,
-            AbsTol::Vector(v) => v[i],
-        };
-        *w = 1.0 / (opts.rtol * yi.abs() + a);
-    }
 }
 
 fn update_norm(dy: &[f64], ewt: &[f64], kinds: &[VarKind], suppress_algebraic: bool) -> f64 {

@@ -4,7 +4,7 @@
 //! ([`static_load_cases`](crate::mechanisms::mr2120::accuracy::static_load_cases)).
 //!
 //! Two answers per pose, side by side:
-//! * **first order**: the play bound is linear in h ([`linear_case`]), so the allowable h is
+//! * **first order**: the play bound is linear in h ([`linear_envelope`]), so the allowable h is
 //!   the accuracy divided by the largest error per metre of clearance over the load cases
 //!   and the six errors of eq. (4.1). None at a singular configuration.
 //! * **nonlinear**: the largest h at which every static equilibrium of the clearance model
@@ -15,7 +15,7 @@
 //! Accuracy: every |d_x|, |d_y|, |d_z| ≤ `position` (m) and every |δx|, |δy|, |δz| ≤
 //! `rotation` (rad), the errors measured from the ideal pose as in the paper.
 
-use crate::mechanisms::mr2120::accuracy::{linear_case, static_envelope, static_load_cases, Excitation};
+use crate::mechanisms::mr2120::accuracy::{linear_envelope, static_envelope, Excitation};
 use crate::mechanisms::mr2120::geometry::{Geometry, MassProperties};
 use crate::mechanisms::mr2120::ideal::Mr2120Error;
 use crate::mechanisms::mr2120::paper::{ClearanceSet, Table2Point};
@@ -116,32 +116,19 @@ pub fn allowable_uniform(
     let mut out = vec![];
     for (i, p) in points.iter().enumerate() {
         progress(i, points.len());
-        // First order: errors per metre of uniform clearance, worst over the load cases.
-        let mut per_m = [0.0f64; 6];
-        let mut singular = false;
-        for (force, torque) in static_load_cases(&ex) {
-            match linear_case(g, mp, p, &set(1e-5), force, torque) {
-                Ok(e) => {
-                    let e = e.at(1.0, 1.0);
-                    for k in 0..6 {
-                        per_m[k] = per_m[k].max(e[k].abs());
-                    }
-                }
-                Err(Mr2120Error::Model(ModelError::Singular { .. })) => {
-                    singular = true;
-                    break;
-                }
-                Err(e) => return Err(e.into()),
+        // First order: the envelope is linear in h, so at h = 1 m it holds the errors per
+        // metre of uniform clearance.
+        let (linear_h, linear_limit) = match linear_envelope(g, mp, p, &set(1.0), &ex) {
+            Ok(r) => {
+                let per_m = worst(&r);
+                let (k, h) = (0..6)
+                    .map(|k| (k, limit(&accuracy, k) / per_m[k]))
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .expect("six errors");
+                (Some(h), Some(NAMES[k].to_string()))
             }
-        }
-        let (linear_h, linear_limit) = if singular {
-            (None, None)
-        } else {
-            let (k, h) = (0..6)
-                .map(|k| (k, limit(&accuracy, k) / per_m[k]))
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .expect("six errors");
-            (Some(h), Some(NAMES[k].to_string()))
+            Err(Mr2120Error::Model(ModelError::Singular { .. })) => (None, None),
+            Err(e) => return Err(e.into()),
         };
         // Nonlinear: bisection on h between a clearance that meets the accuracy and one
         // that does not.

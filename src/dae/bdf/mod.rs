@@ -24,7 +24,7 @@ mod step;
 pub use output::Outcome;
 
 use super::error::{Culprit, DaeError};
-use super::options::{AbsTol, BdfOptions, Statistics};
+use super::options::{BdfOptions, Statistics};
 use super::problem::{DaeSystem, VarKind};
 use linsys::IterationMatrix;
 
@@ -174,25 +174,7 @@ impl<P: DaeSystem> BdfSolver<P> {
                 opts.rtol
             )));
         }
-        let atol = match &opts.atol {
-            AbsTol::Scalar(a) => vec![*a; n],
-            AbsTol::Vector(v) => {
-                if v.len() != n {
-                    return Err(DaeError::InvalidInput(format!(
-                        "atol has length {}, expected {n}",
-                        v.len()
-                    )));
-                }
-                v.clone()
-            }
-        };
-        if let Some(i) = atol.iter().position(|a| !(*a > 0.0 && a.is_finite())) {
-            return Err(DaeError::InvalidInput(format!(
-                "atol must be positive, got {} for {}",
-                atol[i],
-                sys.component_name(i)
-            )));
-        }
+        let atol = opts.atol.expand(n, |i| sys.component_name(i))?;
         if !(1..=MAX_ORDER).contains(&opts.max_order) {
             return Err(DaeError::InvalidInput(format!(
                 "max_order must be 1–{MAX_ORDER}, got {}",
@@ -409,21 +391,6 @@ impl<P: DaeSystem> BdfSolver<P> {
 
     /// The `k` components with the largest |x_i|·w_i, named.
     pub(crate) fn culprits(&self, x: &[f64], w: &[f64], k: usize) -> Vec<Culprit> {
-        let mut idx: Vec<(usize, f64)> = x
-            .iter()
-            .zip(w)
-            .map(|(a, b)| (a * b).abs())
-            .enumerate()
-            .filter(|(_, v)| *v > 0.0 || v.is_nan())
-            .collect();
-        idx.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap_or(std::cmp::Ordering::Less));
-        idx.into_iter()
-            .take(k)
-            .map(|(i, v)| Culprit {
-                index: i,
-                name: self.sys.component_name(i),
-                weighted: v,
-            })
-            .collect()
+        crate::dae::error::largest(&self.sys, x, w, k)
     }
 }
