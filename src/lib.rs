@@ -15,7 +15,8 @@
 //!    an analytic sparse Jacobian, analyses and the simulation pipeline.
 //! 4. [`contact`] — contact laws, Hertz stiffness, clearance bearings, joints with clearance.
 //! 5. [`mechanisms`] — the WUT MR2120 (ideal and clearance models, the paper's studies), the
-//!    DFKI pendulum, a clearance chain.
+//!    DFKI pendulum, a clearance chain; [`model_file`] — any mechanism from a TOML model file
+//!    (bodies, joints with or without clearance, drivers, forces, sensors, parameters).
 //! 6. [`diagnose`] — where a model and recordings disagree, the missing physics, its fit and
 //!    the held-out improvement; [`design`] — the allowable clearance for a required
 //!    accuracy (first order and verified by the nonlinear equilibria).
@@ -59,6 +60,7 @@ pub mod dae;
 pub mod design;
 pub mod diagnose;
 pub mod mechanisms;
+pub mod model_file;
 pub mod multibody;
 pub mod peers;
 #[cfg(feature = "plot")]

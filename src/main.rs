@@ -40,6 +40,11 @@ enum Command {
         #[command(subcommand)]
         what: cli::design::DesignWhat,
     },
+    /// Validate model files (TOML): degrees of freedom, joints, drivers, sensors, parameters,
+    /// assembly at t = 0.
+    Check(cli::model::CheckArgs),
+    /// Simulate a model file's mechanism: every sensor to CSV, one chart per sensor column.
+    Simulate(cli::model::SimulateArgs),
     /// The WUT MR2120 parallel mechanism of the reference paper.
     Mr2120 {
         #[command(subcommand)]
@@ -55,6 +60,8 @@ fn main() -> ExitCode {
         Command::Bench { what } => cli::bench::run(what),
         Command::Diagnose(a) => cli::diagnose::run(a),
         Command::Design { what } => cli::design::run(what),
+        Command::Check(a) => cli::model::check(a),
+        Command::Simulate(a) => cli::model::simulate_cmd(a),
         Command::Mr2120 { what } => cli::mr2120::run(what),
     };
     cli::exit(result)

@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod design;
 pub mod diagnose;
+pub mod model;
 pub mod mr2120;
 pub mod progress;
 pub mod validate;

@@ -373,6 +373,123 @@ impl ForceElement for RotationalTorque {
     }
 }
 
+/// The translation of side j relative to side i along an axis fixed in side i, as
+/// translational force elements see it: x = u·(p_j − p_i) − x₀ with u the axis, p_i and p_j
+/// points fixed in the two sides, x₀ its value in the configuration the element was built in
+/// (so x = 0 there); ẋ is its exact rate, (ω_i × u)·(p_j − p_i) + u·(ṗ_j − ṗ_i) (base frame).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RelativeTranslation {
+    /// Side i (the axis is fixed in it).
+    pub i: Attach,
+    /// Side j.
+    pub j: Attach,
+    /// Unit axis in side i's body frame.
+    pub axis_i: Vector3<f64>,
+    /// Point on side i, body frame, m.
+    pub point_i: Vector3<f64>,
+    /// Point on side j, body frame, m.
+    pub point_j: Vector3<f64>,
+    /// x₀, m.
+    pub offset: f64,
+}
+
+impl RelativeTranslation {
+    /// From the two sides' initial poses in `mech`, a base-frame `point` on the axis (both
+    /// sides' points start there) and a base-frame `axis`: x = 0 in that configuration.
+    /// `None` if a body handle does not exist or the axis is zero or not finite.
+    pub fn from_initial_poses(
+        mech: &super::Mechanism,
+        i: Attach,
+        j: Attach,
+        point: Vector3<f64>,
+        axis: Vector3<f64>,
+    ) -> Option<Self> {
+        let norm = axis.norm();
+        if !(norm.is_finite() && norm > 0.0) {
+            return None;
+        }
+        let pose = |a: Attach| -> Option<(Vector3<f64>, Matrix3<f64>)> {
+            match a {
+                Attach::Ground => Some((Vector3::zeros(), Matrix3::identity())),
+                Attach::Body(h) => mech
+                    .body(h)
+                    .map(|b| (b.position, super::rotation::rotation(&b.orientation.normalize()))),
+            }
+        };
+        let ((ri, ai), (rj, aj)) = (pose(i)?, pose(j)?);
+        Some(Self {
+            i,
+            j,
+            axis_i: ai.transpose() * (axis / norm),
+            point_i: ai.transpose() * (point - ri),
+            point_j: aj.transpose() * (point - rj),
+            offset: 0.0,
+        })
+    }
+
+    /// Bodies involved (not the ground).
+    pub fn bodies(&self) -> Vec<BodyHandle> {
+        [self.i, self.j].into_iter().filter_map(Attach::body).collect()
+    }
+
+    /// (x, ẋ, u): the displacement (m), its rate (m/s) and the axis in the base frame.
+    pub fn evaluate(&self, states: &[BodyState]) -> (f64, f64, Vector3<f64>) {
+        let (si, sj) = (state_of(states, self.i), state_of(states, self.j));
+        let u = si.a * self.axis_i;
+        let d = sj.point(&self.point_j) - si.point(&self.point_i);
+        let dd = sj.point_velocity(&self.point_j) - si.point_velocity(&self.point_i);
+        let omega_i = si.a * si.omega;
+        let x = u.dot(&d) - self.offset;
+        let rate = omega_i.cross(&u).dot(&d) + u.dot(&dd);
+        (x, rate, u)
+    }
+
+    /// Applies a force `f` (N) along the axis u on side j at its point, and −`f` on side i at
+    /// its point.
+    pub fn apply_force(&self, states: &[BodyState], loads: &mut [BodyLoad], u: &Vector3<f64>, f: f64) {
+        let force = u * f;
+        if let Attach::Body(h) = self.j {
+            loads[h.0].add_force_at(&states[h.0], &self.point_j, &force);
+        }
+        if let Attach::Body(h) = self.i {
+            loads[h.0].add_force_at(&states[h.0], &self.point_i, &(-force));
+        }
+    }
+}
+
+/// A force along a common axis given by a law F(t, x, ẋ) (N on side j along the axis, −F on
+/// side i; t in s, x and ẋ as [`RelativeTranslation`] defines them): friction in a prismatic
+/// joint, a force-commanded linear drive.
+#[derive(Clone)]
+pub struct TranslationalForce {
+    /// Name.
+    pub name: String,
+    /// The relative translation it acts on.
+    pub translation: RelativeTranslation,
+    /// The law F(t, x, ẋ), N.
+    pub law: Arc<dyn Fn(f64, f64, f64) -> f64 + Send + Sync>,
+}
+
+impl Debug for TranslationalForce {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "TranslationalForce({})", self.name)
+    }
+}
+
+impl ForceElement for TranslationalForce {
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn bodies(&self) -> Vec<BodyHandle> {
+        self.translation.bodies()
+    }
+    fn apply(&self, t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
+        let (x, rate, u) = self.translation.evaluate(states);
+        self.translation
+            .apply_force(states, loads, &u, (self.law)(t, x, rate));
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

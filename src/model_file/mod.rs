@@ -1,0 +1,439 @@
+//! Mechanisms from model files (TOML): bodies, joints (ideal or with clearance), drivers,
+//! forces, sensors and named parameters, so a mechanism needs no Rust.
+//!
+//! | file | concern |
+//! |---|---|
+//! | `schema.rs` | the tables as serde reads them (every value with its place) |
+//! | `read.rs` | files and includes, values with units, parameters |
+//! | `units.rs` | quantities: SI numbers, or strings with a unit (`"30 deg"`, `"5 mm"`) |
+//! | `series.rs` | sampled series (CSV) for drivers and efforts |
+//! | `build.rs` | tables → [`Mechanism`](crate::multibody::Mechanism), every fault located |
+//! | `sensors.rs` | what each recording column measures, read at a simulated sample |
+//! | `simulate.rs` | a simulation's sensor series, CSV and charts (`lash simulate`) |
+//! | `error.rs` | [`ModelFileError`]: file, line, column, [`Problem`] and message |
+//!
+//! # The format
+//!
+//! Every quantity is SI. A number is taken as SI; a string is a number with a unit whose
+//! dimension must fit the field (`"30 deg"`, `"5 mm"`, `"12 N"`), or the name of a declared
+//! `[[parameter]]`. Positions and axes are in the base frame, in the configuration the file
+//! describes (the *build configuration*); the joints must (nearly) hold there — assembly
+//! corrects small errors and names the joints it cannot satisfy.
+//!
+//! ```toml
+//! include = ["common.toml"]             # optional: tables of other files, read first
+//!
+//! [model]
+//! name = "slider-crank"
+//! gravity = [0, -9.81, 0]                # m/s^2 (default [0, 0, -9.81])
+//!
+//! [[parameter]]                          # a value the diagnosis may perturb
+//! name = "m_rod"
+//! nominal = 0.2                          # SI, in `unit`
+//! unit = "kg"                            # an SI unit: kg, m, rad, s, N, N m, N/m, N s/m, …
+//! bounds = [0.1, 0.4]                    # optional
+//!
+//! [[body]]
+//! name = "crank"
+//! mass = 0.5                             # kg (> 0), or a parameter's name
+//! inertia = [1e-4, 1e-3, 1e-3]           # kg m^2 about the centre of mass, body axes:
+//!                                        # [Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]
+//! position = ["50 mm", 0, 0]             # centre of mass, m
+//! orientation = { axis = [0, 0, 1], angle = "0 deg" }   # optional (body axes = base axes)
+//! velocity = [0, 0, 0]                   # optional, m/s
+//! angular_velocity = [0, 0, 0]           # optional, rad/s, base frame
+//!
+//! [[marker]]                             # a named point on a body
+//! name = "pin"
+//! body = "crank"
+//! point = [0.1, 0, 0]                    # m
+//!
+//! [[joint]]
+//! name = "A"
+//! type = "revolute"                      # revolute, prismatic, universal, spherical,
+//!                                        # cylindrical, fixed
+//! i = "ground"                           # side i: a body or "ground"
+//! j = "crank"
+//! point = [0, 0, 0]                      # m
+//! axis = [0, 0, 1]                       # revolute, prismatic, cylindrical
+//! # axis_i = [...], axis_j = [...]       # universal: one fixed in each side, perpendicular
+//! coordinate = "0 deg"                   # the joint's coordinate in this configuration
+//! # clearance = { radial = "10 um", axial = "5 um", ball_radius = "4 mm",
+//! #               ball_spacing = "24 mm", damping = 300 }    # universal, revolute, spherical
+//!
+//! [[driver]]                             # prescribes a revolute/cylindrical angle or a
+//! name = "motor"                         # prismatic translation
+//! joint = "A"
+//! law = "polynomial"                     # constant (value), polynomial (coefficients, SI),
+//! coefficients = [0, 6.283]              # rest_to_rest (t0, t1, from, to, profile),
+//!                                        # sampled (file, column, time_column = "t", unit)
+//!
+//! [[force]]
+//! name = "bearing friction"
+//! type = "friction"                      # spring_damper (i, j, point_i, point_j, stiffness,
+//! joint = "A"                            #   damping, free_length), rotational_spring_damper
+//! coulomb = "0.02 N m"                   #   (joint, stiffness, damping, free_angle),
+//! viscous = 1e-3                         #   friction (joint, coulomb, viscous,
+//! velocity_scale = "0.01 rad/s"          #   viscous_backward, velocity_scale),
+//!                                        #   effort (joint, value | file + column),
+//!                                        #   point_force (body, point, force)
+//!
+//! [[sensor]]
+//! name = "q"                             # the recording column (vectors: q_x, q_y, q_z)
+//! type = "joint_position"                # joint_position, joint_velocity,
+//! joint = "A"                            # joint_acceleration, joint_effort (joint);
+//!                                        # body_position (body or marker), body_orientation
+//! ```
+//!
+//! A fault names file, line and column and its kind ([`Problem`]); nothing in a file can make
+//! lash panic.
+//!
+//! ```
+//! use lash::model_file::ModelFile;
+//! let text = r#"
+//! [[body]]
+//! name = "bob"
+//! mass = 1.0
+//! inertia = [1e-3, 1e-3, 1e-3]
+//! position = [0, 0, -0.5]
+//! [[joint]]
+//! name = "pivot"
+//! type = "revolute"
+//! i = "ground"
+//! j = "bob"
+//! point = [0, 0, 0]
+//! axis = [0, 1, 0]
+//! [[sensor]]
+//! name = "angle"
+//! type = "joint_position"
+//! joint = "pivot"
+//! "#;
+//! let file = ModelFile::from_text("pendulum.toml", text).unwrap();
+//! let check = file.check().unwrap();
+//! assert_eq!(check.dof, 1);
+//!
+//! let bad = text.replace("mass = 1.0", "mass = -1.0");
+//! let e = ModelFile::from_text("pendulum.toml", &bad).and_then(|f| f.build()).unwrap_err();
+//! assert_eq!(e.to_string(), "pendulum.toml:4:8: body 'bob' mass must be positive, not -1 kg");
+//! # Ok::<(), lash::model_file::ModelFileError>(())
+//! ```
+
+mod build;
+mod error;
+mod read;
+mod schema;
+mod sensors;
+mod series;
+mod simulate;
+pub mod units;
+
+pub use build::{BuildOptions, BuiltModel, EffortLaw, JointInfo};
+pub use error::{ModelFileError, Problem};
+pub use read::Parameter;
+pub use sensors::{Sensor, SensorKind, SensorTarget};
+pub use simulate::{simulate, SensorRecord};
+
+use crate::multibody::{Analysis, MechanismData, ModelError};
+use error::Source;
+use read::Parsed;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// A model file read with its includes: parsed, parameters read, ready to build.
+#[derive(Debug)]
+pub struct ModelFile {
+    /// The file.
+    pub path: PathBuf,
+    /// `[model] name` (else the file's stem).
+    pub name: String,
+    /// `[model] description`.
+    pub description: String,
+    /// Declared parameters, in file order.
+    pub parameters: Vec<Parameter>,
+    files: Vec<Parsed>,
+}
+
+/// What `lash check` reports of a model.
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckReport {
+    /// Model name.
+    pub name: String,
+    /// The file.
+    pub file: String,
+    /// Degrees of freedom (6 per body minus the joints' constraints; drivers not counted).
+    pub dof: isize,
+    /// Degrees of freedom left once the drivers act.
+    pub dof_driven: isize,
+    /// Bodies: name, mass (kg).
+    pub bodies: Vec<CheckBody>,
+    /// Joints.
+    pub joints: Vec<CheckJoint>,
+    /// Drivers: name and joint.
+    pub drivers: Vec<CheckDriver>,
+    /// Force elements: name and type.
+    pub forces: Vec<CheckForce>,
+    /// Sensors: column, unit.
+    pub sensors: Vec<CheckSensor>,
+    /// Parameters.
+    pub parameters: Vec<Parameter>,
+    /// Largest constraint residual after assembly at t = 0 (m or rad).
+    pub assembly_residual: f64,
+}
+
+/// A body in a [`CheckReport`].
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckBody {
+    /// Name.
+    pub name: String,
+    /// Mass, kg.
+    pub mass_kg: f64,
+}
+
+/// A joint in a [`CheckReport`].
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckJoint {
+    /// Name.
+    pub name: String,
+    /// Kind (lower case).
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// Side i.
+    pub i: String,
+    /// Side j.
+    pub j: String,
+    /// Radial and axial clearance (m), if declared.
+    pub clearance_m: Option<[f64; 2]>,
+}
+
+/// A driver in a [`CheckReport`].
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckDriver {
+    /// Name.
+    pub name: String,
+    /// The driven joint.
+    pub joint: String,
+}
+
+/// A force element in a [`CheckReport`].
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckForce {
+    /// Name.
+    pub name: String,
+    /// Type.
+    #[serde(rename = "type")]
+    pub kind: String,
+}
+
+/// A sensor in a [`CheckReport`].
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckSensor {
+    /// Sensor name.
+    pub name: String,
+    /// Type.
+    #[serde(rename = "type")]
+    pub kind: SensorKind,
+    /// Recording columns and their units.
+    pub columns: Vec<[String; 2]>,
+}
+
+impl ModelFile {
+    /// Reads a model file and its includes.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, ModelFileError> {
+        let path = path.as_ref();
+        let files = read::read_tree(path)?;
+        Self::from_parsed(path, files)
+    }
+
+    /// A model from text (`name` stands for the file in messages; includes and series are
+    /// relative to the current directory).
+    pub fn from_text(name: &str, text: &str) -> Result<Self, ModelFileError> {
+        let path = PathBuf::from(name);
+        let src = Source::new(&path, text.to_string());
+        let doc = read::parse(&src)?;
+        if let Some(inc) = doc.include.first() {
+            return Err(src.error(
+                inc.span().start,
+                error::Problem::Include,
+                "includes need a model file on disk (ModelFile::load)",
+            ));
+        }
+        Self::from_parsed(
+            &path,
+            vec![Parsed {
+                src,
+                dir: PathBuf::from("."),
+                doc,
+            }],
+        )
+    }
+
+    fn from_parsed(path: &Path, files: Vec<Parsed>) -> Result<Self, ModelFileError> {
+        let parameters = read::parameters(&files)?;
+        let root = files.last().expect("read_tree returns the root file");
+        let stem = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_default();
+        let (mut name, mut description) = (stem, String::new());
+        for f in &files {
+            if let Some(m) = &f.doc.model {
+                if let Some(n) = &m.get_ref().name {
+                    name = n.get_ref().clone();
+                }
+                if let Some(d) = &m.get_ref().description {
+                    description = d.get_ref().clone();
+                }
+            }
+        }
+        let _ = root;
+        Ok(Self {
+            path: path.to_path_buf(),
+            name,
+            description,
+            parameters,
+            files,
+        })
+    }
+
+    /// The nominal mechanism (parameters at their nominal values, ideal joints).
+    pub fn build(&self) -> Result<BuiltModel, ModelFileError> {
+        let values: Vec<f64> = self.parameters.iter().map(|p| p.nominal).collect();
+        self.build_with(&values, &BuildOptions::default())
+    }
+
+    /// The mechanism with parameter `values` (one per [`parameters`](Self::parameters) entry,
+    /// SI) and the given options.
+    pub fn build_with(&self, values: &[f64], opts: &BuildOptions) -> Result<BuiltModel, ModelFileError> {
+        if values.len() != self.parameters.len() {
+            return Err(ModelFileError::File {
+                file: self.path.display().to_string(),
+                problem: Problem::Inconsistent,
+                message: format!(
+                    "{} parameter values given for {} parameters",
+                    values.len(),
+                    self.parameters.len()
+                ),
+            });
+        }
+        build::build(&self.files, &self.parameters, values, opts)
+    }
+
+    /// Builds the nominal mechanism and assembles it at t = 0: what `lash check` prints.
+    pub fn check(&self) -> Result<CheckReport, ModelFileError> {
+        let built = self.build()?;
+        let residual = self.assemble(&built)?;
+        let mech = &built.mechanism;
+        let name_of = |a: crate::multibody::Attach| match a {
+            crate::multibody::Attach::Ground => "ground".to_string(),
+            crate::multibody::Attach::Body(h) => mech.body(h).map(|b| b.name.clone()).unwrap_or_default(),
+        };
+        let columns = built.sensor_columns();
+        let mut col = 0;
+        let sensors = built
+            .sensors
+            .iter()
+            .map(|s| {
+                let n = match s.kind {
+                    SensorKind::BodyPosition => 3,
+                    SensorKind::BodyOrientation => 4,
+                    _ => 1,
+                };
+                let c = columns[col..col + n]
+                    .iter()
+                    .map(|(a, b)| [a.clone(), b.to_string()])
+                    .collect();
+                col += n;
+                CheckSensor {
+                    name: s.name.clone(),
+                    kind: s.kind,
+                    columns: c,
+                }
+            })
+            .collect();
+        let driven = built.drivers.len() as isize;
+        Ok(CheckReport {
+            name: self.name.clone(),
+            file: self.path.display().to_string(),
+            dof: mech.degrees_of_freedom(),
+            dof_driven: mech.degrees_of_freedom() - driven,
+            bodies: built
+                .bodies
+                .iter()
+                .map(|(n, h)| CheckBody {
+                    name: n.clone(),
+                    mass_kg: mech.body(*h).map(|b| b.mass).unwrap_or(f64::NAN),
+                })
+                .collect(),
+            joints: built
+                .joints
+                .iter()
+                .map(|j| CheckJoint {
+                    name: j.name.clone(),
+                    kind: format!("{:?}", j.kind).to_lowercase(),
+                    i: name_of(j.i),
+                    j: name_of(j.j),
+                    clearance_m: j.clearance.map(|c| [c.radial_clearance, c.axial_clearance]),
+                })
+                .collect(),
+            drivers: built
+                .drivers
+                .iter()
+                .map(|(n, _, k)| CheckDriver {
+                    name: n.clone(),
+                    joint: built.joints[*k].name.clone(),
+                })
+                .collect(),
+            forces: built
+                .forces
+                .iter()
+                .map(|(n, k)| CheckForce {
+                    name: n.clone(),
+                    kind: k.clone(),
+                })
+                .collect(),
+            sensors,
+            parameters: self.parameters.clone(),
+            assembly_residual: residual,
+        })
+    }
+
+    /// Assembles a built model at t = 0; returns the largest constraint residual. A failure
+    /// is located at the joint or driver with the largest residual.
+    pub fn assemble(&self, built: &BuiltModel) -> Result<f64, ModelFileError> {
+        let mech = &built.mechanism;
+        let analysis = Analysis::new(mech).map_err(|e| self.model_error(e))?;
+        let mut data = MechanismData::new(mech);
+        let s = analysis
+            .initial_state(mech, &mut data, 0.0)
+            .map_err(|e| self.model_error(e))?;
+        analysis
+            .constraint_residual(mech, &data, 0.0, &s.q)
+            .map_err(|e| self.model_error(e))
+    }
+
+    /// A multibody error as a located model-file error: assembly failures at the worst
+    /// joint's or driver's table.
+    pub fn model_error(&self, e: ModelError) -> ModelFileError {
+        let root = self.files.last().expect("read_tree returns the root file");
+        if let ModelError::AssemblyFailed { residuals } = &e {
+            let places = build::joint_places(&self.files);
+            for (constraint, _) in residuals {
+                // Constraint names read "joint 'A' point x #0" or "driver 'motor'".
+                let quoted = constraint.split('\'').nth(1).unwrap_or("");
+                if let Some((_, k, at)) = places.iter().find(|(n, _, _)| n == quoted) {
+                    return self.files[*k].src.error(*at, Problem::Assembly, e.to_string());
+                }
+            }
+            return ModelFileError::File {
+                file: root.src.file.clone(),
+                problem: Problem::Assembly,
+                message: e.to_string(),
+            };
+        }
+        ModelFileError::File {
+            file: root.src.file.clone(),
+            problem: Problem::Model,
+            message: e.to_string(),
+        }
+    }
+}

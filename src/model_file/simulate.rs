@@ -1,0 +1,187 @@
+//! Simulating a model file's mechanism and reading its sensors: what `lash simulate` writes.
+
+use super::build::BuiltModel;
+use super::sensors::{SensorKind, SensorTarget};
+use crate::multibody::{ModelError, RunEnd, Simulation, SimulationOptions};
+use serde::Serialize;
+use std::io::Write;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Every sensor's series from one simulation.
+#[derive(Debug, Clone, Serialize)]
+pub struct SensorRecord {
+    /// Column names and units (see [`BuiltModel::sensor_columns`]).
+    pub columns: Vec<(String, String)>,
+    /// Sample times, s.
+    pub t: Vec<f64>,
+    /// One row per sample, one value per column.
+    pub rows: Vec<Vec<f64>>,
+    /// How the run ended.
+    pub end: RunEnd,
+}
+
+/// Simulates `built` from t = 0 to `t_end` (s), sampling every `dt` (s), and reads every
+/// sensor at every sample (rotational joint positions unwrapped). `progress` gets the time
+/// reached, s.
+pub fn simulate(
+    built: BuiltModel,
+    t_end: f64,
+    dt: f64,
+    opts: SimulationOptions,
+    progress: impl FnMut(f64),
+) -> Result<(BuiltModel, SensorRecord), ModelError> {
+    if !(t_end > 0.0 && t_end.is_finite() && dt > 0.0 && dt.is_finite()) {
+        return Err(ModelError::Output(format!(
+            "the end time ({t_end} s) and the sample interval ({dt} s) must be positive and finite"
+        )));
+    }
+    let n = (t_end / dt).round().max(1.0) as usize;
+    let times: Vec<f64> = (1..=n)
+        .map(|k| (k as f64 * t_end / n as f64).min(t_end))
+        .collect();
+    let BuiltModel {
+        mechanism,
+        bodies,
+        markers,
+        joints,
+        drivers,
+        forces,
+        sensors,
+    } = built;
+    let model = Arc::new(mechanism);
+    let mut sim = Simulation::new(model.clone(), 0.0, opts)?;
+    let traj = sim.run(&times, progress)?;
+    drop(sim);
+    let mechanism = Arc::try_unwrap(model)
+        .map_err(|_| ModelError::Output("the mechanism is still shared after the simulation".into()))?;
+    let built = BuiltModel {
+        mechanism,
+        bodies,
+        markers,
+        joints,
+        drivers,
+        forces,
+        sensors,
+    };
+    let record = read_record(&built, &traj.samples, traj.end)?;
+    Ok((built, record))
+}
+
+fn read_record(
+    built: &BuiltModel,
+    samples: &[crate::multibody::Sample],
+    end: RunEnd,
+) -> Result<SensorRecord, ModelError> {
+    let columns: Vec<(String, String)> = built
+        .sensor_columns()
+        .into_iter()
+        .map(|(a, b)| (a, b.to_string()))
+        .collect();
+    let need_acc = built.needs_accelerations();
+    let analysis = crate::multibody::Analysis::new(&built.mechanism)?;
+    let mut data = crate::multibody::MechanismData::new(&built.mechanism);
+    let mut rows = Vec::with_capacity(samples.len());
+    for s in samples {
+        let wdot = if need_acc {
+            Some(
+                analysis
+                    .accelerations(&built.mechanism, &mut data, s.t, &s.q, &s.w)?
+                    .0,
+            )
+        } else {
+            None
+        };
+        rows.push(built.read_sensors(s, wdot.as_deref()));
+    }
+    // Unwrap rotational joint positions.
+    let mut col = 0;
+    for sensor in &built.sensors {
+        let width = match sensor.kind {
+            SensorKind::BodyPosition => 3,
+            SensorKind::BodyOrientation => 4,
+            _ => 1,
+        };
+        let rotational = matches!(sensor.target, SensorTarget::Joint(k)
+            if built.joints[k].coordinate_dimension() == Some(super::units::Dimension::Angle));
+        if sensor.kind == SensorKind::JointPosition && rotational {
+            for k in 1..rows.len() {
+                let d = rows[k][col] - rows[k - 1][col];
+                let turns = (d / std::f64::consts::TAU).round();
+                if turns != 0.0 {
+                    for r in rows[k..].iter_mut() {
+                        r[col] -= turns * std::f64::consts::TAU;
+                    }
+                }
+            }
+        }
+        col += width;
+    }
+    Ok(SensorRecord {
+        columns,
+        t: samples.iter().map(|s| s.t).collect(),
+        rows,
+        end,
+    })
+}
+
+impl SensorRecord {
+    /// Writes `t_s` and every sensor column (headers carry units: `q_rad`, `x_m`, …).
+    pub fn write_csv(&self, path: &Path) -> Result<(), ModelError> {
+        let io = |e: std::io::Error| ModelError::Output(format!("{}: {e}", path.display()));
+        let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
+        write!(f, "t_s").map_err(io)?;
+        for (c, u) in &self.columns {
+            write!(f, ",{c}_{}", unit_suffix(u)).map_err(io)?;
+        }
+        writeln!(f).map_err(io)?;
+        for (t, r) in self.t.iter().zip(&self.rows) {
+            write!(f, "{t}").map_err(io)?;
+            for v in r {
+                write!(f, ",{v}").map_err(io)?;
+            }
+            writeln!(f).map_err(io)?;
+        }
+        f.flush().map_err(io)
+    }
+
+    /// One chart per sensor column against time: `<dir>/<column>.png` and `.svg`.
+    #[cfg(feature = "plot")]
+    pub fn plot(&self, dir: &Path) -> Result<Vec<std::path::PathBuf>, ModelError> {
+        let mut out = vec![];
+        for (k, (c, u)) in self.columns.iter().enumerate() {
+            let chart = crate::plot::LineChart {
+                title: c.clone(),
+                x_label: "t [s]".into(),
+                y_label: format!("{c} [{u}]"),
+                series: vec![crate::plot::Series {
+                    name: c.clone(),
+                    points: self.t.iter().zip(&self.rows).map(|(t, r)| (*t, r[k])).collect(),
+                }],
+                y_range: None,
+            };
+            let stem = dir.join(sanitize(c));
+            chart.save(&stem).map_err(ModelError::Output)?;
+            out.push(stem.with_extension("png"));
+        }
+        Ok(out)
+    }
+}
+
+/// A unit as a column-name suffix: `N m` → `N_m`, `rad/s^2` → `rad_s2`.
+fn unit_suffix(u: &str) -> String {
+    u.replace([' ', '/'], "_").replace('^', "")
+}
+
+#[cfg(feature = "plot")]
+fn sanitize(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
