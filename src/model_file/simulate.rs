@@ -185,3 +185,117 @@ fn sanitize(s: &str) -> String {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model_file::ModelFile;
+    use std::path::PathBuf;
+
+    fn shipped(name: &str) -> ModelFile {
+        let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("models")
+            .join(name);
+        ModelFile::load(&p).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn column(r: &SensorRecord, name: &str) -> Vec<f64> {
+        let k = r.columns.iter().position(|(c, _)| c == name).unwrap();
+        r.rows.iter().map(|row| row[k]).collect()
+    }
+
+    /// The shipped slider-crank against its closed form: with the crank at θ = ωt the slider
+    /// sits at x = r cos θ + √(l² − r² sin² θ); its rate and the crank pin follow.
+    #[test]
+    fn the_slider_crank_file_moves_as_its_closed_form() {
+        let file = shipped("slider_crank.toml");
+        let (_, rec) = simulate(
+            file.build().unwrap(),
+            1.0,
+            1e-3,
+            SimulationOptions::default(),
+            |_| {},
+        )
+        .unwrap();
+        assert_eq!(rec.end, RunEnd::Completed);
+        let (r, l, w) = (0.1, 0.3, std::f64::consts::TAU);
+        let (x, v, a) = (
+            column(&rec, "slider_x"),
+            column(&rec, "slider_v"),
+            column(&rec, "slider_a"),
+        );
+        let (theta, px, py) = (
+            column(&rec, "crank_angle"),
+            column(&rec, "pin_x"),
+            column(&rec, "pin_y"),
+        );
+        let mut worst = [0.0f64; 5];
+        for (k, &t) in rec.t.iter().enumerate() {
+            let th = w * t;
+            let root = (l * l - r * r * th.sin().powi(2)).sqrt();
+            let xe = r * th.cos() + root;
+            let ve = -r * w * th.sin() - r * r * w * th.sin() * th.cos() / root;
+            worst[0] = worst[0].max((x[k] - xe).abs());
+            worst[1] = worst[1].max((v[k] - ve).abs());
+            worst[2] = worst[2].max((theta[k] - th).abs());
+            worst[3] = worst[3].max((px[k] - r * th.cos()).abs().max((py[k] - r * th.sin()).abs()));
+            if k > 0 && k + 1 < rec.t.len() {
+                // Central difference of the sensor's own velocity (O(dt²) ≈ 1e-4 m/s²).
+                let fd = (v[k + 1] - v[k - 1]) / (rec.t[k + 1] - rec.t[k - 1]);
+                worst[4] = worst[4].max((a[k] - fd).abs());
+            }
+        }
+        assert!(worst[0] < 1e-7, "slider x off by {:e} m", worst[0]);
+        assert!(worst[1] < 1e-6, "slider v off by {:e} m/s", worst[1]);
+        assert!(
+            worst[2] < 1e-7,
+            "crank angle off by {:e} rad (unwrapped over a turn)",
+            worst[2]
+        );
+        assert!(worst[3] < 1e-7, "pin off by {:e} m", worst[3]);
+        assert!(
+            worst[4] < 1e-2,
+            "slider a off its velocity's difference by {:e} m/s^2",
+            worst[4]
+        );
+    }
+
+    /// The shipped linear axis obeys m·ẍ = F(t) − F_friction(ẋ): the effort sensor reads the
+    /// command, and the friction is Coulomb 12 N (tanh over 5 mm/s) plus viscous 90 N s/m
+    /// forward, 130 N s/m backward.
+    #[test]
+    fn the_linear_axis_file_obeys_its_force_balance() {
+        let file = shipped("linear_axis.toml");
+        let (_, rec) = simulate(
+            file.build().unwrap(),
+            4.0,
+            1e-3,
+            SimulationOptions::default(),
+            |_| {},
+        )
+        .unwrap();
+        let (v, f) = (column(&rec, "qd"), column(&rec, "force"));
+        let mut worst: f64 = 0.0;
+        let mut top: f64 = 0.0;
+        for k in 1..rec.t.len() - 1 {
+            let a = (v[k + 1] - v[k - 1]) / (rec.t[k + 1] - rec.t[k - 1]);
+            let c = if v[k] >= 0.0 { 90.0 } else { 130.0 };
+            let friction = 12.0 * (v[k] / 0.005).tanh() + c * v[k];
+            // Away from reversals, where tanh's slope makes the central difference coarse.
+            if v[k].abs() > 0.02 {
+                worst = worst.max((8.0 * a - (f[k] - friction)).abs());
+            }
+            top = top.max(v[k].abs());
+        }
+        assert!(top > 0.3, "the axis barely moves ({top} m/s)");
+        assert!(worst < 0.05, "force balance off by {worst} N");
+        let command = 60.0 * (std::f64::consts::TAU * 0.5 * 1.0f64).sin()
+            + 20.0 * (std::f64::consts::TAU * 1.3 * 1.0f64).sin();
+        let k1 = rec.t.iter().position(|t| (t - 1.0).abs() < 1e-9).unwrap();
+        assert!(
+            (f[k1] - command).abs() < 1e-3,
+            "effort sensor {} N vs command {command} N",
+            f[k1]
+        );
+    }
+}
