@@ -36,7 +36,9 @@ fn parse_window(s: &str) -> Result<Window, String> {
 /// Options of `lash diagnose`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Nominal model (double-pendulum: the DFKI pendulum's rigid model from --params;
+    /// Nominal model (a model file `*.toml`: its measured joints are the channels, its
+    /// sensors name the columns, its parameters may be perturbed (lash::diagnose::model_file);
+    /// double-pendulum: the DFKI pendulum's rigid model from --params;
     /// mr2120: the MR2120's multibody ideal model with compliant drives (lash::diagnose::mr2120);
     /// mr2120-lumped: its closed-form rigid model, the model `lash mr2120 record` makes
     /// recordings from).
@@ -102,7 +104,13 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     let dp;
     let mr;
     let mb;
+    let mf;
     let (model, defaults): (&dyn InverseDynamicsModel, _) = match a.model.as_str() {
+        file if file.ends_with(".toml") => {
+            let f = lash::model_file::ModelFile::load(file).map_err(CliError::input)?;
+            mf = lash::diagnose::model_file::model_from_file(f).map_err(CliError::input)?;
+            (&mf, None)
+        }
         "double-pendulum" => {
             let params = lash::mechanisms::double_pendulum::DoublePendulumParams::from_readme(&a.params)
                 .map_err(CliError::input)?;
@@ -125,7 +133,7 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         }
         other => {
             return Err(CliError::Input(format!(
-                "unknown model '{other}' (available: double-pendulum, mr2120, mr2120-lumped)"
+                "unknown model '{other}' (available: double-pendulum, mr2120, mr2120-lumped, or a model file ending in .toml)"
             )))
         }
     };

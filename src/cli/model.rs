@@ -175,6 +175,7 @@ pub fn simulate_cmd(a: SimulateArgs) -> Result<Output, CliError> {
             &values,
             &BuildOptions {
                 clearance: a.clearance,
+                ..Default::default()
             },
         )
         .map_err(CliError::input)?;

@@ -64,7 +64,7 @@
 //! ```
 
 use super::error::DiagnoseError;
-use super::model::{InverseDynamicsModel, ModelParameter, OutputSensitivities, PlayData};
+use super::model::{ColumnDefaults, InverseDynamicsModel, ModelParameter, OutputSensitivities, PlayData};
 use super::transmission::{self, TransmissionDynamics};
 use crate::contact::play::UniversalPlay;
 use crate::multibody::{
@@ -227,6 +227,7 @@ pub struct MechanismModel {
     play: Vec<PlaySite>,
     tagger: Option<ConfigurationTagger>,
     windows: Option<Vec<usize>>,
+    columns: ColumnDefaults,
     /// The mechanism built for the last parameter values, with its data (a cache: the
     /// diagnosis asks for torques through `&self`).
     built: RefCell<Option<Built>>,
@@ -265,6 +266,7 @@ impl MechanismModel {
             play: vec![],
             tagger: None,
             windows: None,
+            columns: ColumnDefaults::RoleNames,
             built: RefCell::new(None),
         };
         m.ensure(&m.nominal())
@@ -376,6 +378,13 @@ impl MechanismModel {
     /// Tags configurations for the localisation.
     pub fn with_tagger(mut self, tagger: ConfigurationTagger) -> Self {
         self.tagger = Some(tagger);
+        self
+    }
+
+    /// Which recording column each role reads when the user maps none (default: each role
+    /// the column of its own name, [`ColumnDefaults::RoleNames`]).
+    pub fn with_column_defaults(mut self, columns: ColumnDefaults) -> Self {
+        self.columns = columns;
         self
     }
 
@@ -831,6 +840,9 @@ impl MechanismModel {
 impl InverseDynamicsModel for MechanismModel {
     fn name(&self) -> String {
         self.name.clone()
+    }
+    fn column_defaults(&self) -> ColumnDefaults {
+        self.columns.clone()
     }
     fn joints(&self) -> usize {
         self.joints.len()

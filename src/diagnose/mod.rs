@@ -68,6 +68,7 @@ pub mod format;
 pub mod locate;
 pub mod mechanism;
 pub mod model;
+pub mod model_file;
 pub mod mr2120;
 mod options;
 mod outcome;

@@ -22,11 +22,14 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use std::sync::Arc;
 
 /// How to build the mechanism.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct BuildOptions {
     /// Build the joints that declare a `clearance` as joints with clearance (trunnion
     /// bearings with Hertz contact, `contact::joints`) instead of ideal joints.
     pub clearance: bool,
+    /// Joints whose motion is measured and prescribed by the caller (inverse dynamics): the
+    /// file's drivers and `effort` forces on them are left out; the caller drives them.
+    pub measured_joints: Vec<String>,
 }
 
 /// A time law of an effort (N or N m) applied along a joint's coordinate.
@@ -141,7 +144,7 @@ pub(crate) fn build(
         forces: vec![],
         sensors: vec![],
         sensor_names: vec![],
-        opts: *opts,
+        opts: opts.clone(),
     };
     // Gravity: the last [model] table that sets it (the including file after its includes).
     for f in files {
@@ -734,6 +737,9 @@ impl Builder {
         }
         let jn = cx.need_name(&d.joint, "joint", &owner, at)?;
         let (k, dim) = self.coordinate_joint(cx, jn, &owner, "drive")?;
+        if self.opts.measured_joints.contains(jn.get_ref()) {
+            return Ok(());
+        }
         let joint = &self.joints[k];
         let Some(jh) = joint.handle else {
             return Err(cx.err(
@@ -1114,9 +1120,11 @@ impl Builder {
                         return Err(cx.err(at, Problem::Missing, format!("{owner} has no 'value' or 'file'")))
                     }
                 };
-                let l2 = law.clone();
-                self.coordinate_force(&joint, nm.clone(), Arc::new(move |t, _x, _v| l2(t)));
-                self.joints[k].efforts.push(law);
+                if !self.opts.measured_joints.contains(&joint.name) {
+                    let l2 = law.clone();
+                    self.coordinate_force(&joint, nm.clone(), Arc::new(move |t, _x, _v| l2(t)));
+                    self.joints[k].efforts.push(law);
+                }
             }
             _ => {
                 let bn = cx.need_name(&d.body, "body", &owner, at)?;
@@ -1314,6 +1322,7 @@ impl Builder {
                 if kind == SensorKind::JointEffort
                     && self.joints[k].driver.is_none()
                     && self.joints[k].efforts.is_empty()
+                    && !self.opts.measured_joints.contains(&self.joints[k].name)
                 {
                     return Err(cx.err(
                         jn.span().start,

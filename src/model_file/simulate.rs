@@ -126,13 +126,15 @@ fn read_record(
 }
 
 impl SensorRecord {
-    /// Writes `t_s` and every sensor column (headers carry units: `q_rad`, `x_m`, …).
+    /// Writes `time` (s) and every sensor column under its sensor's name (SI units, as
+    /// [`columns`](Self::columns) and `lash check` list them), so the file reads back as a
+    /// recording of the same model (`lash diagnose --model FILE.toml`).
     pub fn write_csv(&self, path: &Path) -> Result<(), ModelError> {
         let io = |e: std::io::Error| ModelError::Output(format!("{}: {e}", path.display()));
         let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
-        write!(f, "t_s").map_err(io)?;
-        for (c, u) in &self.columns {
-            write!(f, ",{c}_{}", unit_suffix(u)).map_err(io)?;
+        write!(f, "time").map_err(io)?;
+        for (c, _) in &self.columns {
+            write!(f, ",{c}").map_err(io)?;
         }
         writeln!(f).map_err(io)?;
         for (t, r) in self.t.iter().zip(&self.rows) {
@@ -166,11 +168,6 @@ impl SensorRecord {
         }
         Ok(out)
     }
-}
-
-/// A unit as a column-name suffix: `N m` → `N_m`, `rad/s^2` → `rad_s2`.
-fn unit_suffix(u: &str) -> String {
-    u.replace([' ', '/'], "_").replace('^', "")
 }
 
 #[cfg(feature = "plot")]
@@ -260,12 +257,13 @@ mod tests {
         );
     }
 
-    /// The shipped linear axis obeys m·ẍ = F(t) − F_friction(ẋ): the effort sensor reads the
-    /// command, and the friction is Coulomb 12 N (tanh over 5 mm/s) plus viscous 90 N s/m
-    /// forward, 130 N s/m backward.
+    /// The shipped linear axis with friction (an include of the nominal file plus a friction
+    /// element) obeys m·ẍ = F(t) − F_friction(ẋ): the effort sensor reads the command, and the
+    /// friction is Coulomb 12 N (tanh over 5 mm/s) plus viscous 90 N s/m forward, 130 N s/m
+    /// backward.
     #[test]
     fn the_linear_axis_file_obeys_its_force_balance() {
-        let file = shipped("linear_axis.toml");
+        let file = shipped("linear_axis_with_friction.toml");
         let (_, rec) = simulate(
             file.build().unwrap(),
             4.0,
