@@ -57,9 +57,9 @@ pub struct Args {
     /// none].
     #[arg(long)]
     holdout: Option<String>,
-    /// Time column.
-    #[arg(long, default_value = "time")]
-    time_column: String,
+    /// Time column [default: "time", or "t" if the first recording has no "time" column].
+    #[arg(long)]
+    time_column: Option<String>,
     /// Column mapping role=column for the model's roles (q1.., qd1.., tau1.., outputs).
     /// Default for double-pendulum: the DFKI recordings' columns
     /// (lash::diagnose::columns::DFKI_COLUMNS, e.g. q1=pos_filt1);
@@ -157,13 +157,20 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         .ok_or_else(|| CliError::input("--fit names no recording"))?;
     let header = csv_header(Path::new(first)).map_err(CliError::input)?;
     let mapping = resolve_columns(model, a.map.as_deref(), &header).map_err(CliError::input)?;
+    let time_column = a.time_column.clone().unwrap_or_else(|| {
+        if header.iter().any(|h| h == "time") || !header.iter().any(|h| h == "t") {
+            "time".into()
+        } else {
+            "t".into()
+        }
+    });
     let windows = match a.derivative_window {
         Window::Auto => model.derivative_windows(),
         Window::Fixed(w) => vec![w],
     };
     let load = |list: &[String]| -> Result<Vec<Recording>, CliError> {
         list.iter()
-            .map(|f| read_csv(Path::new(f), &a.time_column, &mapping).map_err(CliError::input))
+            .map(|f| read_csv(Path::new(f), &time_column, &mapping).map_err(CliError::input))
             .collect()
     };
     let fit = load(&fit_files)?;

@@ -6,10 +6,17 @@
 //! | effect | torque term on joint j |
 //! |---|---|
 //! | viscous friction | b·q̇_j |
+//! | direction-dependent viscous friction | b₊·max(q̇_j, 0) + b₋·min(q̇_j, 0) (nests viscous) |
 //! | Coulomb friction | c·tanh(q̇_j/v_c) for each v_c of the grid |
 //! | Stribeck friction | s·tanh(q̇_j/v_c)·exp(−(q̇_j/v_s)²) for each v_s of the grid |
 //! | direction-asymmetric friction | c₊·max(tanh(q̇_j/v_c), 0) + c₋·min(tanh(q̇_j/v_c), 0) (nests Coulomb) for each v_c |
 //! | reflected rotor inertia | J·q̈_j, plus the coupling of a drive carried by a moving link (model-specific) |
+//!
+//! Units follow the joint ([`JointMotion`]): a prismatic joint's friction is in N and N s/m,
+//! its velocity scales in m/s, its reflected inertia in kg. Its velocity scales v_c are chosen
+//! from the data: fractions ([`LibraryOptions::relative_coulomb_velocities`]) of the joint's
+//! typical speed in the fit recordings ([`LibraryOptions::speed_scales`]), as no fixed speed
+//! suits every axis; a revolute joint keeps the absolute grid.
 //! | torque-sensor offset | o |
 //! | torque-sensor scale | (k − 1)·τ_j,nominal |
 //! | torque-sensor delay | −d·dτ_j,nominal/dt |
@@ -28,7 +35,7 @@
 //! | output-sensor offset | o_k on output k |
 //! | output-sensor delay | −d·dy_k/dt on output k |
 use super::data::{Channel, MotionData};
-use super::model::{InverseDynamicsModel, OutputSensitivities, ParameterFamily};
+use super::model::{InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily};
 use super::signal::derivative;
 use super::transmission::{self, TransmissionDynamics};
 use serde::Serialize;
@@ -46,6 +53,39 @@ pub struct LibraryOptions {
     /// Load scales over which a joint with play moves across its clearance, N (one
     /// candidate each per joint and direction; cross-validation picks among them).
     pub play_load_scales: Vec<f64>,
+    /// Velocity scales of the smooth sign for prismatic joints, as fractions of the joint's
+    /// typical speed ([`speed_scales`](Self::speed_scales)).
+    pub relative_coulomb_velocities: Vec<f64>,
+    /// Typical speed of each joint in the fit recordings (its 95th-percentile |q̇|, rad/s or
+    /// m/s), filled by the diagnosis from the data; empty: unknown (absolute grid).
+    pub speed_scales: Vec<f64>,
+}
+
+impl LibraryOptions {
+    /// The velocity scales of the smooth sign for joint `j` of `model`: for a prismatic joint
+    /// with a known typical speed, fractions of it (rounded to two significant digits, so
+    /// reports read cleanly); else the absolute grid.
+    pub fn coulomb_velocities_for(&self, model: &dyn InverseDynamicsModel, j: usize) -> Vec<f64> {
+        match (model.joint_motion(j), self.speed_scales.get(j)) {
+            (JointMotion::Linear, Some(&v))
+                if v > 0.0 && v.is_finite() && !self.relative_coulomb_velocities.is_empty() =>
+            {
+                self.relative_coulomb_velocities
+                    .iter()
+                    .map(|f| round2(f * v))
+                    .collect()
+            }
+            _ => self.coulomb_velocities.clone(),
+        }
+    }
+}
+
+/// `x` rounded to two significant digits.
+fn round2(x: f64) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    format!("{x:.1e}").parse().unwrap_or(x)
 }
 
 impl Default for LibraryOptions {
@@ -53,12 +93,15 @@ impl Default for LibraryOptions {
     /// velocities, well below typical motion; a simulated Stribeck law regularised at
     /// 0.004 rad/s was named as Stribeck friction with 0.05 alone, as Coulomb friction with
     /// 0.01); Stribeck velocities 0.1, 0.3 and 1 rad/s; play load
-    /// scales 1, 5 and 20 N.
+    /// scales 1, 5 and 20 N; for prismatic joints v_c = 10 %, 3 % and 1 % of the joint's
+    /// typical speed.
     fn default() -> Self {
         Self {
             coulomb_velocities: vec![0.05, 0.01],
             stribeck_velocities: vec![0.1, 0.3, 1.0],
             play_load_scales: vec![1.0, 5.0, 20.0],
+            relative_coulomb_velocities: vec![0.1, 0.03, 0.01],
+            speed_scales: vec![],
         }
     }
 }
@@ -66,8 +109,10 @@ impl Default for LibraryOptions {
 /// What kind of physics a candidate is.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub enum Effect {
-    /// Viscous joint friction, N·m·s/rad.
+    /// Viscous joint friction, N·m·s/rad (N·s/m for a prismatic joint).
     Viscous,
+    /// Viscous friction that differs with the direction of motion (two coefficients).
+    AsymmetricViscous,
     /// Coulomb joint friction, N·m.
     Coulomb {
         /// Velocity scale of the smooth sign, rad/s.
@@ -165,12 +210,14 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
     let mut out = vec![];
     for j in 0..model.joints() {
         let jn = model.joint_name(j);
+        let motion = model.joint_motion(j);
+        let (effort, damping, rate) = (motion.effort(), motion.damping(), motion.rate());
         let inf = f64::INFINITY;
-        let mk = |name: &str, effect, params: &[&str], grid, bounds: &[(f64, f64)]| Candidate {
+        let mk = |name: &str, effect, params: &[String], grid, bounds: &[(f64, f64)]| Candidate {
             name: format!("{name} in {jn}"),
             effect,
             joint: Some(j),
-            parameters: params.iter().map(|s| s.to_string()).collect(),
+            parameters: params.to_vec(),
             grid_parameters: grid,
             bounds: bounds.to_vec(),
         };
@@ -178,23 +225,31 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
         out.push(mk(
             "viscous friction",
             Effect::Viscous,
-            &["b [N m s/rad]"],
+            &[format!("b [{damping}]")],
             0,
             &[pos],
         ));
+        out.push(mk(
+            "direction-dependent viscous friction",
+            Effect::AsymmetricViscous,
+            &[format!("b+ [{damping}]"), format!("b- [{damping}]")],
+            0,
+            &[pos, pos],
+        ));
+        let velocities = opts.coulomb_velocities_for(model, j);
         let sharpness = |v_c: f64| {
-            if opts.coulomb_velocities.len() > 1 {
-                (format!(" (v_c = {v_c} rad/s)"), 1)
+            if velocities.len() > 1 {
+                (format!(" (v_c = {v_c} {rate})"), 1)
             } else {
                 (String::new(), 0)
             }
         };
-        for &v_c in &opts.coulomb_velocities {
+        for &v_c in &velocities {
             let (suffix, grid) = sharpness(v_c);
             let mut c = mk(
                 "Coulomb friction",
                 Effect::Coulomb { v_c },
-                &["c [N m]"],
+                &[format!("c [{effort}]")],
                 grid,
                 &[pos],
             );
@@ -203,19 +258,19 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
         }
         for &v_s in &opts.stribeck_velocities {
             out.push(mk(
-                &format!("Stribeck friction (v_s = {v_s} rad/s)"),
+                &format!("Stribeck friction (v_s = {v_s} {rate})"),
                 Effect::Stribeck { v_s },
-                &["s [N m]"],
+                &[format!("s [{effort}]")],
                 1,
                 &[pos],
             ));
         }
-        for &v_c in &opts.coulomb_velocities {
+        for &v_c in &velocities {
             let (suffix, grid) = sharpness(v_c);
             let mut c = mk(
                 "direction-asymmetric friction",
                 Effect::AsymmetricFriction { v_c },
-                &["c+ [N m]", "c- [N m]"],
+                &[format!("c+ [{effort}]"), format!("c- [{effort}]")],
                 grid,
                 &[pos, pos],
             );
@@ -225,28 +280,28 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
         out.push(mk(
             "reflected rotor inertia",
             Effect::RotorInertia,
-            &["J [kg m^2]"],
+            &[format!("J [{}]", motion.inertia())],
             0,
             &[pos],
         ));
         out.push(mk(
-            "torque-sensor offset",
+            &format!("{}-sensor offset", motion.effort_word()),
             Effect::TorqueOffset,
-            &["o [N m]"],
+            &[format!("o [{effort}]")],
             0,
             &[(-inf, inf)],
         ));
         out.push(mk(
-            "torque-sensor scale error",
+            &format!("{}-sensor scale error", motion.effort_word()),
             Effect::TorqueScale,
-            &["k-1 [-]"],
+            &["k-1 [-]".to_string()],
             0,
             &[(-0.5, 0.5)],
         ));
         out.push(mk(
-            "torque-sensor delay",
+            &format!("{}-sensor delay", motion.effort_word()),
             Effect::TorqueDelay,
-            &["d [s]"],
+            &["d [s]".to_string()],
             0,
             &[(-0.05, 0.05)],
         ));
@@ -254,14 +309,14 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
             out.push(mk(
                 "joint-position sensor offset",
                 Effect::PositionOffset,
-                &["o [rad]"],
+                &[format!("o [{}]", motion.position())],
                 0,
                 &[(-0.05, 0.05)],
             ));
             out.push(mk(
                 "drive backlash",
                 Effect::Backlash,
-                &["b [rad]"],
+                &[format!("b [{}]", motion.position())],
                 0,
                 &[(0.0, 0.05)],
             ));
@@ -394,7 +449,12 @@ pub fn columns(
     };
     let dynamic = dynamics.iter().any(|x| x.is_some());
     let sgn_at = |v: f64, v_c: f64| (v / v_c).tanh();
-    let first_vc = opts.coulomb_velocities.first().copied().unwrap_or(0.05);
+    let first_vc = |j: usize| {
+        opts.coulomb_velocities_for(model, j)
+            .first()
+            .copied()
+            .unwrap_or(0.05)
+    };
     // −∂(every channel)/∂q_j: how the model's channels move when arm j lags its encoder
     // (central differences of the whole model, wind-up included).
     let stack = |a: &[Vec<f64>], b: &[Vec<f64>], h: f64| {
@@ -600,9 +660,13 @@ pub fn columns(
                 let qd = &d.qd[j];
                 match e {
                     Effect::Viscous => vec![joint_torque(j, &|i| qd[i])],
+                    Effect::AsymmetricViscous => vec![
+                        joint_torque(j, &|i| qd[i].max(0.0)),
+                        joint_torque(j, &|i| qd[i].min(0.0)),
+                    ],
                     Effect::Coulomb { v_c } => vec![joint_torque(j, &|i| sgn_at(qd[i], v_c))],
                     Effect::Stribeck { v_s } => vec![joint_torque(j, &|i| {
-                        sgn_at(qd[i], first_vc) * (-(qd[i] / v_s).powi(2)).exp()
+                        sgn_at(qd[i], first_vc(j)) * (-(qd[i] / v_s).powi(2)).exp()
                     })],
                     Effect::AsymmetricFriction { v_c } => vec![
                         joint_torque(j, &|i| sgn_at(qd[i], v_c).max(0.0)),
@@ -646,8 +710,28 @@ pub fn columns(
     (cols, nominal)
 }
 
-/// The recording that would separate two candidates the data cannot tell apart.
-pub fn separating_experiment(a: &Candidate, b: &Candidate) -> String {
+/// The recording that would separate two candidates the data cannot tell apart, as a clause
+/// ("… would separate them"), or why none can on a mechanism of `joints` joints.
+pub fn separating_experiment(a: &Candidate, b: &Candidate, joints: usize) -> String {
+    use Effect::*;
+    let inertia_like = |e: Effect| {
+        matches!(
+            e,
+            RotorInertia
+                | Parameter {
+                    family: super::model::ParameterFamily::MassProperties,
+                    ..
+                }
+        )
+    };
+    if joints == 1 && inertia_like(a.effect) && inertia_like(b.effect) {
+        return "no recording separates them on a one-joint mechanism: the drive's reflected inertia moves with the mass it drives, so the two are one effect in different units".into();
+    }
+    format!("{} would separate them", recording_for(a, b))
+}
+
+/// The recording that separates two candidates (a noun phrase).
+fn recording_for(a: &Candidate, b: &Candidate) -> String {
     use Effect::*;
     let joint = |c: &Candidate| {
         c.joint
@@ -657,7 +741,7 @@ pub fn separating_experiment(a: &Candidate, b: &Candidate) -> String {
     let friction = |e: Effect| {
         matches!(
             e,
-            Viscous | Coulomb { .. } | Stribeck { .. } | AsymmetricFriction { .. }
+            Viscous | AsymmetricViscous | Coulomb { .. } | Stribeck { .. } | AsymmetricFriction { .. }
         )
     };
     let play = |e: Effect| matches!(e, Backlash | Clearance { .. } | Play { .. });
@@ -687,7 +771,7 @@ pub fn separating_experiment(a: &Candidate, b: &Candidate) -> String {
                 .into()
         }
         (TorqueScale, _) | (_, TorqueScale) => {
-            "a run with a known external load (a calibrated weight) to calibrate the torque sensor".into()
+            "a run with a known external load (a calibrated weight or force) to calibrate the effort sensor".into()
         }
         _ => format!(
             "a motion that reverses the load in {} and in {} at different times",

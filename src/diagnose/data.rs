@@ -3,7 +3,7 @@
 use super::error::DiagnoseError;
 use super::model::InverseDynamicsModel;
 use super::recording::{Recording, RecordingError, MIN_SAMPLES};
-use super::signal::{derivative, derivative_cubic};
+use super::signal::derivative_cubic;
 
 /// A model's values along a recording: torques per joint, then outputs per output, each
 /// per sample (as [`MotionData::model_all`] gives them).
@@ -83,14 +83,14 @@ impl Channel {
     /// Name for reports.
     pub fn name(self, model: &dyn InverseDynamicsModel) -> String {
         match self {
-            Channel::Torque(j) => format!("{} torque", model.joint_name(j)),
+            Channel::Torque(j) => format!("{} {}", model.joint_name(j), model.joint_motion(j).effort_word()),
             Channel::Output(k) => model.output_name(k),
         }
     }
     /// Unit.
     pub fn unit(self, model: &dyn InverseDynamicsModel) -> String {
         match self {
-            Channel::Torque(_) => "N m".into(),
+            Channel::Torque(j) => model.joint_motion(j).effort().into(),
             Channel::Output(k) => model.output_unit(k),
         }
     }
@@ -114,7 +114,7 @@ impl MotionData {
         joints: usize,
         half_window: usize,
     ) -> Result<Self, RecordingError> {
-        let mut d = Self::motion(rec, joints, half_window, derivative)?;
+        let mut d = Self::motion(rec, joints, half_window, derivative_cubic)?;
         for j in 1..=joints {
             d.tau.push(mapped(rec, format!("tau{j}"))?);
         }

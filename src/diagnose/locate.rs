@@ -280,7 +280,7 @@ pub fn locate(
                     format!("sign of the {} velocity", model.joint_name(k)),
                     format!("{} velocity", model.joint_name(k)),
                     format!("{} acceleration", model.joint_name(k)),
-                    format!("{} torque", model.joint_name(k)),
+                    format!("{} {}", model.joint_name(k), model.joint_motion(k).effort_word()),
                 ]
             })
             .map(|n| (n, vec![]))

@@ -64,7 +64,9 @@
 //! ```
 
 use super::error::DiagnoseError;
-use super::model::{ColumnDefaults, InverseDynamicsModel, ModelParameter, OutputSensitivities, PlayData};
+use super::model::{
+    ColumnDefaults, InverseDynamicsModel, JointMotion, ModelParameter, OutputSensitivities, PlayData,
+};
 use super::transmission::{self, TransmissionDynamics};
 use crate::contact::play::UniversalPlay;
 use crate::multibody::{
@@ -228,6 +230,8 @@ pub struct MechanismModel {
     tagger: Option<ConfigurationTagger>,
     windows: Option<Vec<usize>>,
     columns: ColumnDefaults,
+    /// Whether each channel's joint turns or slides (from the nominal mechanism's drivers).
+    motions: Vec<JointMotion>,
     /// The mechanism built for the last parameter values, with its data (a cache: the
     /// diagnosis asks for torques through `&self`).
     built: RefCell<Option<Built>>,
@@ -257,7 +261,7 @@ impl MechanismModel {
         parameters: Vec<ModelParameter>,
         builder: MechanismBuilder,
     ) -> Result<Self, DiagnoseError> {
-        let m = Self {
+        let mut m = Self {
             name: name.into(),
             joints,
             parameters,
@@ -267,10 +271,31 @@ impl MechanismModel {
             tagger: None,
             windows: None,
             columns: ColumnDefaults::RoleNames,
+            motions: vec![],
             built: RefCell::new(None),
         };
         m.ensure(&m.nominal())
             .map_err(|message| m.error(format!("with the nominal parameters: {message}")))?;
+        m.motions = {
+            let b = m.built.borrow();
+            let built = b.as_ref().expect("ensure built the nominal mechanism");
+            built
+                .drivers
+                .iter()
+                .map(|&h| {
+                    let kind = built
+                        .model
+                        .driver(h)
+                        .and_then(|d| built.model.joint(d.joint))
+                        .map(|j| j.kind);
+                    if kind == Some(JointKind::Prismatic) {
+                        JointMotion::Linear
+                    } else {
+                        JointMotion::Rotary
+                    }
+                })
+                .collect()
+        };
         Ok(m)
     }
 
@@ -843,6 +868,9 @@ impl InverseDynamicsModel for MechanismModel {
     }
     fn column_defaults(&self) -> ColumnDefaults {
         self.columns.clone()
+    }
+    fn joint_motion(&self, j: usize) -> JointMotion {
+        self.motions.get(j).copied().unwrap_or_default()
     }
     fn joints(&self) -> usize {
         self.joints.len()

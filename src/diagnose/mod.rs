@@ -63,6 +63,7 @@ pub mod adequacy;
 pub mod candidates;
 pub mod columns;
 pub mod data;
+pub mod equivalents;
 mod error;
 pub mod format;
 pub mod locate;

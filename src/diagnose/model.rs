@@ -95,6 +95,63 @@ pub struct ModelParameter {
     pub family: ParameterFamily,
 }
 
+/// Whether a joint channel turns or slides: sets the units and words of everything reported
+/// about it (a prismatic joint's effort is a force in N, its friction in N and N s/m).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum JointMotion {
+    /// A revolute joint: rad, rad/s, N m.
+    #[default]
+    Rotary,
+    /// A prismatic joint: m, m/s, N.
+    Linear,
+}
+
+impl JointMotion {
+    /// "torque" or "force".
+    pub fn effort_word(self) -> &'static str {
+        match self {
+            JointMotion::Rotary => "torque",
+            JointMotion::Linear => "force",
+        }
+    }
+    /// Unit of the effort: "N m" or "N".
+    pub fn effort(self) -> &'static str {
+        match self {
+            JointMotion::Rotary => "N m",
+            JointMotion::Linear => "N",
+        }
+    }
+    /// Unit of the coordinate: "rad" or "m".
+    pub fn position(self) -> &'static str {
+        match self {
+            JointMotion::Rotary => "rad",
+            JointMotion::Linear => "m",
+        }
+    }
+    /// Unit of the rate: "rad/s" or "m/s".
+    pub fn rate(self) -> &'static str {
+        match self {
+            JointMotion::Rotary => "rad/s",
+            JointMotion::Linear => "m/s",
+        }
+    }
+    /// Unit of viscous friction: "N m s/rad" or "N s/m".
+    pub fn damping(self) -> &'static str {
+        match self {
+            JointMotion::Rotary => "N m s/rad",
+            JointMotion::Linear => "N s/m",
+        }
+    }
+    /// Unit of a reflected inertia: "kg m^2" or "kg".
+    pub fn inertia(self) -> &'static str {
+        match self {
+            JointMotion::Rotary => "kg m^2",
+            JointMotion::Linear => "kg",
+        }
+    }
+}
+
 /// A nominal model in equation-error form: τ = ID(θ; q, q̇, q̈).
 pub trait InverseDynamicsModel {
     /// Model name for reports.
@@ -103,6 +160,10 @@ pub trait InverseDynamicsModel {
     fn joints(&self) -> usize;
     /// Name of joint j (0-based), e.g. "joint 2 (elbow)".
     fn joint_name(&self, j: usize) -> String;
+    /// Whether joint j turns or slides (its units in every report). Default: it turns.
+    fn joint_motion(&self, _j: usize) -> JointMotion {
+        JointMotion::Rotary
+    }
     /// Parameters the candidate library may perturb (nominal values included).
     fn parameters(&self) -> Vec<ModelParameter>;
     /// Step of the central difference that gives the sensitivities to parameter `k`, in its

@@ -239,7 +239,7 @@ mod tests {
             &model,
             &fit,
             &held,
-            &[5, 10, 20],
+            &model.derivative_windows(),
             &DiagnoseOptions::default(),
             |_, _| {},
         )

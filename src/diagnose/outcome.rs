@@ -77,6 +77,9 @@ pub struct Confound {
     pub cv_ratio: f64,
     /// The recording that would separate them.
     pub experiment: String,
+    /// The selected estimate expressed as the alternative's parameter, where both have one
+    /// (e.g. a force-sensor scale error as a mass error), e.g. "delta [kg] = -0.3016".
+    pub equivalent: Option<String>,
 }
 
 /// Residual of one torque channel before and after the fit.
@@ -160,6 +163,9 @@ pub struct Diagnosis {
     pub correlations: Vec<(String, String, f64)>,
     /// Effects the data cannot separate.
     pub confounded: Vec<Confound>,
+    /// Per joint with selected Coulomb-type friction: the laws summed into the friction at
+    /// speed, and an asymmetry read together with an offset ([`super::equivalents`]).
+    pub friction: Vec<super::equivalents::JointFriction>,
     /// Per channel, before/after.
     pub channels: Vec<ChannelFit>,
     /// True if the diagnosis finds no missing physics: no selected effect with stable

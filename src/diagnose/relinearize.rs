@@ -95,6 +95,9 @@ impl InverseDynamicsModel for Shifted<'_> {
     fn joint_name(&self, j: usize) -> String {
         self.inner.joint_name(j)
     }
+    fn joint_motion(&self, j: usize) -> super::model::JointMotion {
+        self.inner.joint_motion(j)
+    }
     fn parameters(&self) -> Vec<ModelParameter> {
         let mut p = self.inner.parameters();
         for (x, d) in p.iter_mut().zip(&self.delta) {

@@ -306,10 +306,14 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
     for c in &d.confounded {
         let _ = writeln!(
             m,
-            "- {} or {} (cross-validated fits within {:.2} %). Separating recording: {}.",
+            "- {} or {} (cross-validated fits within {:.2} %{}). {}.",
             c.selected,
             c.alternative,
             100.0 * (c.cv_ratio - 1.0).abs(),
+            c.equivalent
+                .as_ref()
+                .map(|e| format!("; as the latter: {e}"))
+                .unwrap_or_default(),
             c.experiment
         );
     }

@@ -31,6 +31,11 @@ pub fn diagnose(
     mut progress: impl FnMut(&str, f64),
 ) -> Result<Diagnosis, DiagnoseError> {
     check_recordings(model, fit, holdout)?;
+    let mut filled = opts.clone();
+    if filled.library.speed_scales.is_empty() {
+        filled.library.speed_scales = speed_scales(model, fit);
+    }
+    let opts = &filled;
     let first = diagnose_once(model, fit, holdout, opts, |s, f| progress(s, 0.5 * f))?;
     if !opts.relinearize {
         progress("done", 1.0);
@@ -49,9 +54,34 @@ pub fn diagnose(
     let mut d = relinearize::against_nominal(model, first, second, &cands);
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
     adequacy::refresh(&mut d);
+    let set: Vec<usize> = d
+        .selected
+        .iter()
+        .filter_map(|n| cands.iter().position(|c| &c.name == n))
+        .collect();
+    d.friction = super::equivalents::joint_friction(model, &set, &cands, &d.estimates);
     d.verdict = verdict_text(model, &d, &cands);
     progress("done", 1.0);
     Ok(d)
+}
+
+/// Each joint's typical speed in the fit recordings: the 95th percentile of |q̇| (rad/s or
+/// m/s), for the velocity scales of prismatic joints' friction candidates.
+fn speed_scales(model: &dyn InverseDynamicsModel, fit: &[MotionData]) -> Vec<f64> {
+    (0..model.joints())
+        .map(|j| {
+            let mut v: Vec<f64> = fit
+                .iter()
+                .flat_map(|d| d.qd[j].iter().map(|x| x.abs()))
+                .filter(|x| x.is_finite())
+                .collect();
+            if v.is_empty() {
+                return 0.0;
+            }
+            v.sort_by(f64::total_cmp);
+            v[((v.len() - 1) as f64 * 0.95) as usize]
+        })
+        .collect()
 }
 
 /// Checks every recording against the model and the channels of every fit and held-out
@@ -135,7 +165,7 @@ fn diagnose_once(
         correlations,
         shares,
     } = estimate(&sel, &cands);
-    let confounded = confounded(&sel, &cands, opts);
+    let confounded = confounded(&sel, &cands, opts, &x);
     let Selection {
         prep,
         set,
@@ -207,8 +237,10 @@ fn diagnose_once(
         &location,
         &adequacy,
     );
+    let friction = super::equivalents::joint_friction(model, &set, &prep.cands, &estimates);
     progress("done", 1.0);
     Ok(Diagnosis {
+        friction,
         model: model.name(),
         fit_recordings: fit.iter().map(|d| d.name.clone()).collect(),
         holdout_recordings: holdout.iter().map(|d| d.name.clone()).collect(),

@@ -375,11 +375,26 @@ pub(super) fn estimate(sel: &Selection, cands: &[Candidate]) -> Estimates {
 
 /// Effects the data cannot separate: swapping a selected effect for another fits
 /// (cross-validated) as well.
-pub(super) fn confounded(sel: &Selection, cands: &[Candidate], opts: &DiagnoseOptions) -> Vec<Confound> {
+/// The pairs of a selected effect and an alternative outside its family that fit as well
+/// (cross-validated, within the confounding tolerance); `x` are the selected columns'
+/// coefficients (in the order of the selection's columns), from which a one-parameter
+/// alternative's equivalent value is read: the selected column's fit projected on the
+/// alternative's column.
+pub(super) fn confounded(
+    sel: &Selection,
+    cands: &[Candidate],
+    opts: &DiagnoseOptions,
+    x: &[f64],
+) -> Vec<Confound> {
     let Selection { prep, set, cv, .. } = sel;
     let cv_cur = *cv;
     let mut confounded = vec![];
+    let g = &prep.total().g;
+    let joints = cands.iter().filter_map(|c| c.joint).max().map_or(0, |j| j + 1);
+    let mut first_col = 0;
     for (pos, &c) in set.iter().enumerate() {
+        let col0 = first_col;
+        first_col += prep.cols_of[c].len();
         for d in 0..cands.len() {
             if set.contains(&d) || same_family(&cands[c], &cands[d]) {
                 continue;
@@ -391,11 +406,26 @@ pub(super) fn confounded(sel: &Selection, cands: &[Candidate], opts: &DiagnoseOp
             }
             let ratio = (prep.cv_rss(&s) / cv_cur).sqrt();
             if ratio < 1.0 + opts.confound_tolerance {
+                let equivalent = match (
+                    prep.cols_of[c].as_slice(),
+                    prep.cols_of[d].as_slice(),
+                    x.get(col0),
+                ) {
+                    ([a], [b], Some(&xa)) if g[(*b, *b)] > 0.0 => {
+                        let v = xa * g[(*a, *b)] / g[(*b, *b)];
+                        cands[d]
+                            .parameters
+                            .first()
+                            .map(|p| format!("{p} = {}", super::format::number(v)))
+                    }
+                    _ => None,
+                };
                 confounded.push(Confound {
                     selected: cands[c].name.clone(),
                     alternative: cands[d].name.clone(),
                     cv_ratio: ratio,
-                    experiment: separating_experiment(&cands[c], &cands[d]),
+                    experiment: separating_experiment(&cands[c], &cands[d], joints),
+                    equivalent,
                 });
             }
         }
@@ -409,7 +439,7 @@ fn same_family(a: &Candidate, b: &Candidate) -> bool {
     use Effect::*;
     let fam = |e: Effect| match e {
         Coulomb { .. } | Stribeck { .. } | AsymmetricFriction { .. } => 1,
-        Viscous => 2,
+        Viscous | AsymmetricViscous => 2,
         RotorInertia => 3,
         TorqueOffset => 4,
         TorqueScale => 5,

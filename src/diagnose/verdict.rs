@@ -130,9 +130,19 @@ pub(super) fn verdict(
             ));
         }
     }
+    for f in super::equivalents::joint_friction(model, set, cands, estimates) {
+        if let Some(t) = super::equivalents::friction_sentence(&f) {
+            s.push_str(&t);
+        }
+    }
     for c in confounded {
+        let eq = c
+            .equivalent
+            .as_ref()
+            .map(|e| format!(", which reads as {} in its terms", e))
+            .unwrap_or_default();
         s.push_str(&format!(
-            "The data cannot tell {} from {} (cross-validated fits within {:.1} %); {} would separate them. ",
+            "The data cannot tell {} from {} (cross-validated fits within {:.1} %{eq}); {}. ",
             c.selected,
             c.alternative,
             100.0 * (c.cv_ratio - 1.0).abs(),

@@ -898,7 +898,7 @@ impl Builder {
             ));
         }
         let kind = cx.need_name(&d.kind, "type", &owner, at)?;
-        let set: [(&str, bool); 20] = [
+        let set: [(&str, bool); 21] = [
             ("i", d.i.is_some()),
             ("j", d.j.is_some()),
             ("point_i", d.point_i.is_some()),
@@ -912,6 +912,7 @@ impl Builder {
             ("viscous", d.viscous.is_some()),
             ("viscous_backward", d.viscous_backward.is_some()),
             ("velocity_scale", d.velocity_scale.is_some()),
+            ("smoothing", d.smoothing.is_some()),
             ("value", d.value.is_some()),
             ("file", d.file.is_some()),
             ("column", d.column.is_some()),
@@ -937,6 +938,7 @@ impl Builder {
                 "viscous",
                 "viscous_backward",
                 "velocity_scale",
+                "smoothing",
             ],
             "effort" => &["joint", "value", "file", "column", "time_column"],
             "point_force" => &["body", "point", "force"],
@@ -1065,13 +1067,35 @@ impl Builder {
                 let vs = match &d.velocity_scale {
                     Some(v) => cx.positive(v, vdim, &format!("{owner} velocity_scale"))?,
                     None if coulomb > 0.0 => {
-                        return Err(cx.err(at, Problem::Missing, format!("{owner} has Coulomb friction but no 'velocity_scale' (the speed over which tanh smooths its sign, in {vdim})")))
+                        return Err(cx.err(at, Problem::Missing, format!("{owner} has Coulomb friction but no 'velocity_scale' (the speed over which its sign is smoothed, in {vdim})")))
                     }
                     None => 1.0,
                 };
+                // How the sign of the velocity is smoothed: tanh(v/v_s), or the algebraic
+                // v/√(v² + v_s²) (slower tails: a law of another form than tanh).
+                let algebraic = match d
+                    .smoothing
+                    .as_ref()
+                    .map(|s| (s.get_ref().as_str(), s.span().start))
+                {
+                    None | Some(("tanh", _)) => false,
+                    Some(("algebraic", _)) => true,
+                    Some((other, sat)) => {
+                        return Err(cx.err(
+                            sat,
+                            Problem::UnknownType,
+                            format!("{owner}: unknown smoothing '{other}' (tanh, algebraic)"),
+                        ))
+                    }
+                };
                 let law = move |_t: f64, _x: f64, v: f64| -> f64 {
                     let c = if v >= 0.0 { viscous } else { backward };
-                    -(coulomb * (v / vs).tanh() + c * v)
+                    let sign = if algebraic {
+                        v / (v * v + vs * vs).sqrt()
+                    } else {
+                        (v / vs).tanh()
+                    };
+                    -(coulomb * sign + c * v)
                 };
                 self.coordinate_force(&joint, nm.clone(), Arc::new(law));
             }

@@ -74,7 +74,8 @@
 //! joint = "A"                            #   damping, free_length), rotational_spring_damper
 //! coulomb = "0.02 N m"                   #   (joint, stiffness, damping, free_angle),
 //! viscous = 1e-3                         #   friction (joint, coulomb, viscous,
-//! velocity_scale = "0.01 rad/s"          #   viscous_backward, velocity_scale),
+//! velocity_scale = "0.01 rad/s"          #   viscous_backward, velocity_scale,
+//! smoothing = "tanh"                     #   smoothing = tanh | algebraic: v/√(v²+v_s²)),
 //!                                        #   effort (joint, value | file + column),
 //!                                        #   point_force (body, point, force)
 //!

@@ -143,6 +143,7 @@ pub(crate) struct ForceDoc {
     pub viscous: Option<Val>,
     pub viscous_backward: Option<Val>,
     pub velocity_scale: Option<Val>,
+    pub smoothing: Option<Name>,
     pub value: Option<Val>,
     pub file: Option<Name>,
     pub time_column: Option<Name>,
