@@ -36,8 +36,9 @@ fn parse_window(s: &str) -> Result<Window, String> {
 /// Options of `lash diagnose`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Nominal model (a model file `*.toml`: its measured joints are the channels, its
-    /// sensors name the columns, its parameters may be perturbed (lash::diagnose::model_file);
+    /// Nominal model (a model file `*.toml` or a URDF `*.urdf`: its measured joints are the
+    /// channels, its sensors name the columns, its parameters may be perturbed, its
+    /// `[recordings]` are the default --fit/--holdout (lash::diagnose::model_file);
     /// double-pendulum: the DFKI pendulum's rigid model from --params;
     /// mr2120: the MR2120's multibody ideal model with compliant drives (lash::diagnose::mr2120);
     /// mr2120-lumped: its closed-form rigid model, the model `lash mr2120 record` makes
@@ -105,9 +106,14 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     let mr;
     let mb;
     let mf;
+    let mut file_recordings: Option<(Vec<String>, Vec<String>)> = None;
     let (model, defaults): (&dyn InverseDynamicsModel, _) = match a.model.as_str() {
-        file if file.ends_with(".toml") => {
+        file if file.ends_with(".toml") || file.ends_with(".urdf") => {
             let f = lash::model_file::ModelFile::load(file).map_err(CliError::input)?;
+            if !f.fit_recordings.is_empty() {
+                let s = |v: &[std::path::PathBuf]| v.iter().map(|p| p.display().to_string()).collect();
+                file_recordings = Some((s(&f.fit_recordings), s(&f.holdout_recordings)));
+            }
             mf = lash::diagnose::model_file::model_from_file(f).map_err(CliError::input)?;
             (&mf, None)
         }
@@ -133,13 +139,14 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         }
         other => {
             return Err(CliError::Input(format!(
-                "unknown model '{other}' (available: double-pendulum, mr2120, mr2120-lumped, or a model file ending in .toml)"
+                "unknown model '{other}' (available: double-pendulum, mr2120, mr2120-lumped, or a model file ending in .toml or .urdf)"
             )))
         }
     };
     let fit_files: Vec<String> = match (&a.fit, defaults) {
         (Some(list), _) => items(list).map(String::from).collect(),
         (None, Some(d)) => d.fit.iter().map(|f| f.to_string()).collect(),
+        (None, None) if file_recordings.is_some() => file_recordings.clone().unwrap_or_default().0,
         (None, None) => {
             return Err(CliError::Input(format!(
                 "--model {} has no default recordings: name the recordings to fit on with --fit (e.g. written by `lash mr2120 record`)",
@@ -150,7 +157,7 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     let holdout_files: Vec<String> = match (&a.holdout, defaults) {
         (Some(list), _) => items(list).map(String::from).collect(),
         (None, Some(d)) => d.holdout.iter().map(|f| f.to_string()).collect(),
-        (None, None) => vec![],
+        (None, None) => file_recordings.map(|r| r.1).unwrap_or_default(),
     };
     let first = fit_files
         .first()

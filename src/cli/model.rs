@@ -93,7 +93,12 @@ pub fn check(a: CheckArgs) -> Result<Output, CliError> {
                                     )
                                 })
                                 .unwrap_or_default();
-                            format!("{} ({} {}-{}{c})", j.name, j.kind, j.i, j.j)
+                            let unit = if j.kind == "prismatic" { "m" } else { "rad" };
+                            let l = j
+                                .limits
+                                .map(|l| format!(", limits {} to {} {unit}", l[0], l[1]))
+                                .unwrap_or_default();
+                            format!("{} ({} {}-{}{c}{l})", j.name, j.kind, j.i, j.j)
                         })
                         .collect()
                 )

@@ -758,6 +758,14 @@ fn recording_for(a: &Candidate, b: &Candidate) -> String {
             "a run holding {} at several constant speeds, slow and fast, in both directions (friction against speed)",
             joint(a)
         ),
+        (RotorInertia, y) | (y, RotorInertia) if friction(y) => format!(
+            "a run moving {} at several frequencies, and one at constant speeds (inertia acts with the acceleration, friction with the velocity)",
+            joint(if a.joint.is_some() { a } else { b })
+        ),
+        (x, Parameter { .. }) | (Parameter { .. }, x) if friction(x) => format!(
+            "a run holding {} at several constant speeds in both directions (friction acts with the speed, masses and lengths through gravity and acceleration)",
+            joint(if a.joint.is_some() { a } else { b })
+        ),
         (RotorInertia, Parameter { .. }) | (Parameter { .. }, RotorInertia) => format!(
             "a run accelerating {} hard while the other joints stay still (rotor inertia acts on that joint alone)",
             joint(if a.joint.is_some() { a } else { b })
@@ -773,6 +781,10 @@ fn recording_for(a: &Candidate, b: &Candidate) -> String {
         (TorqueScale, _) | (_, TorqueScale) => {
             "a run with a known external load (a calibrated weight or force) to calibrate the effort sensor".into()
         }
+        _ if a.joint.is_some() && a.joint == b.joint => format!(
+            "a run moving {} through a wider range of speeds, accelerations and loads, each varied on its own",
+            joint(a)
+        ),
         _ => format!(
             "a motion that reverses the load in {} and in {} at different times",
             joint(a),

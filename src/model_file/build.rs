@@ -60,6 +60,9 @@ pub struct JointInfo {
     pub efforts: Vec<EffortLaw>,
     /// Its bearing design, if it declares a clearance.
     pub clearance: Option<BearingDesign>,
+    /// Lower and upper limit of its coordinate (rad or m), if declared (reported, not
+    /// enforced).
+    pub limits: Option<[f64; 2]>,
 }
 
 impl std::fmt::Debug for JointInfo {
@@ -167,7 +170,18 @@ pub(crate) fn build(
             values,
         };
         for d in &f.doc.body {
-            b.body(&cx, d.span().start, d.get_ref())?;
+            let replaced = f.urdf
+                && d.get_ref().name.as_ref().is_some_and(|n| {
+                    files.iter().filter(|g| !g.urdf).any(|g| {
+                        g.doc
+                            .body
+                            .iter()
+                            .any(|e| e.get_ref().name.as_ref().map(|m| m.get_ref()) == Some(n.get_ref()))
+                    })
+                });
+            if !replaced {
+                b.body(&cx, d.span().start, d.get_ref())?;
+            }
         }
     }
     if b.out_bodies.is_empty() {
@@ -541,6 +555,30 @@ impl Builder {
             }
             (None, _) => 0.0,
         };
+        let limits = match (&d.limits, info_dim) {
+            (None, _) => None,
+            (Some(v), None) => {
+                return Err(cx.err(
+                    v.span().start,
+                    Problem::NotApplicable,
+                    format!(
+                        "{owner}: a {} joint has no coordinate to limit",
+                        kind_name.get_ref()
+                    ),
+                ))
+            }
+            (Some(v), Some(dim)) => {
+                let x = cx.list(v, dim, &[2], &format!("{owner} limits"))?;
+                if x[0] >= x[1] {
+                    return Err(cx.err(
+                        v.span().start,
+                        Problem::Inconsistent,
+                        format!("{owner}: limits [{}, {}] are not increasing", x[0], x[1]),
+                    ));
+                }
+                Some([x[0], x[1]])
+            }
+        };
         let clearance = match &d.clearance {
             None => None,
             Some(c) => {
@@ -647,6 +685,7 @@ impl Builder {
             driver: None,
             efforts: vec![],
             clearance: clearance.map(|(d, _)| d),
+            limits,
         });
         self.joint_places.push(nm.to_string());
         Ok(())
@@ -1343,17 +1382,6 @@ impl Builder {
                     )
                 })?;
                 let (k, _) = self.coordinate_joint(cx, jn, &owner, "measure")?;
-                if kind == SensorKind::JointEffort
-                    && self.joints[k].driver.is_none()
-                    && self.joints[k].efforts.is_empty()
-                    && !self.opts.measured_joints.contains(&self.joints[k].name)
-                {
-                    return Err(cx.err(
-                        jn.span().start,
-                        Problem::NotApplicable,
-                        format!("{owner}: joint '{}' has neither a driver nor an effort force, so no effort acts along it", self.joints[k].name),
-                    ));
-                }
                 SensorTarget::Joint(k)
             }
         };

@@ -10,6 +10,7 @@
 //! | `build.rs` | tables → [`Mechanism`](crate::multibody::Mechanism), every fault located |
 //! | `sensors.rs` | what each recording column measures, read at a simulated sample |
 //! | `simulate.rs` | a simulation's sensor series, CSV and charts (`lash simulate`) |
+//! | `urdf.rs` | URDF import: links and joints as tables placed in the URDF's text |
 //! | `error.rs` | [`ModelFileError`]: file, line, column, [`Problem`] and message |
 //!
 //! # The format
@@ -58,6 +59,7 @@
 //! axis = [0, 0, 1]                       # revolute, prismatic, cylindrical
 //! # axis_i = [...], axis_j = [...]       # universal: one fixed in each side, perpendicular
 //! coordinate = "0 deg"                   # the joint's coordinate in this configuration
+//! # limits = ["-90 deg", "90 deg"]       # optional: reported by `lash check`, not enforced
 //! # clearance = { radial = "10 um", axial = "5 um", ball_radius = "4 mm",
 //! #               ball_spacing = "24 mm", damping = 300 }    # universal, revolute, spherical
 //!
@@ -82,9 +84,22 @@
 //! [[sensor]]
 //! name = "q"                             # the recording column (vectors: q_x, q_y, q_z)
 //! type = "joint_position"                # joint_position, joint_velocity,
-//! joint = "A"                            # joint_acceleration, joint_effort (joint);
+//! joint = "A"                            # joint_acceleration, joint_effort (joint: the
+//!                                        # actuator's effort, 0 on a passive joint);
 //!                                        # body_position (body or marker), body_orientation
+//!
+//! [recordings]                           # optional: recordings of this machine, the
+//! fit = ["run1.csv", "run2.csv"]         # defaults of `lash diagnose --model FILE`
+//! holdout = ["run3.csv"]                 # (paths relative to this file)
 //! ```
+//!
+//! # URDF
+//!
+//! A URDF file is a model by itself (`lash check robot.urdf`), or the base of a side TOML
+//! that names it with `urdf = "robot.urdf"` (beside `include`) and adds sensors, parameters,
+//! clearance, drivers and forces; a `[[body]]` named like a link replaces that link's mass
+//! properties. What is imported and how: `urdf.rs`; `models/dfki_pendulum.toml` is an
+//! example.
 //!
 //! A fault names file, line and column and its kind ([`Problem`]); nothing in a file can make
 //! lash panic.
@@ -127,6 +142,7 @@ mod sensors;
 mod series;
 mod simulate;
 pub mod units;
+mod urdf;
 
 pub use build::{BuildOptions, BuiltModel, EffortLaw, JointInfo};
 pub use error::{ModelFileError, Problem};
@@ -151,6 +167,11 @@ pub struct ModelFile {
     pub description: String,
     /// Declared parameters, in file order.
     pub parameters: Vec<Parameter>,
+    /// `[recordings] fit`: recordings of this machine a diagnosis fits on by default (paths
+    /// resolved against the file that names them).
+    pub fit_recordings: Vec<PathBuf>,
+    /// `[recordings] holdout`: recordings a diagnosis holds out by default.
+    pub holdout_recordings: Vec<PathBuf>,
     files: Vec<Parsed>,
 }
 
@@ -204,6 +225,9 @@ pub struct CheckJoint {
     pub j: String,
     /// Radial and axial clearance (m), if declared.
     pub clearance_m: Option<[f64; 2]>,
+    /// Lower and upper limit of the joint's coordinate (rad or m), if declared (reported,
+    /// not enforced).
+    pub limits: Option<[f64; 2]>,
 }
 
 /// A driver in a [`CheckReport`].
@@ -258,12 +282,20 @@ impl ModelFile {
                 "includes need a model file on disk (ModelFile::load)",
             ));
         }
+        if let Some(u) = &doc.urdf {
+            return Err(src.error(
+                u.span().start,
+                error::Problem::Include,
+                "a URDF reference needs a model file on disk (ModelFile::load)",
+            ));
+        }
         Self::from_parsed(
             &path,
             vec![Parsed {
                 src,
                 dir: PathBuf::from("."),
                 doc,
+                urdf: false,
             }],
         )
     }
@@ -287,11 +319,21 @@ impl ModelFile {
             }
         }
         let _ = root;
+        let (mut fit_recordings, mut holdout_recordings) = (vec![], vec![]);
+        for f in &files {
+            if let Some(r) = &f.doc.recordings {
+                let r = r.get_ref();
+                fit_recordings = r.fit.iter().map(|p| f.dir.join(p.get_ref())).collect();
+                holdout_recordings = r.holdout.iter().map(|p| f.dir.join(p.get_ref())).collect();
+            }
+        }
         Ok(Self {
             path: path.to_path_buf(),
             name,
             description,
             parameters,
+            fit_recordings,
+            holdout_recordings,
             files,
         })
     }
@@ -374,6 +416,7 @@ impl ModelFile {
                     i: name_of(j.i),
                     j: name_of(j.j),
                     clearance_m: j.clearance.map(|c| [c.radial_clearance, c.axial_clearance]),
+                    limits: j.limits,
                 })
                 .collect(),
             drivers: built

@@ -13,6 +13,8 @@ pub(crate) struct Parsed {
     pub src: Source,
     pub dir: PathBuf,
     pub doc: FileDoc,
+    /// Tables imported from a URDF (its bodies may be replaced by a side file's).
+    pub urdf: bool,
 }
 
 /// Most files an include tree may hold.
@@ -55,6 +57,10 @@ fn read_one(
     if out.len() + stack.len() >= MAX_FILES {
         return Err(fail(format!("more than {MAX_FILES} files in the include tree")));
     }
+    if is_urdf(path) {
+        out.push(super::urdf::import(path, text, from.is_none())?);
+        return Ok(());
+    }
     let src = Source::new(path, text);
     let doc = parse(&src)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
@@ -64,8 +70,36 @@ fn read_one(
         read_one(&child, stack, out, Some((&src, inc.span().start)))?;
     }
     stack.pop();
-    out.push(Parsed { src, dir, doc });
+    if let Some(u) = &doc.urdf {
+        let file = dir.join(u.get_ref());
+        if !is_urdf(&file) {
+            return Err(src.error(
+                u.span().start,
+                Problem::Include,
+                format!("urdf = '{}' does not name a .urdf file", u.get_ref()),
+            ));
+        }
+        let text = std::fs::read_to_string(&file).map_err(|e| {
+            src.error(
+                u.span().start,
+                Problem::Include,
+                format!("cannot read URDF '{}': {e}", file.display()),
+            )
+        })?;
+        out.push(super::urdf::import(&file, text, false)?);
+    }
+    out.push(Parsed {
+        src,
+        dir,
+        doc,
+        urdf: false,
+    });
     Ok(())
+}
+
+/// Whether `path` names a URDF (by its extension).
+pub(crate) fn is_urdf(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("urdf"))
 }
 
 /// Parses one file's text.

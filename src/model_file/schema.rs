@@ -16,6 +16,8 @@ pub(crate) type Name = Spanned<String>;
 pub(crate) struct FileDoc {
     #[serde(default)]
     pub include: Vec<Name>,
+    /// A URDF whose links and joints this file builds on (`urdf.rs`).
+    pub urdf: Option<Name>,
     pub model: Option<Spanned<ModelDoc>>,
     #[serde(default)]
     pub parameter: Vec<Spanned<ParameterDoc>>,
@@ -31,6 +33,17 @@ pub(crate) struct FileDoc {
     pub force: Vec<Spanned<ForceDoc>>,
     #[serde(default)]
     pub sensor: Vec<Spanned<SensorDoc>>,
+    pub recordings: Option<Spanned<RecordingsDoc>>,
+}
+
+/// Recordings of the machine the file describes (paths relative to the file).
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RecordingsDoc {
+    #[serde(default)]
+    pub fit: Vec<Name>,
+    #[serde(default)]
+    pub holdout: Vec<Name>,
 }
 
 #[derive(Debug, Deserialize, Default)]
@@ -58,7 +71,7 @@ pub(crate) struct OrientationDoc {
     pub angle: Option<Val>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct BodyDoc {
     pub name: Option<Name>,
@@ -70,7 +83,7 @@ pub(crate) struct BodyDoc {
     pub angular_velocity: Option<Val>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct MarkerDoc {
     pub name: Option<Name>,
@@ -89,7 +102,7 @@ pub(crate) struct ClearanceDoc {
     pub damping: Option<Val>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct JointDoc {
     pub name: Option<Name>,
@@ -102,6 +115,7 @@ pub(crate) struct JointDoc {
     pub axis_i: Option<Val>,
     pub axis_j: Option<Val>,
     pub coordinate: Option<Val>,
+    pub limits: Option<Val>,
     pub clearance: Option<Spanned<ClearanceDoc>>,
 }
 
@@ -124,7 +138,7 @@ pub(crate) struct DriverDoc {
     pub unit: Option<Name>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct ForceDoc {
     pub name: Option<Name>,
@@ -154,7 +168,7 @@ pub(crate) struct ForceDoc {
     pub force: Option<Val>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct SensorDoc {
     pub name: Option<Name>,
