@@ -264,6 +264,31 @@ fn an_empty_fit_set_is_an_error_not_a_panic() {
 }
 
 #[test]
+fn one_fit_recording_too_short_for_folds_and_an_unknown_exclusion_are_errors() {
+    let (fit, held) = runs(&|_, _, _| 0.0);
+    let model = DoublePendulumModel { params: params() };
+    let mut short = fit[0].clone();
+    let n = 150;
+    short.t.truncate(n);
+    for v in [&mut short.q, &mut short.qd, &mut short.qdd, &mut short.tau] {
+        v.iter_mut().for_each(|x| x.truncate(n));
+    }
+    let e = diagnose(&model, &[short], &held, &DiagnoseOptions::default(), |_, _| {}).unwrap_err();
+    assert!(
+        matches!(e, DiagnoseError::TooFewSamplesForFolds { found: 150, .. }),
+        "{e}"
+    );
+    assert!(e.to_string().contains("cut into 4 parts"), "{e}");
+    let mut opts = DiagnoseOptions::default();
+    opts.library.exclude = vec!["viscous".into(), "warp drive".into()];
+    let e = diagnose(&model, &fit, &held, &opts, |_, _| {}).unwrap_err();
+    assert!(
+        matches!(&e, DiagnoseError::UnknownExclusion { text, .. } if text == "warp drive"),
+        "{e}"
+    );
+}
+
+#[test]
 fn derivative_windows_that_are_empty_or_zero_are_an_error() {
     let model = DoublePendulumModel { params: params() };
     for windows in [&[][..], &[0][..], &[3, 0][..]] {

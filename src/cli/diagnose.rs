@@ -68,10 +68,15 @@ pub struct Args {
     /// present), and a mapping renames some of them.
     #[arg(long)]
     map: Option<String>,
-    /// Half-width (samples) of the local line that differentiates rates into
+    /// Half-width (samples) of the local cubic fit that differentiates rates into
     /// accelerations, or "auto": chosen by cross-validation on the fit recordings.
     #[arg(long, default_value = "auto", value_parser = parse_window)]
     derivative_window: Window,
+    /// Candidates to leave out of the library: comma-separated texts, each matching every
+    /// candidate whose name contains it, ignoring case (e.g. "sensor delay,Stribeck"); a text
+    /// that matches none is an error listing the candidates.
+    #[arg(long)]
+    exclude: Option<String>,
     /// Report folder (Markdown, JSON, PNG/SVG plots) [default: out/diagnose, with --suite
     /// out/diagnose-suite].
     #[arg(long)]
@@ -182,15 +187,14 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     };
     let fit = load(&fit_files)?;
     let held = load(&holdout_files)?;
+    let mut opts = DiagnoseOptions::default();
+    opts.library.exclude = a
+        .exclude
+        .as_deref()
+        .map(|x| items(x).map(String::from).collect())
+        .unwrap_or_default();
     let mut progress = Progress::new("diagnose", 1.0);
-    let d = diagnose_recordings(
-        model,
-        &fit,
-        &held,
-        &windows,
-        &DiagnoseOptions::default(),
-        |_, f| progress.update(f),
-    );
+    let d = diagnose_recordings(model, &fit, &held, &windows, &opts, |_, f| progress.update(f));
     progress.finish();
     let d = d.map_err(CliError::input)?;
     let report = a.report.unwrap_or_else(|| REPORT.into());

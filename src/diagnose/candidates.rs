@@ -59,6 +59,30 @@ pub struct LibraryOptions {
     /// Typical speed of each joint in the fit recordings (its 95th-percentile |q̇|, rad/s or
     /// m/s), filled by the diagnosis from the data; empty: unknown (absolute grid).
     pub speed_scales: Vec<f64>,
+    /// Candidates left out: every candidate whose name contains one of these texts
+    /// (ignoring case). Each text must match at least one candidate
+    /// ([`excluded_unknown`]).
+    pub exclude: Vec<String>,
+}
+
+/// The first text of `opts.exclude` that matches no candidate of `model`'s full library, if
+/// any (a misspelt exclusion would otherwise silently exclude nothing).
+pub fn excluded_unknown(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Option<String> {
+    let all = library(
+        model,
+        &LibraryOptions {
+            exclude: vec![],
+            ..opts.clone()
+        },
+    );
+    opts.exclude
+        .iter()
+        .find(|x| !all.iter().any(|c| excludes(x, &c.name)))
+        .cloned()
+}
+
+fn excludes(text: &str, name: &str) -> bool {
+    name.to_lowercase().contains(&text.to_lowercase())
 }
 
 impl LibraryOptions {
@@ -102,6 +126,7 @@ impl Default for LibraryOptions {
             play_load_scales: vec![1.0, 5.0, 20.0],
             relative_coulomb_velocities: vec![0.1, 0.03, 0.01],
             speed_scales: vec![],
+            exclude: vec![],
         }
     }
 }
@@ -172,6 +197,13 @@ pub enum Effect {
         index: usize,
         /// Family.
         family: ParameterFamily,
+    },
+    /// A candidate the model declares (index into its
+    /// [`declared_candidates`](InverseDynamicsModel::declared_candidates)): its parameters
+    /// perturbed together.
+    Declared {
+        /// Index.
+        group: usize,
     },
 }
 
@@ -374,7 +406,29 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
             bounds: vec![(-0.05, 0.05)],
         });
     }
-    for (k, p) in model.parameters().iter().enumerate() {
+    let declared = model.declared_candidates();
+    let params = model.parameters();
+    for (group, g) in declared.iter().enumerate() {
+        out.push(Candidate {
+            name: g.name.clone(),
+            effect: Effect::Declared { group },
+            joint: None,
+            parameters: g
+                .parameters
+                .iter()
+                .map(|&k| {
+                    let p = &params[k];
+                    format!("{} [{}]", p.name, p.unit)
+                })
+                .collect(),
+            grid_parameters: 0,
+            bounds: g.bounds.clone(),
+        });
+    }
+    for (k, p) in params.iter().enumerate() {
+        if declared.iter().any(|g| g.parameters.contains(&k)) {
+            continue;
+        }
         out.push(Candidate {
             name: format!("error in {}", p.name),
             effect: Effect::Parameter {
@@ -393,6 +447,7 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
             }],
         });
     }
+    out.retain(|c| !opts.exclude.iter().any(|x| excludes(x, &c.name)));
     out
 }
 
@@ -411,6 +466,7 @@ pub fn columns(
     let n = d.len();
     let params = model.parameters();
     let theta0: Vec<f64> = params.iter().map(|p| p.nominal).collect();
+    let declared_groups = model.declared_candidates();
     let (tau_nom, y_nom) = d.model_all(model, &theta0);
     let torque_row = |j: usize| chans.iter().position(|&c| c == Channel::Torque(j));
     let output_rows: Vec<(usize, usize)> = chans
@@ -584,6 +640,25 @@ pub fn columns(
                     h,
                 )]
             }
+            (Effect::Declared { group }, _) => declared_groups
+                .get(group)
+                .map(|g| {
+                    g.parameters
+                        .iter()
+                        .map(|&index| {
+                            let h = model.parameter_step(index);
+                            let (mut tp, mut tm) = (theta0.clone(), theta0.clone());
+                            tp[index] += h;
+                            tm[index] -= h;
+                            difference(
+                                &|| d.model_channels(model, &tp),
+                                &|| d.model_channels(model, &tm),
+                                h,
+                            )
+                        })
+                        .collect()
+                })
+                .unwrap_or_default(),
             (Effect::PositionOffset, Some(j)) => {
                 // Measured = true + o, so the model sees q − o: column −∂(τ, y)/∂q_j.
                 vec![lag_of(j).clone()]

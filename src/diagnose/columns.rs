@@ -48,7 +48,31 @@ pub fn resolve_columns(
 ) -> Result<Vec<(String, String)>, RecordingError> {
     let roles = model_roles(model);
     match &model.column_defaults() {
-        ColumnDefaults::Fixed(map) => super::recording::parse_mapping(user.unwrap_or(map), &roles),
+        ColumnDefaults::Fixed(map) => {
+            // Recorded accelerations are optional: mapped only when named and present.
+            let required: Vec<String> = roles
+                .iter()
+                .filter(|r| role_kind(model, r) != Some(RoleKind::Acceleration))
+                .cloned()
+                .collect();
+            let pairs = parse_pairs(user.unwrap_or(map), &roles)?;
+            if let Some(r) = required.iter().find(|r| !pairs.iter().any(|(m, _)| m == *r)) {
+                return Err(RecordingError::Unmapped {
+                    role: r.clone(),
+                    hint: format!("--map {r}=<column>"),
+                });
+            }
+            let mut out: Vec<(String, String)> = pairs
+                .iter()
+                .filter(|(r, _)| required.contains(r))
+                .cloned()
+                .collect();
+            out.extend(pairs.into_iter().filter(|(r, c)| {
+                role_kind(model, r) == Some(RoleKind::Acceleration)
+                    && (header.is_empty() || header.contains(c))
+            }));
+            Ok(out)
+        }
         ColumnDefaults::RoleNames => {
             let user = parse_pairs(user.unwrap_or_default(), &roles)?;
             Ok(roles

@@ -20,7 +20,8 @@ pub struct MotionData {
     pub q: Vec<Vec<f64>>,
     /// Joint rates per joint, rad/s.
     pub qd: Vec<Vec<f64>>,
-    /// Joint accelerations per joint (differentiated rates), rad/s².
+    /// Joint accelerations per joint, rad/s²: the recorded `qdd` column where the
+    /// recording maps one, else the differentiated rates.
     pub qdd: Vec<Vec<f64>>,
     /// Measured joint torques per joint, N·m (empty: the recording has no torque channels).
     pub tau: Vec<Vec<f64>>,
@@ -39,10 +40,12 @@ pub fn roles(joints: usize) -> Vec<String> {
     r
 }
 
-/// Roles of a model: q1.., qd1.., tau1.. and its output roles.
+/// Roles of a model: q1.., qd1.., tau1.., its output roles, then the optional recorded
+/// accelerations qdd1.. (read instead of differentiating the rates where mapped).
 pub fn model_roles(model: &dyn InverseDynamicsModel) -> Vec<String> {
     let mut r = roles(model.joints());
     r.extend((0..model.outputs()).map(|k| model.output_role(k)));
+    r.extend((1..=model.joints()).map(|j| format!("qdd{j}")));
     r
 }
 
@@ -55,6 +58,8 @@ pub enum RoleKind {
     Torque,
     /// A model output (e.g. a tracked position).
     Output,
+    /// A recorded joint acceleration (qdd1..): optional.
+    Acceleration,
 }
 
 /// The kind of `role` among the [`model_roles`] of `model`; `None` when it is not one of them.
@@ -65,8 +70,10 @@ pub fn role_kind(model: &dyn InverseDynamicsModel, role: &str) -> Option<RoleKin
         RoleKind::Motion
     } else if k < 3 * n {
         RoleKind::Torque
-    } else {
+    } else if k < 3 * n + model.outputs() {
         RoleKind::Output
+    } else {
+        RoleKind::Acceleration
     })
 }
 
@@ -141,7 +148,10 @@ impl MotionData {
         for j in 1..=joints {
             d.q.push(mapped(rec, format!("q{j}"))?);
             let qd = mapped(rec, format!("qd{j}"))?;
-            d.qdd.push(diff(&rec.time, &qd, half_window));
+            d.qdd.push(match rec.channel(&format!("qdd{j}")) {
+                Some(a) => a.to_vec(),
+                None => diff(&rec.time, &qd, half_window),
+            });
             d.qd.push(qd);
         }
         Ok(d)
@@ -338,6 +348,29 @@ impl MotionData {
         self.t.len()
     }
 
+    /// This recording cut into `k` contiguous parts of (nearly) equal length, named
+    /// "`name` [part i/k]", for cross-validation when only one recording is fitted.
+    /// Derivatives were taken on the whole recording, so no part has edge effects of its own.
+    pub fn folds(&self, k: usize) -> Vec<MotionData> {
+        let n = self.len();
+        let k = k.max(1);
+        (0..k)
+            .map(|i| {
+                let (a, b) = (i * n / k, (i + 1) * n / k);
+                let part = |v: &[Vec<f64>]| v.iter().map(|x| x[a..b].to_vec()).collect();
+                MotionData {
+                    name: format!("{} [part {}/{k}]", self.name, i + 1),
+                    t: self.t[a..b].to_vec(),
+                    q: part(&self.q),
+                    qd: part(&self.qd),
+                    qdd: part(&self.qdd),
+                    tau: part(&self.tau),
+                    y: part(&self.y),
+                }
+            })
+            .collect()
+    }
+
     /// True if there are no samples.
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
@@ -346,5 +379,56 @@ impl MotionData {
     /// The model's torques per joint at every sample with parameters `theta`.
     pub fn model_torques(&self, model: &dyn InverseDynamicsModel, theta: &[f64]) -> Vec<Vec<f64>> {
         self.model_all(model, theta).0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn recording(with_qdd: bool) -> Recording {
+        let time: Vec<f64> = (0..200).map(|k| k as f64 * 1e-3).collect();
+        let qd: Vec<f64> = time.iter().map(|t| (3.0 * t).sin()).collect();
+        let mut channels = vec![
+            (
+                "q1".to_string(),
+                time.iter().map(|t| -(3.0 * t).cos() / 3.0).collect(),
+            ),
+            ("qd1".to_string(), qd),
+            ("tau1".to_string(), vec![0.0; time.len()]),
+        ];
+        if with_qdd {
+            channels.push(("qdd1".to_string(), vec![7.0; time.len()]));
+        }
+        Recording {
+            source: PathBuf::from("r.csv"),
+            time,
+            channels,
+        }
+    }
+
+    #[test]
+    fn a_recorded_acceleration_is_read_not_differentiated() {
+        let d = MotionData::from_recording(&recording(true), 1, 5).unwrap();
+        assert!(d.qdd[0].iter().all(|&a| a == 7.0));
+        let d = MotionData::from_recording(&recording(false), 1, 5).unwrap();
+        // 3 cos(3t), differentiated from the rates.
+        assert!(
+            (d.qdd[0][100] - 3.0 * (0.3f64).cos()).abs() < 1e-6,
+            "{}",
+            d.qdd[0][100]
+        );
+    }
+
+    #[test]
+    fn folds_are_contiguous_parts_that_cover_the_recording() {
+        let d = MotionData::from_recording(&recording(false), 1, 5).unwrap();
+        let parts = d.folds(4);
+        assert_eq!(parts.len(), 4);
+        assert_eq!(parts.iter().map(MotionData::len).sum::<usize>(), d.len());
+        assert_eq!(parts[1].name, "r [part 2/4]");
+        assert_eq!(parts[1].t[0], d.t[50]);
+        assert_eq!(parts[3].qd[0].last(), d.qd[0].last());
     }
 }

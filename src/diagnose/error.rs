@@ -103,6 +103,28 @@ pub enum DiagnoseError {
         /// Samples needed.
         needed: usize,
     },
+    /// An exclusion that matches no candidate.
+    #[error("--exclude '{text}' matches no candidate of the library (candidates: {available})")]
+    UnknownExclusion {
+        /// The text.
+        text: String,
+        /// Candidate names, comma-separated.
+        available: String,
+    },
+    /// One fit recording too short to cut into cross-validation folds.
+    #[error(
+        "recording '{recording}' is the only fit recording, so it is cut into {folds} parts for cross-validation, but its {found} samples give fewer than {needed} per part: record longer, or fit on several recordings"
+    )]
+    TooFewSamplesForFolds {
+        /// The recording.
+        recording: String,
+        /// Samples found.
+        found: usize,
+        /// Folds it would be cut into.
+        folds: usize,
+        /// Samples each fold needs.
+        needed: usize,
+    },
     /// Time is not finite or does not increase strictly.
     #[error("recording '{recording}': time {t} s at sample {index} is not finite or not after the previous sample ({previous} s)")]
     TimeNotIncreasing {

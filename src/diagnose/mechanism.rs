@@ -65,7 +65,8 @@
 
 use super::error::DiagnoseError;
 use super::model::{
-    ColumnDefaults, InverseDynamicsModel, JointMotion, ModelParameter, OutputSensitivities, PlayData,
+    ColumnDefaults, DeclaredCandidate, InverseDynamicsModel, JointMotion, ModelParameter,
+    OutputSensitivities, PlayData,
 };
 use super::transmission::{self, TransmissionDynamics};
 use crate::contact::play::UniversalPlay;
@@ -232,6 +233,8 @@ pub struct MechanismModel {
     columns: ColumnDefaults,
     /// Whether each channel's joint turns or slides (from the nominal mechanism's drivers).
     motions: Vec<JointMotion>,
+    /// Candidates the model declares (perturbing some of its parameters together).
+    declared: Vec<DeclaredCandidate>,
     /// The mechanism built for the last parameter values, with its data (a cache: the
     /// diagnosis asks for torques through `&self`).
     built: RefCell<Option<Built>>,
@@ -272,6 +275,7 @@ impl MechanismModel {
             windows: None,
             columns: ColumnDefaults::RoleNames,
             motions: vec![],
+            declared: vec![],
             built: RefCell::new(None),
         };
         m.ensure(&m.nominal())
@@ -308,6 +312,29 @@ impl MechanismModel {
             model: self.name.clone(),
             message,
         }
+    }
+
+    /// Declares candidates of the model's own: each perturbs some of its parameters together
+    /// (indices into the parameters). Fails ([`DiagnoseError::Model`]) for an index out of
+    /// range, an empty candidate, or bounds that do not match the parameters.
+    pub fn with_declared_candidates(
+        mut self,
+        declared: Vec<DeclaredCandidate>,
+    ) -> Result<Self, DiagnoseError> {
+        for g in &declared {
+            if g.parameters.is_empty()
+                || g.parameters.len() != g.bounds.len()
+                || g.parameters.iter().any(|&k| k >= self.parameters.len())
+            {
+                return Err(self.error(format!(
+                    "candidate '{}': its parameters must be one or more of the model's {} parameters, each with bounds",
+                    g.name,
+                    self.parameters.len()
+                )));
+            }
+        }
+        self.declared = declared;
+        Ok(self)
     }
 
     /// Declares the sensors. Fails ([`DiagnoseError::Model`]) for an encoder list whose
@@ -883,6 +910,9 @@ impl InverseDynamicsModel for MechanismModel {
     }
     fn parameters(&self) -> Vec<ModelParameter> {
         self.parameters.clone()
+    }
+    fn declared_candidates(&self) -> Vec<DeclaredCandidate> {
+        self.declared.clone()
     }
     /// One-sided: every evaluation is a pass of multibody analyses along the recording, and
     /// with a step of [`PARAMETER_STEP`] of the scale the truncation error (1e-4 relative) is

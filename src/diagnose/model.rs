@@ -95,6 +95,19 @@ pub struct ModelParameter {
     pub family: ParameterFamily,
 }
 
+/// A candidate a nominal model declares itself (e.g. a model file's `[[candidate]]`): a
+/// force law already in the model whose parameters (nominal 0, or any other nominal) the
+/// diagnosis may perturb together, as one effect.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DeclaredCandidate {
+    /// Name for reports.
+    pub name: String,
+    /// Indices into the model's [`parameters`](InverseDynamicsModel::parameters).
+    pub parameters: Vec<usize>,
+    /// Bounds of each parameter's change from its nominal value (SI).
+    pub bounds: Vec<(f64, f64)>,
+}
+
 /// Whether a joint channel turns or slides: sets the units and words of everything reported
 /// about it (a prismatic joint's effort is a force in N, its friction in N and N s/m).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
@@ -166,6 +179,11 @@ pub trait InverseDynamicsModel {
     }
     /// Parameters the candidate library may perturb (nominal values included).
     fn parameters(&self) -> Vec<ModelParameter>;
+    /// Candidates the model declares itself, each perturbing some of its parameters
+    /// together (those parameters get no "error in" candidate of their own). Default: none.
+    fn declared_candidates(&self) -> Vec<DeclaredCandidate> {
+        vec![]
+    }
     /// Step of the central difference that gives the sensitivities to parameter `k`, in its
     /// unit. Default: 1e-6 of its scale (closed-form models, exact to rounding); a model
     /// solved iteratively takes a larger step so that its iteration tolerance does not show.
@@ -205,7 +223,7 @@ pub trait InverseDynamicsModel {
     fn output_role(&self, k: usize) -> String {
         format!("y{}", k + 1)
     }
-    /// Half-widths (samples) of the local line that differentiates rates into accelerations,
+    /// Half-widths (samples) of the local cubic fit that differentiates rates into accelerations,
     /// tried by cross-validation when the user gives none. Default:
     /// [`DEFAULT_DERIVATIVE_WINDOWS`].
     fn derivative_windows(&self) -> Vec<usize> {

@@ -2,16 +2,19 @@
 //!
 //! The torque channels are the joints the file measures: each `joint_position` sensor makes
 //! one channel (in file order), which also needs a `joint_velocity` and a `joint_effort`
-//! sensor on the same joint; the recording columns default to the sensors' names. The
+//! sensor on the same joint (a `joint_acceleration` sensor is optional: where the recording
+//! has its column, accelerations are read instead of differentiated); the recording columns
+//! default to the sensors' names. The
 //! mechanism is built from the file for each parameter value the diagnosis tries, with the
 //! measured joints driven by the recorded motion (the file's own drivers and `effort` forces
 //! on them left out: the recorded effort is what the model must explain). `body_position`
 //! sensors become output channels (tracker coordinates `<name>_x`, `_y`, `_z`). The file's
-//! `[[parameter]]`s are the parameters the candidate library may perturb.
+//! `[[parameter]]`s are the parameters the candidate library may perturb, and its
+//! `[[candidate]]`s are candidates of its own (parameters perturbed together).
 
 use super::error::DiagnoseError;
 use super::mechanism::{MechanismModel, PointSensor, Sensors};
-use super::model::{ColumnDefaults, ModelParameter, ParameterFamily};
+use super::model::{ColumnDefaults, DeclaredCandidate, ModelParameter, ParameterFamily};
 use crate::model_file::units::Dimension;
 use crate::model_file::{BuildOptions, ModelFile, SensorKind, SensorTarget};
 use crate::multibody::ModelError;
@@ -53,6 +56,9 @@ pub fn model_from_file(file: ModelFile) -> Result<MechanismModel, DiagnoseError>
         mapping.push(format!("q{n}={}", s.name));
         mapping.push(format!("qd{n}={}", rate.name));
         mapping.push(format!("tau{n}={}", effort.name));
+        if let Some(acc) = sensor_on(SensorKind::JointAcceleration, k) {
+            mapping.push(format!("qdd{n}={}", acc.name));
+        }
         channels.push((joint.name.clone(), k));
     }
     if channels.is_empty() {
@@ -104,6 +110,24 @@ pub fn model_from_file(file: ModelFile) -> Result<MechanismModel, DiagnoseError>
             },
         })
         .collect();
+    let declared: Vec<DeclaredCandidate> = file
+        .candidates
+        .iter()
+        .map(|c| DeclaredCandidate {
+            name: c.name.clone(),
+            parameters: c.parameters.clone(),
+            bounds: c
+                .parameters
+                .iter()
+                .map(|&k| {
+                    let p = &file.parameters[k];
+                    p.bounds
+                        .map(|(lo, hi)| (lo - p.nominal, hi - p.nominal))
+                        .unwrap_or((f64::NEG_INFINITY, f64::INFINITY))
+                })
+                .collect(),
+        })
+        .collect();
     let measured: Vec<String> = channels.iter().map(|(n, _)| n.clone()).collect();
     let joints: Vec<(String, f64)> = channels
         .iter()
@@ -140,6 +164,7 @@ pub fn model_from_file(file: ModelFile) -> Result<MechanismModel, DiagnoseError>
         encoders: vec![],
         outputs,
     })
+    .and_then(|m| m.with_declared_candidates(declared))
     .map(|m| m.with_column_defaults(ColumnDefaults::Fixed(mapping.join(","))))
 }
 

@@ -138,8 +138,11 @@ pub struct ResidualTrace {
 pub struct Diagnosis {
     /// Model.
     pub model: String,
-    /// Fit recordings.
+    /// Fit recordings (the parts, when one recording was cut into folds).
     pub fit_recordings: Vec<String>,
+    /// How cross-validation folds were made when only one recording was fitted (`None`:
+    /// leave-one-recording-out over the fit recordings as given).
+    pub folds: Option<String>,
     /// Held-out recordings.
     pub holdout_recordings: Vec<String>,
     /// Samples × channels in the fit.

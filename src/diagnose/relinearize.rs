@@ -26,6 +26,15 @@ pub(super) fn shift<'a>(
         };
         match (c.effect, c.joint) {
             (Effect::Parameter { index, .. }, _) => delta[index] += e.value,
+            (Effect::Declared { group }, _) => {
+                let (Some(g), Some(k)) = (
+                    model.declared_candidates().get(group).cloned(),
+                    c.parameters.iter().position(|p| *p == e.parameter),
+                ) else {
+                    continue;
+                };
+                delta[g.parameters[k]] += e.value;
+            }
             (Effect::PositionOffset, Some(j)) => q_offset[j] += e.value,
             _ => continue,
         }
@@ -97,6 +106,9 @@ impl InverseDynamicsModel for Shifted<'_> {
     }
     fn joint_motion(&self, j: usize) -> super::model::JointMotion {
         self.inner.joint_motion(j)
+    }
+    fn declared_candidates(&self) -> Vec<super::model::DeclaredCandidate> {
+        self.inner.declared_candidates()
     }
     fn parameters(&self) -> Vec<ModelParameter> {
         let mut p = self.inner.parameters();

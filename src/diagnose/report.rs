@@ -182,7 +182,7 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
     if !d.derivative_window.1.is_empty() {
         let _ = writeln!(
             m,
-            "Accelerations: rates differentiated by local lines over ±{} samples, chosen by leave-one-recording-out cross-validation on the fit recordings (torque prediction RMS in noise floors: {}).\n",
+            "Accelerations: rates differentiated by local cubic fits over ±{} samples, chosen by leave-one-recording-out cross-validation on the fit recordings (torque prediction RMS in noise floors: {}).\n",
             d.derivative_window.0,
             d.derivative_window
                 .1

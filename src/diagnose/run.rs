@@ -10,7 +10,7 @@ use super::locate::{locate, tagged_windows, StateScales};
 use super::model::InverseDynamicsModel;
 use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, ResidualTrace};
-use super::recording::Recording;
+use super::recording::{Recording, MIN_SAMPLES};
 use super::relinearize;
 use super::residuals::{prepare, Prepared};
 use super::selection::{confounded, estimate, select, Estimates, Selection};
@@ -28,9 +28,67 @@ pub fn diagnose(
     fit: &[MotionData],
     holdout: &[MotionData],
     opts: &DiagnoseOptions,
-    mut progress: impl FnMut(&str, f64),
+    progress: impl FnMut(&str, f64),
 ) -> Result<Diagnosis, DiagnoseError> {
     check_recordings(model, fit, holdout)?;
+    if let Some(text) = super::candidates::excluded_unknown(model, &opts.library) {
+        let all = library(
+            model,
+            &super::candidates::LibraryOptions {
+                exclude: vec![],
+                ..opts.library.clone()
+            },
+        );
+        let mut names: Vec<String> = all.into_iter().map(|c| c.name).collect();
+        names.dedup();
+        return Err(DiagnoseError::UnknownExclusion {
+            text,
+            available: names.join(", "),
+        });
+    }
+    let parts;
+    let (fit, folds) = match fit {
+        [one] => {
+            let k = FOLDS_FROM_ONE_RECORDING;
+            if one.len() < k * MIN_SAMPLES {
+                return Err(DiagnoseError::TooFewSamplesForFolds {
+                    recording: one.name.clone(),
+                    found: one.len(),
+                    folds: k,
+                    needed: MIN_SAMPLES,
+                });
+            }
+            parts = one.folds(k);
+            let span =
+                |d: &MotionData| d.t.last().copied().unwrap_or(0.0) - d.t.first().copied().unwrap_or(0.0);
+            let note = format!(
+                "Only one recording ({}) was fitted: it was cut into {k} contiguous parts of {:.3} s for cross-validation (leave one part out); parts of one run share its conditions, so held-out recordings are the stronger test.",
+                one.name,
+                span(one) / k as f64
+            );
+            (&parts[..], Some(note))
+        }
+        _ => (fit, None),
+    };
+    let mut d = diagnose_folds(model, fit, holdout, opts, progress)?;
+    if let Some(note) = folds {
+        d.verdict = format!("{} {note}", d.verdict);
+        d.folds = Some(note);
+    }
+    Ok(d)
+}
+
+/// Folds a single fit recording is cut into for cross-validation.
+pub const FOLDS_FROM_ONE_RECORDING: usize = 4;
+
+/// [`diagnose`] on fit recordings that are the cross-validation folds.
+fn diagnose_folds(
+    model: &dyn InverseDynamicsModel,
+    fit: &[MotionData],
+    holdout: &[MotionData],
+    opts: &DiagnoseOptions,
+    mut progress: impl FnMut(&str, f64),
+) -> Result<Diagnosis, DiagnoseError> {
     let mut filled = opts.clone();
     if filled.library.speed_scales.is_empty() {
         filled.library.speed_scales = speed_scales(model, fit);
@@ -243,6 +301,7 @@ fn diagnose_once(
         friction,
         model: model.name(),
         fit_recordings: fit.iter().map(|d| d.name.clone()).collect(),
+        folds: None,
         holdout_recordings: holdout.iter().map(|d| d.name.clone()).collect(),
         samples: n,
         effective_samples: n_eff,

@@ -451,6 +451,7 @@ fn same_family(a: &Candidate, b: &Candidate) -> bool {
         OutputOffset { .. } => 11,
         OutputDelay { .. } => 12,
         Play { .. } => 13,
+        Declared { .. } => 7,
     };
     // Load scales of one joint's play are refinements; other joints are rivals.
     let site = |e: Effect| match e {

@@ -88,6 +88,11 @@
 //!                                        # actuator's effort, 0 on a passive joint);
 //!                                        # body_position (body or marker), body_orientation
 //!
+//! [[candidate]]                          # optional: an effect of your own for the diagnosis:
+//! name = "direction-dependent damping"   # force elements in the file whose parameters
+//! parameters = ["b_fwd", "b_bwd"]        # (nominal 0 here) it fits together; they get no
+//!                                        # "error in" candidates of their own
+//!
 //! [recordings]                           # optional: recordings of this machine, the
 //! fit = ["run1.csv", "run2.csv"]         # defaults of `lash diagnose --model FILE`
 //! holdout = ["run3.csv"]                 # (paths relative to this file)
@@ -146,7 +151,7 @@ mod urdf;
 
 pub use build::{BuildOptions, BuiltModel, EffortLaw, JointInfo};
 pub use error::{ModelFileError, Problem};
-pub use read::Parameter;
+pub use read::{FileCandidate, Parameter};
 pub use sensors::{Sensor, SensorKind, SensorTarget};
 pub use simulate::{simulate, SensorRecord};
 
@@ -167,6 +172,9 @@ pub struct ModelFile {
     pub description: String,
     /// Declared parameters, in file order.
     pub parameters: Vec<Parameter>,
+    /// `[[candidate]]`s: effects of the file's own the diagnosis may fit, each perturbing
+    /// some of the declared parameters together.
+    pub candidates: Vec<FileCandidate>,
     /// `[recordings] fit`: recordings of this machine a diagnosis fits on by default (paths
     /// resolved against the file that names them).
     pub fit_recordings: Vec<PathBuf>,
@@ -302,6 +310,7 @@ impl ModelFile {
 
     fn from_parsed(path: &Path, files: Vec<Parsed>) -> Result<Self, ModelFileError> {
         let parameters = read::parameters(&files)?;
+        let candidates = read::candidates(&files, &parameters)?;
         let root = files.last().expect("read_tree returns the root file");
         let stem = path
             .file_stem()
@@ -332,6 +341,7 @@ impl ModelFile {
             name,
             description,
             parameters,
+            candidates,
             fit_recordings,
             holdout_recordings,
             files,

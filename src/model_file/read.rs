@@ -336,6 +336,90 @@ fn type_name(v: &toml::Value) -> &'static str {
     }
 }
 
+/// A candidate a model file declares for the diagnosis (`[[candidate]]`): a name and the
+/// declared parameters it perturbs together.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FileCandidate {
+    /// Name for reports.
+    pub name: String,
+    /// Indices into the file's parameters.
+    pub parameters: Vec<usize>,
+    /// What it is.
+    pub description: String,
+}
+
+/// Reads `[[candidate]]` declarations from every file, in order: each names one or more
+/// declared parameters, no parameter twice, no two candidates with one name.
+pub(crate) fn candidates(
+    files: &[Parsed],
+    params: &[Parameter],
+) -> Result<Vec<FileCandidate>, ModelFileError> {
+    let mut out: Vec<FileCandidate> = vec![];
+    for f in files {
+        let cx = Ctx {
+            src: &f.src,
+            params,
+            values: &[],
+        };
+        for c in &f.doc.candidate {
+            let at = c.span().start;
+            let d = c.get_ref();
+            let name = cx.need_name(&d.name, "name", "a [[candidate]]", at)?;
+            let owner = format!("candidate '{}'", name.get_ref());
+            if out.iter().any(|o| o.name == *name.get_ref()) {
+                return Err(cx.err(
+                    name.span().start,
+                    Problem::Duplicate,
+                    format!("duplicate {owner}"),
+                ));
+            }
+            if d.parameters.is_empty() {
+                return Err(cx.err(
+                    at,
+                    Problem::Missing,
+                    format!("{owner} has no 'parameters' (the declared parameters it perturbs)"),
+                ));
+            }
+            let mut idx: Vec<usize> = vec![];
+            for p in &d.parameters {
+                let k = params
+                    .iter()
+                    .position(|q| q.name == *p.get_ref())
+                    .ok_or_else(|| {
+                        let known: Vec<&str> = params.iter().map(|q| q.name.as_str()).collect();
+                        cx.err(
+                            p.span().start,
+                            Problem::UnknownReference,
+                            format!(
+                                "{owner}: no parameter '{}' (parameters: {})",
+                                p.get_ref(),
+                                known.join(", ")
+                            ),
+                        )
+                    })?;
+                if idx.contains(&k) {
+                    return Err(cx.err(
+                        p.span().start,
+                        Problem::Duplicate,
+                        format!("{owner} names parameter '{}' twice", p.get_ref()),
+                    ));
+                }
+                idx.push(k);
+            }
+            out.push(FileCandidate {
+                name: name.get_ref().clone(),
+                parameters: idx,
+                description: d
+                    .description
+                    .as_ref()
+                    .map(|x| x.get_ref().clone())
+                    .unwrap_or_default(),
+            });
+        }
+    }
+    Ok(out)
+}
+
 /// Reads parameter declarations from every file, in order.
 pub(crate) fn parameters(files: &[Parsed]) -> Result<Vec<Parameter>, ModelFileError> {
     let mut out: Vec<Parameter> = vec![];

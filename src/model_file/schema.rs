@@ -34,6 +34,18 @@ pub(crate) struct FileDoc {
     #[serde(default)]
     pub sensor: Vec<Spanned<SensorDoc>>,
     pub recordings: Option<Spanned<RecordingsDoc>>,
+    #[serde(default)]
+    pub candidate: Vec<Spanned<CandidateDoc>>,
+}
+
+/// A candidate of the file's own for the diagnosis: parameters perturbed together.
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct CandidateDoc {
+    pub name: Option<Name>,
+    #[serde(default)]
+    pub parameters: Vec<Name>,
+    pub description: Option<Name>,
 }
 
 /// Recordings of the machine the file describes (paths relative to the file).
