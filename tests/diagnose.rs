@@ -57,6 +57,7 @@ fn run_with(seed: u64, f: [f64; 2], extra: &dyn Fn(usize, f64, f64, f64) -> f64,
         q: vec![vec![]; 2],
         qd: vec![vec![]; 2],
         qdd: vec![vec![]; 2],
+        qdd_noise: vec![],
         tau: vec![vec![]; 2],
     };
     let amp = [1.0, 1.5];
@@ -960,6 +961,7 @@ mod declared_sensors {
             q: vec![q],
             qd: vec![qd],
             qdd: vec![qdd],
+            qdd_noise: vec![],
         }
     }
 

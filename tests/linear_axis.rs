@@ -157,6 +157,7 @@ smoothing = "algebraic"
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let verdict = d["verdict"].as_str().unwrap();
+    eprintln!("verdict (cargo test -- --nocapture shows it): {verdict}");
     let est = |cand: &str, param: &str| {
         d["estimates"]
             .as_array()
@@ -303,6 +304,7 @@ parameters = ["k_cable"]
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let verdict = d["verdict"].as_str().unwrap();
+    eprintln!("verdict (cargo test -- --nocapture shows it): {verdict}");
     // Folds: the one fit recording in 4 parts, and the report says so.
     let parts = d["fit_recordings"].as_array().unwrap();
     assert_eq!(parts.len(), 4, "{parts:?}");

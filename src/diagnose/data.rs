@@ -3,7 +3,7 @@
 use super::error::DiagnoseError;
 use super::model::InverseDynamicsModel;
 use super::recording::{Recording, RecordingError, MIN_SAMPLES};
-use super::signal::derivative_cubic;
+use super::signal::{derivative_cubic, derivative_noise_measured, noise_floor};
 
 /// A model's values along a recording: torques per joint, then outputs per output, each
 /// per sample (as [`MotionData::model_all`] gives them).
@@ -23,6 +23,11 @@ pub struct MotionData {
     /// Joint accelerations per joint, rad/s²: the recorded `qdd` column where the
     /// recording maps one, else the differentiated rates.
     pub qdd: Vec<Vec<f64>>,
+    /// Noise (standard deviation) of each joint's acceleration, rad/s² or m/s²: the noise
+    /// floor of a recorded acceleration, or what the differentiation makes of the rate's
+    /// noise floor; empty when unknown (taken as noise-free). The diagnosis adds what it
+    /// passes through the model's inertia to each torque channel's noise floor.
+    pub qdd_noise: Vec<f64>,
     /// Measured joint torques per joint, N·m (empty: the recording has no torque channels).
     pub tau: Vec<Vec<f64>>,
     /// Measured outputs per output channel (empty: none recorded), in the model's units.
@@ -142,16 +147,24 @@ impl MotionData {
             q: vec![],
             qd: vec![],
             qdd: vec![],
+            qdd_noise: vec![],
             tau: vec![],
             y: vec![],
         };
         for j in 1..=joints {
             d.q.push(mapped(rec, format!("q{j}"))?);
             let qd = mapped(rec, format!("qd{j}"))?;
-            d.qdd.push(match rec.channel(&format!("qdd{j}")) {
-                Some(a) => a.to_vec(),
-                None => diff(&rec.time, &qd, half_window),
-            });
+            match rec.channel(&format!("qdd{j}")) {
+                Some(a) => {
+                    d.qdd_noise.push(noise_floor(a));
+                    d.qdd.push(a.to_vec());
+                }
+                None => {
+                    d.qdd_noise
+                        .push(derivative_noise_measured(&rec.time, &qd, half_window));
+                    d.qdd.push(diff(&rec.time, &qd, half_window));
+                }
+            }
             d.qd.push(qd);
         }
         Ok(d)
@@ -364,6 +377,7 @@ impl MotionData {
                     q: part(&self.q),
                     qd: part(&self.qd),
                     qdd: part(&self.qdd),
+                    qdd_noise: self.qdd_noise.clone(),
                     tau: part(&self.tau),
                     y: part(&self.y),
                 }

@@ -184,7 +184,8 @@ pub struct Diagnosis {
     /// One-paragraph verdict.
     pub verdict: String,
     /// Leave-one-recording-out residual RMS of the final model on the fit recordings, in
-    /// noise-floor units (comparable between pre-processing choices).
+    /// units of the measured channels' noise floors (without the accelerations' share, so
+    /// comparable between pre-processing choices).
     pub cv_rms_noise_units: f64,
     /// Half-width (samples) of the rate differentiation, and the cross-validated RMS of each
     /// half-width tried (empty if it was given).

@@ -78,6 +78,58 @@ pub fn diagnose(
     Ok(d)
 }
 
+/// Samples per fit recording at which [`motion_noise`] reads the model's inertia.
+const MOTION_NOISE_SAMPLES: usize = 16;
+
+/// Per joint, the noise the accelerations' noise puts into the model's torque (N m or N):
+/// the median over samples of √(Σ_k (∂τ_j/∂q̈_k · σ_q̈k)²), the inertia ∂τ/∂q̈ by differences of
+/// the model's torques at [`MOTION_NOISE_SAMPLES`] samples of each fit recording. Zero where
+/// the recordings state no acceleration noise.
+fn motion_noise(model: &dyn InverseDynamicsModel, fit: &[MotionData], theta: &[f64]) -> Vec<f64> {
+    let nj = model.joints();
+    let mut per_joint: Vec<Vec<f64>> = vec![vec![]; nj];
+    for d in fit {
+        if d.qdd_noise.len() != nj || d.qdd_noise.iter().all(|s| *s == 0.0) || d.is_empty() {
+            continue;
+        }
+        for s in 0..MOTION_NOISE_SAMPLES {
+            let i = (2 * s + 1) * d.len() / (2 * MOTION_NOISE_SAMPLES);
+            let q: Vec<f64> = d.q.iter().map(|v| v[i]).collect();
+            let qd: Vec<f64> = d.qd.iter().map(|v| v[i]).collect();
+            let qdd: Vec<f64> = d.qdd.iter().map(|v| v[i]).collect();
+            let mut tau0 = vec![0.0; nj];
+            model.torques(theta, &q, &qd, &qdd, &mut tau0);
+            let mut var = vec![0.0; nj];
+            for k in 0..nj {
+                let h = d.qdd_noise[k].max(1e-9);
+                let mut a = qdd.clone();
+                a[k] += h;
+                let mut tau = vec![0.0; nj];
+                model.torques(theta, &q, &qd, &a, &mut tau);
+                for j in 0..nj {
+                    // (∂τ_j/∂q̈_k · σ_k)² with the step h = σ_k.
+                    var[j] += ((tau[j] - tau0[j]) * d.qdd_noise[k] / h).powi(2);
+                }
+            }
+            for j in 0..nj {
+                if var[j].is_finite() {
+                    per_joint[j].push(var[j].sqrt());
+                }
+            }
+        }
+    }
+    per_joint
+        .into_iter()
+        .map(|mut v| {
+            if v.is_empty() {
+                return 0.0;
+            }
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        })
+        .collect()
+}
+
 /// Folds a single fit recording is cut into for cross-validation.
 pub const FOLDS_FROM_ONE_RECORDING: usize = 4;
 
@@ -199,8 +251,11 @@ fn diagnose_once(
     let chans = fit.first().map(MotionData::channels).unwrap_or_default();
     let nj = chans.len();
     progress("noise floor", 0.0);
-    // Noise floor per channel: median over the fit recordings.
-    let sigma: Vec<f64> = chans
+    let theta0: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    // Noise floor per channel: median over the fit recordings of the measured channel's,
+    // with a torque channel's share of the accelerations' noise added in quadrature.
+    let from_motion = motion_noise(model, fit, &theta0);
+    let measured: Vec<f64> = chans
         .iter()
         .map(|&c| {
             let mut v: Vec<f64> = fit.iter().map(|d| noise_floor(d.measured(c))).collect();
@@ -208,7 +263,14 @@ fn diagnose_once(
             v[v.len() / 2].max(1e-12)
         })
         .collect();
-    let theta0: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    let sigma: Vec<f64> = chans
+        .iter()
+        .zip(&measured)
+        .map(|(&c, m)| match c {
+            Channel::Torque(j) => m.hypot(from_motion.get(j).copied().unwrap_or(0.0)),
+            Channel::Output(_) => *m,
+        })
+        .collect();
     progress("locate", 0.1);
     let location = locate(model, fit, &theta0, &sigma, &opts.locate);
     let cands = library(model, &opts.library);
@@ -237,7 +299,9 @@ fn diagnose_once(
     progress("held-out check", 0.9);
     let (mut channels, traces, fit_after) =
         channel_fits(model, fit, holdout, &prep, &set, &x, &weight_scale, &sigma, opts)?;
-    let factor: Vec<f64> = (0..nj).map(|j| weight_scale[j] / sigma[j]).collect();
+    // In units of the measured channels' own noise floors: comparable between
+    // differentiation windows (whose acceleration noise the total floor would excuse).
+    let factor: Vec<f64> = (0..nj).map(|j| weight_scale[j] / measured[j]).collect();
     let cv_rms_noise_units = prep.cv_rms_rescaled(&set, &factor, &lens);
     // Is what remains noise? On the held-out recordings if any, else on the fit ones.
     progress("adequacy", 0.95);

@@ -103,6 +103,63 @@ pub fn derivative_cubic(t: &[f64], x: &[f64], half: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The standard deviation of what [`derivative_cubic`] over ±`half` samples makes of white
+/// noise of standard deviation `sigma` in x, on the time grid `t` (read on its first full
+/// window): √(Σ w_k²)·σ, the derivative filter's weights w_k found by differentiating unit
+/// impulses. In x's unit per second.
+pub fn derivative_noise(t: &[f64], half: usize, sigma: f64) -> f64 {
+    let m = (2 * half + 1).min(t.len());
+    if m < 2 || sigma == 0.0 {
+        return 0.0;
+    }
+    let tw = &t[..m];
+    let centre = m / 2;
+    let mut e = vec![0.0; m];
+    let mut sum = 0.0;
+    for k in 0..m {
+        e[k] = 1.0;
+        sum += derivative_cubic(tw, &e, half)[centre].powi(2);
+        e[k] = 0.0;
+    }
+    sum.sqrt() * sigma
+}
+
+/// The noise (standard deviation) of [`derivative_cubic`] over ±`half` samples of `x`,
+/// measured on the data: the derivative is taken twice more, on the even and on the odd
+/// samples alone over the same time span (±`half`/2 of each), which share the signal and the
+/// bias but not the noise of white measurement errors; their difference (the odd one moved
+/// to the even times) is ~√2 times the noise of each, and each has ~√2 times the noise of the
+/// full estimate. Robust (median absolute deviation). Noise that is correlated from sample to
+/// sample (filtered rates) is partly shared by both and not counted: what is counted is what
+/// the estimate cannot tell from the signal it differentiates. In x's unit per second.
+pub fn derivative_noise_measured(t: &[f64], x: &[f64], half: usize) -> f64 {
+    let n = t.len().min(x.len());
+    let h = (half / 2).max(2);
+    if n < 4 * (2 * h + 1) {
+        return 0.0;
+    }
+    let pick = |k: usize| -> (Vec<f64>, Vec<f64>) { (0..n).skip(k).step_by(2).map(|i| (t[i], x[i])).unzip() };
+    let (te, xe) = pick(0);
+    let (to, xo) = pick(1);
+    let de = derivative_cubic(&te, &xe, h);
+    let dob = derivative_cubic(&to, &xo, h);
+    // Odd estimates at the even times (linear interpolation), away from the ends.
+    let mut diff: Vec<f64> = (h + 1..de.len().min(dob.len()).saturating_sub(h + 1))
+        .map(|k| {
+            let (t0, t1) = (to[k - 1], to[k]);
+            let w = if t1 > t0 { (te[k] - t0) / (t1 - t0) } else { 0.5 };
+            (de[k] - (dob[k - 1] + w * (dob[k] - dob[k - 1]))).abs()
+        })
+        .filter(|d| d.is_finite())
+        .collect();
+    if diff.is_empty() {
+        return 0.0;
+    }
+    let mid = diff.len() / 2;
+    let (_, m, _) = diff.select_nth_unstable_by(mid, f64::total_cmp);
+    1.4826 * *m / 2.0
+}
+
 /// Root mean square.
 pub fn rms(x: &[f64]) -> f64 {
     if x.is_empty() {
@@ -183,6 +240,32 @@ mod tests {
             .collect();
         let nf = noise_floor(&x);
         assert!((nf / 0.01 - 1.0).abs() < 0.1, "noise floor {nf}");
+    }
+
+    #[test]
+    fn derivative_noise_is_what_the_cubic_derivative_makes_of_white_noise() {
+        let mut s = 777u64;
+        let mut gauss = || {
+            let mut u = || {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            (-2.0 * u().ln()).sqrt() * (2.0 * std::f64::consts::PI * u()).cos()
+        };
+        let t: Vec<f64> = (0..20000).map(|k| k as f64 * 2e-3).collect();
+        let x: Vec<f64> = t.iter().map(|_| 0.01 * gauss()).collect();
+        for half in [3, 12] {
+            let d = derivative_cubic(&t, &x, half);
+            let inner = &d[half..d.len() - half];
+            let sd = rms(inner);
+            let predicted = derivative_noise(&t, half, 0.01);
+            assert!(
+                (sd / predicted - 1.0).abs() < 0.05,
+                "half {half}: {sd} vs {predicted}"
+            );
+        }
     }
 
     #[test]

@@ -350,12 +350,17 @@ pub(crate) fn motion(rec: &Recorded, name: String, window: usize, torques: bool)
     let q: Vec<Vec<f64>> = rec.q.to_vec();
     let qd: Vec<Vec<f64>> = rec.qd.to_vec();
     let qdd = qd.iter().map(|v| derivative_cubic(&rec.t, v, window)).collect();
+    let qdd_noise = qd
+        .iter()
+        .map(|v| super::signal::derivative_noise_measured(&rec.t, v, window))
+        .collect();
     MotionData {
         name,
         t: rec.t.clone(),
         q,
         qd,
         qdd,
+        qdd_noise,
         tau: if torques { rec.tau.to_vec() } else { vec![] },
         y: if rec.pose[0].is_empty() {
             vec![]
