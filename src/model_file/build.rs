@@ -2,7 +2,7 @@
 //! contact), drivers, force elements and sensors, every fault located in its file.
 
 use super::error::{ModelFileError, Problem};
-use super::read::{Ctx, Parameter, Parsed};
+use super::read::{short, Ctx, Parameter, Parsed};
 use super::schema::{DriverDoc, ForceDoc, JointDoc, Name, Val};
 use super::sensors::{Sensor, SensorKind, SensorTarget};
 use super::series::read_columns;
@@ -573,7 +573,11 @@ impl Builder {
                     return Err(cx.err(
                         v.span().start,
                         Problem::Inconsistent,
-                        format!("{owner}: limits [{}, {}] are not increasing", x[0], x[1]),
+                        format!(
+                            "{owner}: limits [{}, {}] are not increasing",
+                            short(x[0]),
+                            short(x[1])
+                        ),
                     ));
                 }
                 Some([x[0], x[1]])

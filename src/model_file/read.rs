@@ -299,7 +299,7 @@ impl Ctx<'_> {
             return Err(self.err(
                 v.span().start,
                 Problem::NotPositive,
-                format!("{what} must be positive, not {x} {dim}"),
+                format!("{what} must be positive, not {} {dim}", short(x)),
             ));
         }
         Ok(x)
@@ -312,10 +312,37 @@ impl Ctx<'_> {
             return Err(self.err(
                 v.span().start,
                 Problem::Negative,
-                format!("{what} must not be negative, not {x} {dim}"),
+                format!("{what} must not be negative, not {} {dim}", short(x)),
             ));
         }
         Ok(x)
+    }
+}
+
+/// A number for messages: at most 6 significant digits, without binary noise
+/// (-1e-5, not -0.000009999999999999999).
+pub(crate) fn short(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let e = x.abs().log10().floor() as i32;
+    if (-3..6).contains(&e) {
+        let digits = (5 - e).max(0) as usize;
+        let t = format!("{x:.digits$}");
+        if t.contains('.') {
+            t.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            t
+        }
+    } else {
+        let t = format!("{x:.5e}");
+        let (m, ex) = t.split_once('e').unwrap_or((&t, "0"));
+        let m = if m.contains('.') {
+            m.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            m
+        };
+        format!("{m}e{ex}")
     }
 }
 
@@ -482,4 +509,18 @@ pub(crate) fn parameters(files: &[Parsed]) -> Result<Vec<Parameter>, ModelFileEr
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn short_numbers_drop_binary_noise() {
+        use super::short;
+        assert_eq!(short(-10e-6 * (1.0 - 1e-16)), "-1e-5");
+        assert_eq!(short(0.5), "0.5");
+        assert_eq!(short(std::f64::consts::FRAC_PI_2), "1.5708");
+        assert_eq!(short(12.0), "12");
+        assert_eq!(short(2.5e7), "2.5e7");
+        assert_eq!(short(0.0), "0");
+    }
 }
