@@ -222,11 +222,9 @@ pub fn autocorrelation(segments: &[&[f64]], max_lag: usize) -> Vec<f64> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn noise_floor_sees_noise_not_a_smooth_signal() {
-        // Deterministic pseudo-noise of known σ on a slow sine.
-        let mut s = 12345u64;
-        let mut gauss = || {
+    /// Deterministic standard normal numbers (an LCG and Box–Muller) from `seed`.
+    fn gaussians(mut s: u64) -> impl FnMut() -> f64 {
+        move || {
             let mut u = || {
                 s = s
                     .wrapping_mul(6364136223846793005)
@@ -234,7 +232,13 @@ mod tests {
                 ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
             };
             (-2.0 * u().ln()).sqrt() * (2.0 * std::f64::consts::PI * u()).cos()
-        };
+        }
+    }
+
+    #[test]
+    fn noise_floor_sees_noise_not_a_smooth_signal() {
+        // Deterministic pseudo-noise of known σ on a slow sine.
+        let mut gauss = gaussians(12345);
         let x: Vec<f64> = (0..5000)
             .map(|k| (k as f64 * 1e-3).sin() + 0.01 * gauss())
             .collect();
@@ -244,16 +248,7 @@ mod tests {
 
     #[test]
     fn derivative_noise_is_what_the_cubic_derivative_makes_of_white_noise() {
-        let mut s = 777u64;
-        let mut gauss = || {
-            let mut u = || {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-            };
-            (-2.0 * u().ln()).sqrt() * (2.0 * std::f64::consts::PI * u()).cos()
-        };
+        let mut gauss = gaussians(777);
         let t: Vec<f64> = (0..20000).map(|k| k as f64 * 2e-3).collect();
         let x: Vec<f64> = t.iter().map(|_| 0.01 * gauss()).collect();
         for half in [3, 12] {

@@ -1140,7 +1140,8 @@ impl Builder {
                     };
                     -(coulomb * sign + c * v)
                 };
-                self.coordinate_force(&joint, nm.clone(), Arc::new(law));
+                self.coordinate_force(&joint, nm.clone(), Arc::new(law))
+                    .map_err(|m| cx.err(at, Problem::Model, format!("{owner}: {m}")))?;
             }
             "effort" => {
                 let jn = cx.need_name(&d.joint, "joint", &owner, at)?;
@@ -1189,7 +1190,8 @@ impl Builder {
                 };
                 if !self.opts.measured_joints.contains(&joint.name) {
                     let l2 = law.clone();
-                    self.coordinate_force(&joint, nm.clone(), Arc::new(move |t, _x, _v| l2(t)));
+                    self.coordinate_force(&joint, nm.clone(), Arc::new(move |t, _x, _v| l2(t)))
+                        .map_err(|m| cx.err(at, Problem::Model, format!("{owner}: {m}")))?;
                     self.joints[k].efforts.push(law);
                 }
             }
@@ -1244,14 +1246,19 @@ impl Builder {
         joint: &JointInfo,
         name: String,
         law: Arc<dyn Fn(f64, f64, f64) -> f64 + Send + Sync>,
-    ) {
+    ) -> Result<(), String> {
         if joint.kind == JointKind::Prismatic {
             let (_, roti) = self.pose(joint.i);
             let point = self.pose(joint.i).0 + roti * joint.frame_i.origin;
             let axis = roti * joint.frame_i.axes.column(2);
             let translation =
                 RelativeTranslation::from_initial_poses(&self.mech, joint.i, joint.j, point, axis)
-                    .expect("the joint's sides and axis were checked");
+                    .ok_or_else(|| {
+                        format!(
+                            "joint '{}' has no finite axis in the build configuration (a body's position or orientation is not finite)",
+                            joint.name
+                        )
+                    })?;
             self.mech.add_force(Box::new(TranslationalForce {
                 name,
                 translation,
@@ -1262,6 +1269,7 @@ impl Builder {
             self.mech
                 .add_force(Box::new(RotationalTorque { name, rotation, law }));
         }
+        Ok(())
     }
 
     fn sensor(&mut self, cx: &Ctx, at: usize, d: &super::schema::SensorDoc) -> Result<(), ModelFileError> {

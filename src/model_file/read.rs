@@ -281,8 +281,11 @@ impl Ctx<'_> {
     /// A nonzero direction (normalised).
     pub fn direction(&self, v: &Val, what: &str) -> Result<Vector3<f64>, ModelFileError> {
         let x = self.vec3(v, Dimension::Ratio, what)?;
+        // Scaled first, so that huge components do not overflow the norm.
+        let big = x.amax();
+        let x = if big > 1.0 { x / big } else { x };
         let n = x.norm();
-        if n < 1e-12 {
+        if n.is_nan() || n < 1e-12 {
             return Err(self.err(
                 v.span().start,
                 Problem::ZeroVector,
