@@ -280,16 +280,21 @@ impl Ctx<'_> {
 
     /// A nonzero direction (normalised).
     pub fn direction(&self, v: &Val, what: &str) -> Result<Vector3<f64>, ModelFileError> {
+        let x = self.nonzero(v, what)?;
+        Ok(x / x.norm())
+    }
+
+    /// A vector that gives a direction, as written (not normalised): refused if zero.
+    pub fn nonzero(&self, v: &Val, what: &str) -> Result<Vector3<f64>, ModelFileError> {
         let x = self.vec3(v, Dimension::Ratio, what)?;
-        let n = x.norm();
-        if n < 1e-12 {
+        if x.norm() < 1e-12 {
             return Err(self.err(
                 v.span().start,
                 Problem::ZeroVector,
                 format!("{what} must not be zero"),
             ));
         }
-        Ok(x / n)
+        Ok(x)
     }
 
     /// A positive scalar.
