@@ -16,6 +16,10 @@ pub struct CheckArgs {
     /// Print JSON (one object per file, in an array if more than one).
     #[arg(long)]
     pub json: bool,
+    /// Build joints that declare a clearance with their bearings (Hertz contact) instead of
+    /// ideal joints.
+    #[arg(long)]
+    pub clearance: bool,
 }
 
 /// Arguments of `lash simulate`.
@@ -52,13 +56,28 @@ pub fn check(a: CheckArgs) -> Result<Output, CliError> {
     let mut reports = vec![];
     for path in &a.models {
         let file = ModelFile::load(path).map_err(CliError::input)?;
-        let r = file.check().map_err(CliError::input)?;
+        let opts = BuildOptions {
+            clearance: a.clearance,
+            ..Default::default()
+        };
+        let r = file.check_with(&opts).map_err(CliError::input)?;
         if !a.json {
             println!("{}: model '{}' is valid", r.file, r.name);
             println!(
                 "  {} degrees of freedom ({} once the drivers act); assembles at t = 0 s to {:.1e} (m or rad)",
                 r.dof, r.dof_driven, r.assembly_residual
             );
+            let declared = r.joints.iter().filter(|j| j.clearance_m.is_some()).count();
+            if declared > 0 {
+                println!(
+                    "  {declared} joints declare a clearance: {}",
+                    if r.clearance {
+                        "built as bearings (contact)"
+                    } else {
+                        "built as ideal joints here; --clearance builds their bearings"
+                    }
+                );
+            }
             let names = |v: Vec<String>| {
                 if v.is_empty() {
                     "none".to_string()

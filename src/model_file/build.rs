@@ -420,22 +420,7 @@ impl Builder {
             body = body.at(cx.vec3(p, Dimension::Length, &format!("{owner} position"))?);
         }
         if let Some(o) = &d.orientation {
-            let od = o.get_ref();
-            let axis = cx.direction(
-                cx.need(&od.axis, "axis", &format!("{owner} orientation"), o.span().start)?,
-                &format!("{owner} orientation axis"),
-            )?;
-            let angle = cx.scalar(
-                cx.need(
-                    &od.angle,
-                    "angle",
-                    &format!("{owner} orientation"),
-                    o.span().start,
-                )?,
-                Dimension::Angle,
-                &format!("{owner} orientation angle"),
-            )?;
-            body = body.oriented(&rotation(&from_axis_angle(&axis, angle)));
+            body = body.oriented(&orientation(cx, &owner, o.span().start, o.get_ref())?);
         }
         if let Some(v) = &d.velocity {
             body = body.moving(cx.vec3(v, Dimension::Velocity, &format!("{owner} velocity"))?);
@@ -1407,6 +1392,50 @@ impl Builder {
     }
 }
 
+/// A body's orientation (body axes in the base frame, as columns): a rotation by `angle`
+/// about `axis`, or the body's x axis along `x` and its z axis along `z` made perpendicular
+/// to x (y = z × x).
+fn orientation(
+    cx: &Ctx,
+    owner: &str,
+    at: usize,
+    od: &super::schema::OrientationDoc,
+) -> Result<Matrix3<f64>, ModelFileError> {
+    let what = format!("{owner} orientation");
+    if od.x.is_none() && od.z.is_none() {
+        let axis = cx.direction(cx.need(&od.axis, "axis", &what, at)?, &format!("{what} axis"))?;
+        let angle = cx.scalar(
+            cx.need(&od.angle, "angle", &what, at)?,
+            Dimension::Angle,
+            &format!("{what} angle"),
+        )?;
+        return Ok(rotation(&from_axis_angle(&axis, angle)));
+    }
+    if let Some(v) = od.axis.as_ref().or(od.angle.as_ref()) {
+        return Err(cx.err(
+            v.span().start,
+            Problem::Inconsistent,
+            format!("{what}: give either 'axis' and 'angle' or 'x' and 'z', not both"),
+        ));
+    }
+    let xv = cx.need(&od.x, "x", &what, at)?;
+    let zv = cx.need(&od.z, "z", &what, at)?;
+    // Unit x, then z less its component along x: the same arithmetic as lash's built-in
+    // mechanisms, so equal vectors give equal orientations to the last bit.
+    let x = cx.nonzero(xv, &format!("{what} x"))?.normalize();
+    let z = cx.nonzero(zv, &format!("{what} z"))?;
+    let z_perp = z - x * z.dot(&x);
+    if z_perp.norm() <= 1e-6 * z.norm() {
+        return Err(cx.err(
+            zv.span().start,
+            Problem::Inconsistent,
+            format!("{what}: z is parallel to x, so it fixes no second axis"),
+        ));
+    }
+    let z = z_perp.normalize();
+    Ok(Matrix3::from_columns(&[x, z.cross(&x), z]))
+}
+
 /// A unit vector perpendicular to `a`.
 fn perpendicular(a: &Vector3<f64>) -> Vector3<f64> {
     let helper = if a.x.abs() < 0.9 {
@@ -1415,4 +1444,53 @@ fn perpendicular(a: &Vector3<f64>) -> Vector3<f64> {
         Vector3::y()
     };
     (helper - a * helper.dot(a)).normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::model_file::{ModelFile, ModelFileError, Problem};
+    use crate::multibody::rotation::rotation;
+    use nalgebra::Matrix3;
+
+    fn body(orientation: &str) -> Result<Matrix3<f64>, ModelFileError> {
+        let text =
+            format!("[[body]]\nname = \"b\"\nmass = 1\ninertia = [1, 1, 1]\norientation = {orientation}\n");
+        let built = ModelFile::from_text("o.toml", &text)?.build()?;
+        let h = built.body("b").expect("body b");
+        Ok(rotation(&built.mechanism.body(h).expect("body").orientation))
+    }
+
+    #[test]
+    fn an_orientation_by_axes_is_the_rotation_with_those_columns() {
+        // Body x along base y, body z along base x (given with a part along y): a rotation by
+        // 120° about (1, 1, 1).
+        let by_axes = body("{ x = [0, 2, 0], z = [1, 0.5, 0] }").unwrap();
+        let by_angle = body("{ axis = [1, 1, 1], angle = \"120 deg\" }").unwrap();
+        let want = Matrix3::new(0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+        assert!((by_axes - want).abs().max() < 1e-15, "{by_axes}");
+        assert!((by_angle - want).abs().max() < 1e-15, "{by_angle}");
+    }
+
+    #[test]
+    fn orientation_faults_are_located() {
+        let fault = |o: &str| {
+            let e = body(o).unwrap_err();
+            (e.problem(), e.place().map(|(_, c)| c), e.to_string())
+        };
+        // Both forms at once: at the first key of the other form.
+        let (p, c, m) = fault("{ axis = [0, 0, 1], x = [1, 0, 0], z = [0, 0, 1] }");
+        assert_eq!((p, c), (Problem::Inconsistent, Some(24)), "{m}");
+        assert!(m.contains("either 'axis' and 'angle' or 'x' and 'z'"), "{m}");
+        // z along x fixes nothing.
+        let (p, c, m) = fault("{ x = [1, 0, 0], z = [-2, 0, 0] }");
+        assert_eq!((p, c), (Problem::Inconsistent, Some(36)), "{m}");
+        assert!(m.contains("z is parallel to x"), "{m}");
+        // x alone.
+        let (p, _, m) = fault("{ x = [1, 0, 0] }");
+        assert_eq!(p, Problem::Missing, "{m}");
+        assert!(m.contains("body 'b' orientation has no 'z'"), "{m}");
+        // A zero axis.
+        let (p, c, m) = fault("{ x = [0, 0, 0], z = [0, 0, 1] }");
+        assert_eq!((p, c), (Problem::ZeroVector, Some(21)), "{m}");
+    }
 }

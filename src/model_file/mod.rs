@@ -40,7 +40,9 @@
 //! inertia = [1e-4, 1e-3, 1e-3]           # kg m^2 about the centre of mass, body axes:
 //!                                        # [Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]
 //! position = ["50 mm", 0, 0]             # centre of mass, m
-//! orientation = { axis = [0, 0, 1], angle = "0 deg" }   # optional (body axes = base axes)
+//! orientation = { axis = [0, 0, 1], angle = "0 deg" }   # optional (body axes = base axes);
+//!                                        # or { x = [...], z = [...] }: body x along x, body z
+//!                                        # along z less its part along x (y = z × x)
 //! velocity = [0, 0, 0]                   # optional, m/s
 //! angular_velocity = [0, 0, 0]           # optional, rad/s, base frame
 //!
@@ -190,17 +192,21 @@ pub struct CheckReport {
     pub name: String,
     /// The file.
     pub file: String,
+    /// Whether joints that declare a clearance were built as bearings (contact, a cross
+    /// body per universal joint) rather than as ideal joints.
+    pub clearance: bool,
     /// Degrees of freedom (6 per body minus the joints' constraints; drivers not counted).
     pub dof: isize,
     /// Degrees of freedom left once the drivers act.
     pub dof_driven: isize,
-    /// Bodies: name, mass (kg).
+    /// Bodies: name, mass (kg); the file's, then those a clearance build adds (crosses).
     pub bodies: Vec<CheckBody>,
     /// Joints.
     pub joints: Vec<CheckJoint>,
     /// Drivers: name and joint.
     pub drivers: Vec<CheckDriver>,
-    /// Force elements: name and type.
+    /// Force elements: name and type; the file's, then the contacts of a clearance build
+    /// (type `contact`).
     pub forces: Vec<CheckForce>,
     /// Sensors: column, unit.
     pub sensors: Vec<CheckSensor>,
@@ -373,7 +379,14 @@ impl ModelFile {
 
     /// Builds the nominal mechanism and assembles it at t = 0: what `lash check` prints.
     pub fn check(&self) -> Result<CheckReport, ModelFileError> {
-        let built = self.build()?;
+        self.check_with(&BuildOptions::default())
+    }
+
+    /// [`check`](Self::check) of the nominal mechanism built with `opts` (`clearance: true`:
+    /// joints that declare a clearance as bearings, what `lash check --clearance` prints).
+    pub fn check_with(&self, opts: &BuildOptions) -> Result<CheckReport, ModelFileError> {
+        let values: Vec<f64> = self.parameters.iter().map(|p| p.nominal).collect();
+        let built = self.build_with(&values, opts)?;
         let residual = self.assemble(&built)?;
         let mech = &built.mechanism;
         let name_of = |a: crate::multibody::Attach| match a {
@@ -407,8 +420,11 @@ impl ModelFile {
         Ok(CheckReport {
             name: self.name.clone(),
             file: self.path.display().to_string(),
+            clearance: opts.clearance,
             dof: mech.degrees_of_freedom(),
             dof_driven: mech.degrees_of_freedom() - driven,
+            // The file's bodies, then those the build added (the crosses of universal joints
+            // built with clearance).
             bodies: built
                 .bodies
                 .iter()
@@ -416,6 +432,15 @@ impl ModelFile {
                     name: n.clone(),
                     mass_kg: mech.body(*h).map(|b| b.mass).unwrap_or(f64::NAN),
                 })
+                .chain(
+                    mech.bodies()
+                        .iter()
+                        .filter(|(h, _)| built.bodies.iter().all(|(_, b)| b != h))
+                        .map(|(_, b)| CheckBody {
+                            name: b.name.clone(),
+                            mass_kg: b.mass,
+                        }),
+                )
                 .collect(),
             joints: built
                 .joints
@@ -437,6 +462,7 @@ impl ModelFile {
                     joint: built.joints[*k].name.clone(),
                 })
                 .collect(),
+            // The file's force elements, then the contacts of joints built with clearance.
             forces: built
                 .forces
                 .iter()
@@ -444,6 +470,14 @@ impl ModelFile {
                     name: n.clone(),
                     kind: k.clone(),
                 })
+                .chain(
+                    mech.forces()
+                        .filter(|(_, f)| built.forces.iter().all(|(n, _)| n != f.name()))
+                        .map(|(_, f)| CheckForce {
+                            name: f.name().to_string(),
+                            kind: "contact".into(),
+                        }),
+                )
                 .collect(),
             sensors,
             parameters: self.parameters.clone(),

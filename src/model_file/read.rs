@@ -280,11 +280,18 @@ impl Ctx<'_> {
 
     /// A nonzero direction (normalised).
     pub fn direction(&self, v: &Val, what: &str) -> Result<Vector3<f64>, ModelFileError> {
+        let x = self.nonzero(v, what)?;
+        // Huge components: scaled first, so that the norm does not overflow.
+        let x = if x.amax() > 1e150 { x / x.amax() } else { x };
+        Ok(x / x.norm())
+    }
+
+    /// A vector that gives a direction, as written (not normalised): refused if zero.
+    pub fn nonzero(&self, v: &Val, what: &str) -> Result<Vector3<f64>, ModelFileError> {
         let x = self.vec3(v, Dimension::Ratio, what)?;
         // Scaled first, so that huge components do not overflow the norm.
         let big = x.amax();
-        let x = if big > 1.0 { x / big } else { x };
-        let n = x.norm();
+        let n = if big > 1e150 { (x / big).norm() } else { x.norm() };
         if n.is_nan() || n < 1e-12 {
             return Err(self.err(
                 v.span().start,
@@ -292,7 +299,7 @@ impl Ctx<'_> {
                 format!("{what} must not be zero"),
             ));
         }
-        Ok(x / n)
+        Ok(x)
     }
 
     /// A positive scalar.

@@ -81,6 +81,8 @@ pub(crate) struct ParameterDoc {
 pub(crate) struct OrientationDoc {
     pub axis: Option<Val>,
     pub angle: Option<Val>,
+    pub x: Option<Val>,
+    pub z: Option<Val>,
 }
 
 #[derive(Debug, Deserialize, Default)]
