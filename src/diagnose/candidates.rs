@@ -50,6 +50,9 @@ pub struct LibraryOptions {
     pub coulomb_velocities: Vec<f64>,
     /// Stribeck velocities tried, rad/s (one candidate each).
     pub stribeck_velocities: Vec<f64>,
+    /// Stribeck velocities for prismatic joints, as fractions of the joint's typical speed
+    /// ([`speed_scales`](Self::speed_scales)).
+    pub relative_stribeck_velocities: Vec<f64>,
     /// Load scales over which a joint with play moves across its clearance, N (one
     /// candidate each per joint and direction; cross-validation picks among them).
     pub play_load_scales: Vec<f64>,
@@ -90,16 +93,37 @@ impl LibraryOptions {
     /// with a known typical speed, fractions of it (rounded to two significant digits, so
     /// reports read cleanly); else the absolute grid.
     pub fn coulomb_velocities_for(&self, model: &dyn InverseDynamicsModel, j: usize) -> Vec<f64> {
+        self.relative_for(
+            model,
+            j,
+            &self.relative_coulomb_velocities,
+            &self.coulomb_velocities,
+        )
+    }
+
+    /// The Stribeck velocities for joint `j` of `model`: for a prismatic joint with a known
+    /// typical speed, fractions of it; else the absolute grid.
+    pub fn stribeck_velocities_for(&self, model: &dyn InverseDynamicsModel, j: usize) -> Vec<f64> {
+        self.relative_for(
+            model,
+            j,
+            &self.relative_stribeck_velocities,
+            &self.stribeck_velocities,
+        )
+    }
+
+    fn relative_for(
+        &self,
+        model: &dyn InverseDynamicsModel,
+        j: usize,
+        relative: &[f64],
+        absolute: &[f64],
+    ) -> Vec<f64> {
         match (model.joint_motion(j), self.speed_scales.get(j)) {
-            (JointMotion::Linear, Some(&v))
-                if v > 0.0 && v.is_finite() && !self.relative_coulomb_velocities.is_empty() =>
-            {
-                self.relative_coulomb_velocities
-                    .iter()
-                    .map(|f| round2(f * v))
-                    .collect()
+            (JointMotion::Linear, Some(&v)) if v > 0.0 && v.is_finite() && !relative.is_empty() => {
+                relative.iter().map(|f| round2(f * v)).collect()
             }
-            _ => self.coulomb_velocities.clone(),
+            _ => absolute.to_vec(),
         }
     }
 }
@@ -123,6 +147,7 @@ impl Default for LibraryOptions {
         Self {
             coulomb_velocities: vec![0.05, 0.01],
             stribeck_velocities: vec![0.1, 0.3, 1.0],
+            relative_stribeck_velocities: vec![0.1, 0.3, 1.0],
             play_load_scales: vec![1.0, 5.0, 20.0],
             relative_coulomb_velocities: vec![0.1, 0.03, 0.01],
             speed_scales: vec![],
@@ -288,7 +313,7 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
             c.name += &suffix;
             out.push(c);
         }
-        for &v_s in &opts.stribeck_velocities {
+        for &v_s in &opts.stribeck_velocities_for(model, j) {
             out.push(mk(
                 &format!("Stribeck friction (v_s = {v_s} {rate})"),
                 Effect::Stribeck { v_s },
