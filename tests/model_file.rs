@@ -126,8 +126,9 @@ fn lash_check_exits_2_with_a_located_message_on_every_class_and_0_on_shipped_mod
     );
 }
 
-/// Models the property test mutates: two shipped ones (without includes, which text alone
-/// cannot follow) and a universal joint with clearance, parameters and sensors.
+/// Models the property test mutates: three shipped ones (without includes, which text alone
+/// cannot follow; the compliant arm's series driver as a polynomial) and a universal joint
+/// with clearance, parameters and sensors.
 fn sources() -> &'static [String] {
     static SOURCES: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
     SOURCES.get_or_init(|| {
@@ -139,6 +140,24 @@ fn sources() -> &'static [String] {
             })
             .collect();
         v.push(CLEARANCE.to_string());
+        // A transmission with motor-side sensors (its driver's series file replaced by a
+        // polynomial, which text alone can hold).
+        let arm = std::fs::read_to_string(
+            PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("models")
+                .join("compliant_arm.toml"),
+        )
+        .unwrap()
+        .replace(
+            "law = \"sampled\"",
+            "law = \"polynomial\"\ncoefficients = [0, 0.5]",
+        )
+        .replace("file = \"compliant_arm_command.csv\"\n", "")
+        .replace("column = \"angle\"\n", "");
+        assert!(ModelFile::from_text("arm.toml", &arm)
+            .and_then(|f| f.check())
+            .is_ok());
+        v.push(arm);
         v
     })
 }

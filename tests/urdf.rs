@@ -67,6 +67,21 @@ fn the_side_toml_matches_the_readme_rigid_model_to_1e_10_n_m() {
     );
     let worst = largest_difference(file, &readme(), 0.0);
     assert!(worst < 1e-10, "largest torque difference {worst:.3e} N m");
+    // The side file applied over the URDF named on the command line (`--model X.urdf
+    // --side dfki_pendulum.toml`) is the same model.
+    let over = ModelFile::load_over_urdf(URDF, "models/dfki_pendulum.toml").expect("side over URDF");
+    let worst = largest_difference(over, &readme(), 0.0);
+    assert!(
+        worst < 1e-10,
+        "over the URDF: largest torque difference {worst:.3e} N m"
+    );
+    let e = ModelFile::load_with_side(
+        "models/linear_axis.toml",
+        Some(Path::new("models/dfki_pendulum.toml")),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("not a .urdf file"), "{e}");
 }
 
 #[test]
@@ -196,9 +211,10 @@ fn urdf_faults_name_the_urdf_line_and_what_is_wrong() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// `lash diagnose --model models/dfki_pendulum.toml` with nothing else: the URDF, the side
-/// TOML's sensors and default recordings, and the generic candidate library reproduce the
-/// built-in DFKI result (held-out joint-2 torque residual down by at least 40 %).
+/// `lash diagnose --model pendubot-rigid.urdf --side models/dfki_pendulum.toml` with nothing
+/// else: the URDF, the side TOML's sensors and default recordings, and the generic candidate
+/// library reproduce the built-in DFKI result (held-out joint-2 torque residual down by at
+/// least 40 %).
 #[test]
 fn the_dfki_recordings_diagnosed_through_the_urdf_reproduce_the_built_in_result() {
     let report = std::env::temp_dir().join(format!("lash-urdf-dfki-{}", std::process::id()));
@@ -206,6 +222,8 @@ fn the_dfki_recordings_diagnosed_through_the_urdf_reproduce_the_built_in_result(
         .args([
             "diagnose",
             "--model",
+            URDF,
+            "--side",
             "models/dfki_pendulum.toml",
             "--json",
             "-q",

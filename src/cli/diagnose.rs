@@ -45,6 +45,11 @@ pub struct Args {
     /// recordings from).
     #[arg(long, default_value = "double-pendulum")]
     model: String,
+    /// A side file (TOML) over a URDF given as --model: its sensors, parameters, candidates
+    /// and recordings, in place of the URDF the side file names itself
+    /// (`--model ../shared/data/dfki-double-pendulum/pendubot-rigid.urdf --side models/dfki_pendulum.toml`).
+    #[arg(long)]
+    side: Option<PathBuf>,
     /// README with the model's parameter table.
     #[arg(long, default_value = lash::mechanisms::double_pendulum::DFKI_README)]
     params: PathBuf,
@@ -111,10 +116,17 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     let mr;
     let mb;
     let mf;
+    if a.side.is_some() && !a.model.ends_with(".urdf") {
+        return Err(CliError::input(format!(
+            "--side applies a side file over a URDF, but --model '{}' is not a .urdf file",
+            a.model
+        )));
+    }
     let mut file_recordings: Option<(Vec<String>, Vec<String>)> = None;
     let (model, defaults): (&dyn InverseDynamicsModel, _) = match a.model.as_str() {
         file if file.ends_with(".toml") || file.ends_with(".urdf") => {
-            let f = lash::model_file::ModelFile::load(file).map_err(CliError::input)?;
+            let f = lash::model_file::ModelFile::load_with_side(file, a.side.as_deref())
+                .map_err(CliError::input)?;
             if !f.fit_recordings.is_empty() {
                 let s = |v: &[std::path::PathBuf]| v.iter().map(|p| p.display().to_string()).collect();
                 file_recordings = Some((s(&f.fit_recordings), s(&f.holdout_recordings)));

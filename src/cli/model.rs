@@ -13,6 +13,10 @@ pub struct CheckArgs {
     /// Model files (TOML).
     #[arg(required = true)]
     pub models: Vec<PathBuf>,
+    /// A side file (TOML) applied over each model, which must then be a URDF (in place of
+    /// the URDF the side file names itself)
+    #[arg(long)]
+    pub side: Option<PathBuf>,
     /// Print JSON (one object per file, in an array if more than one).
     #[arg(long)]
     pub json: bool,
@@ -27,6 +31,9 @@ pub struct CheckArgs {
 pub struct SimulateArgs {
     /// Model file (TOML).
     pub model: PathBuf,
+    /// A side file (TOML) applied over the model, which must then be a URDF
+    #[arg(long)]
+    pub side: Option<PathBuf>,
     /// End time, s.
     #[arg(long)]
     pub t_end: f64,
@@ -55,7 +62,7 @@ pub struct SimulateArgs {
 pub fn check(a: CheckArgs) -> Result<Output, CliError> {
     let mut reports = vec![];
     for path in &a.models {
-        let file = ModelFile::load(path).map_err(CliError::input)?;
+        let file = ModelFile::load_with_side(path, a.side.as_deref()).map_err(CliError::input)?;
         let opts = BuildOptions {
             clearance: a.clearance,
             ..Default::default()
@@ -117,7 +124,22 @@ pub fn check(a: CheckArgs) -> Result<Output, CliError> {
                                 .limits
                                 .map(|l| format!(", limits {} to {} {unit}", l[0], l[1]))
                                 .unwrap_or_default();
-                            format!("{} ({} {}-{}{c}{l})", j.name, j.kind, j.i, j.j)
+                            let t = j
+                                .transmission
+                                .as_ref()
+                                .map(|t| {
+                                    let (cu, ju, du) = if j.kind == "prismatic" {
+                                        ("m/N", "kg", "N s/m")
+                                    } else {
+                                        ("rad/(N m)", "kg m^2", "N m s/rad")
+                                    };
+                                    format!(
+                                        ", transmission: compliance {} {cu}, rotor {} {ju}, damping {} {du}",
+                                        t.compliance, t.rotor_inertia, t.damping
+                                    )
+                                })
+                                .unwrap_or_default();
+                            format!("{} ({} {}-{}{c}{l}{t})", j.name, j.kind, j.i, j.j)
                         })
                         .collect()
                 )
@@ -148,7 +170,12 @@ pub fn check(a: CheckArgs) -> Result<Output, CliError> {
                 names(
                     r.sensors
                         .iter()
-                        .flat_map(|s| s.columns.iter().map(|c| format!("{} [{}]", c[0], c[1])))
+                        .flat_map(|s| {
+                            let side = if s.side == "motor" { ", motor side" } else { "" };
+                            s.columns
+                                .iter()
+                                .map(move |c| format!("{} [{}{side}]", c[0], c[1]))
+                        })
                         .collect()
                 )
             );
@@ -192,7 +219,7 @@ pub fn simulate_cmd(a: SimulateArgs) -> Result<Output, CliError> {
     if !(a.rtol > 0.0 && a.rtol < 1.0 && a.atol > 0.0) {
         return Err(CliError::input("--rtol must be in (0, 1) and --atol positive"));
     }
-    let file = ModelFile::load(&a.model).map_err(CliError::input)?;
+    let file = ModelFile::load_with_side(&a.model, a.side.as_deref()).map_err(CliError::input)?;
     let values: Vec<f64> = file.parameters.iter().map(|p| p.nominal).collect();
     let built = file
         .build_with(

@@ -13,7 +13,7 @@
 //! `[[candidate]]`s are candidates of its own (parameters perturbed together).
 
 use super::error::DiagnoseError;
-use super::mechanism::{MechanismModel, PointSensor, Sensors};
+use super::mechanism::{EncoderPlacement, MechanismModel, PointSensor, Sensors};
 use super::model::{ColumnDefaults, DeclaredCandidate, ModelParameter, ParameterFamily};
 use crate::model_file::units::Dimension;
 use crate::model_file::{BuildOptions, ModelFile, SensorKind, SensorTarget};
@@ -27,36 +27,69 @@ pub fn model_from_file(file: ModelFile) -> Result<MechanismModel, DiagnoseError>
         message,
     };
     let nominal = file.build().map_err(|e| fail(e.to_string()))?;
-    let sensor_on = |kind: SensorKind, joint: usize| {
+    // A joint's sensor of a kind, on the side asked for if it has one there.
+    let sensor_on = |kind: SensorKind, joint: usize, motor: bool| {
+        let on = |s: &&crate::model_file::Sensor| s.kind == kind && s.target == SensorTarget::Joint(joint);
         nominal
             .sensors
             .iter()
-            .find(|s| s.kind == kind && s.target == SensorTarget::Joint(joint))
+            .filter(on)
+            .find(|s| s.motor_side == motor)
+            .or_else(|| nominal.sensors.iter().find(on))
     };
-    let mut channels = vec![];
+    let mut channels: Vec<(String, usize)> = vec![];
     let mut mapping = vec![];
+    let mut transmissions = vec![];
     for s in &nominal.sensors {
         let (SensorKind::JointPosition, SensorTarget::Joint(k)) = (s.kind, s.target) else {
             continue;
         };
+        if channels.iter().any(|(_, c)| *c == k) {
+            continue;
+        }
         let joint = &nominal.joints[k];
+        // Behind a transmission the motor-side encoder is the one the diagnosis reads.
+        let motor = joint.transmission.is_some();
+        let s = sensor_on(SensorKind::JointPosition, k, motor).unwrap_or(s);
         let n = channels.len() + 1;
-        let rate = sensor_on(SensorKind::JointVelocity, k).ok_or_else(|| {
+        let rate = sensor_on(SensorKind::JointVelocity, k, s.motor_side).ok_or_else(|| {
             fail(format!(
                 "joint '{}' has a joint_position sensor but no joint_velocity sensor; the diagnosis reads both",
                 joint.name
             ))
         })?;
-        let effort = sensor_on(SensorKind::JointEffort, k).ok_or_else(|| {
+        let effort = sensor_on(SensorKind::JointEffort, k, false).ok_or_else(|| {
             fail(format!(
                 "joint '{}' has no joint_effort sensor; the diagnosis compares the recorded effort with the model's",
                 joint.name
             ))
         })?;
+        if s.motor_side != rate.motor_side {
+            return Err(fail(format!(
+                "joint '{}': its position sensor '{}' is on the {} side and its rate sensor '{}' on the {} side; the diagnosis reads both on one side",
+                joint.name,
+                s.name,
+                if s.motor_side { "motor" } else { "joint" },
+                rate.name,
+                if rate.motor_side { "motor" } else { "joint" },
+            )));
+        }
+        match (&joint.transmission, s.motor_side) {
+            (Some(t), true) => transmissions.push(Some((k, t.clone()))),
+            (Some(_), false) => {
+                return Err(fail(format!(
+                    "joint '{}' has a [[transmission]] but its encoder '{}' is on the joint side; the diagnosis models a transmission behind a motor-side encoder (side = \"motor\" on its position and rate sensors)",
+                    joint.name, s.name
+                )))
+            }
+            (None, _) => transmissions.push(None),
+        }
         mapping.push(format!("q{n}={}", s.name));
         mapping.push(format!("qd{n}={}", rate.name));
         mapping.push(format!("tau{n}={}", effort.name));
-        if let Some(acc) = sensor_on(SensorKind::JointAcceleration, k) {
+        if let Some(acc) =
+            sensor_on(SensorKind::JointAcceleration, k, s.motor_side).filter(|a| a.motor_side == s.motor_side)
+        {
             mapping.push(format!("qdd{n}={}", acc.name));
         }
         channels.push((joint.name.clone(), k));
@@ -110,6 +143,42 @@ pub fn model_from_file(file: ModelFile) -> Result<MechanismModel, DiagnoseError>
             },
         })
         .collect();
+    // Encoders: a motor-side one behind its transmission, whose compliance is a parameter of
+    // the diagnosis (the file's, or one added here after the file's).
+    let mut parameters = parameters;
+    let file_parameters = parameters.len();
+    let mut encoders = vec![];
+    for (c, tr) in transmissions.iter().enumerate() {
+        let Some((k, t)) = tr else {
+            encoders.push(EncoderPlacement::JointSide);
+            continue;
+        };
+        let prismatic = nominal.joints[*k].kind == crate::multibody::JointKind::Prismatic;
+        let compliance = match t.compliance_parameter {
+            Some(p) => {
+                parameters[p].family = ParameterFamily::DriveCompliance;
+                p
+            }
+            None => {
+                parameters.push(ModelParameter {
+                    name: format!("{} transmission compliance", channels[c].0),
+                    unit: if prismatic { "m/N" } else { "rad/(N m)" }.into(),
+                    nominal: t.compliance,
+                    scale: t.compliance,
+                    family: ParameterFamily::DriveCompliance,
+                });
+                parameters.len() - 1
+            }
+        };
+        encoders.push(EncoderPlacement::MotorSide {
+            compliance,
+            rotor_inertia: t.rotor_inertia,
+            damping: t.damping,
+        });
+    }
+    if encoders.iter().all(|e| *e == EncoderPlacement::JointSide) {
+        encoders.clear();
+    }
     let declared: Vec<DeclaredCandidate> = file
         .candidates
         .iter()
@@ -141,7 +210,7 @@ pub fn model_from_file(file: ModelFile) -> Result<MechanismModel, DiagnoseError>
             measured_joints: measured.clone(),
         };
         let mut built = file
-            .build_with(theta, &opts)
+            .build_with(&theta[..file_parameters], &opts)
             .map_err(|e| ModelError::Output(e.to_string()))?;
         for ((joint, coordinate0), law) in joints.iter().zip(laws) {
             let h = built
@@ -160,10 +229,7 @@ pub fn model_from_file(file: ModelFile) -> Result<MechanismModel, DiagnoseError>
         parameters,
         builder,
     )?
-    .with_sensors(Sensors {
-        encoders: vec![],
-        outputs,
-    })
+    .with_sensors(Sensors { encoders, outputs })
     .and_then(|m| m.with_declared_candidates(declared))
     .map(|m| m.with_column_defaults(ColumnDefaults::Fixed(mapping.join(","))))
 }

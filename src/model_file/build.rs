@@ -3,7 +3,7 @@
 
 use super::error::{ModelFileError, Problem};
 use super::read::{short, Ctx, Parameter, Parsed};
-use super::schema::{DriverDoc, ForceDoc, JointDoc, Name, Val};
+use super::schema::{DriverDoc, ForceDoc, JointDoc, Name, TransmissionDoc, Val};
 use super::sensors::{Sensor, SensorKind, SensorTarget};
 use super::series::read_columns;
 use super::units::{parse_quantity, Dimension};
@@ -63,7 +63,42 @@ pub struct JointInfo {
     /// Lower and upper limit of its coordinate (rad or m), if declared (reported, not
     /// enforced).
     pub limits: Option<[f64; 2]>,
+    /// The compliant transmission that drives it, if declared (`[[transmission]]`).
+    pub transmission: Option<Transmission>,
 }
+
+/// A compliant transmission between a motor and the joint it drives (`[[transmission]]`),
+/// built as a rotor: a body on a joint of the driven joint's kind, coaxial with it on its
+/// side i, and a spring of compliance c with a damper from the rotor to the joint's side j.
+/// The file's driver and `effort` forces on the joint act on the rotor (the motor turns the
+/// rotor; the joint follows through the spring), a `joint_effort` sensor reads the motor's
+/// effort, and a sensor with `side = "motor"` reads the rotor's coordinate. All values are
+/// reflected to the joint (no gear ratio).
+#[derive(Debug, Clone)]
+pub struct Transmission {
+    /// Compliance c, rad/(N m) (m/N on a prismatic joint).
+    pub compliance: f64,
+    /// The declared parameter the compliance names, if any (index into
+    /// [`ModelFile::parameters`](super::ModelFile::parameters)).
+    pub compliance_parameter: Option<usize>,
+    /// Rotor inertia about the axis, kg m² (on a prismatic joint: the rotor's mass, kg).
+    pub rotor_inertia: f64,
+    /// Damping of the compliance, N m s/rad (N s/m on a prismatic joint).
+    pub damping: f64,
+    /// The motor's joint (side i to the rotor); `None` where the joint is measured
+    /// ([`BuildOptions::measured_joints`]): the caller drives the joint and models the
+    /// transmission itself.
+    pub motor: Option<Box<JointInfo>>,
+}
+
+/// Mass of a revolute transmission's rotor body when the file gives no `rotor_mass`, kg: a
+/// body needs one, and its centre sits on the axis, so it only adds to the joint reactions
+/// (a motor's mass is normally counted in the body that carries it).
+pub const DEFAULT_ROTOR_MASS: f64 = 1e-3;
+
+/// Radius of gyration of a prismatic transmission's rotor about its centre, m (its rotations
+/// are locked by its joint; the value only keeps its inertia regular).
+const PRISMATIC_ROTOR_GYRATION: f64 = 0.01;
 
 impl std::fmt::Debug for JointInfo {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -237,6 +272,16 @@ pub(crate) fn build(
         };
         for d in &f.doc.joint {
             b.joint(&cx, d.span().start, d.get_ref())?;
+        }
+    }
+    for f in files {
+        let cx = Ctx {
+            src: &f.src,
+            params,
+            values,
+        };
+        for d in &f.doc.transmission {
+            b.transmission(&cx, d.span().start, d.get_ref())?;
         }
     }
     for f in files {
@@ -675,8 +720,168 @@ impl Builder {
             efforts: vec![],
             clearance: clearance.map(|(d, _)| d),
             limits,
+            transmission: None,
         });
         self.joint_places.push(nm.to_string());
+        Ok(())
+    }
+
+    fn transmission(&mut self, cx: &Ctx, at: usize, d: &TransmissionDoc) -> Result<(), ModelFileError> {
+        let jn = cx.need_name(&d.joint, "joint", "a [[transmission]]", at)?;
+        let owner = format!("transmission of joint '{}'", jn.get_ref());
+        let k = self.joint_ref(cx, jn, &owner)?;
+        let kind = self.joints[k].kind;
+        if !matches!(kind, JointKind::Revolute | JointKind::Prismatic) {
+            return Err(cx.err(
+                jn.span().start,
+                Problem::NotApplicable,
+                format!(
+                    "{owner}: joint '{}' is {}; a transmission drives a revolute or prismatic joint",
+                    jn.get_ref(),
+                    format!("{kind:?}").to_lowercase()
+                ),
+            ));
+        }
+        if self.joints[k].transmission.is_some() {
+            return Err(cx.err(
+                jn.span().start,
+                Problem::Duplicate,
+                format!("{owner}: joint '{}' has a transmission already", jn.get_ref()),
+            ));
+        }
+        let rotary = kind == JointKind::Revolute;
+        let (cdim, jdim, ddim) = if rotary {
+            (
+                Dimension::RotationalCompliance,
+                Dimension::Inertia,
+                Dimension::RotationalDamping,
+            )
+        } else {
+            (Dimension::Compliance, Dimension::Mass, Dimension::Damping)
+        };
+        let cv = cx.need(&d.compliance, "compliance", &owner, at)?;
+        let compliance = cx.positive(cv, cdim, &format!("{owner} compliance"))?;
+        let compliance_parameter = cx.parameter_index(cv);
+        let rotor_inertia = cx.positive(
+            cx.need(&d.rotor_inertia, "rotor_inertia", &owner, at)?,
+            jdim,
+            &format!("{owner} rotor_inertia"),
+        )?;
+        let damping = match &d.damping {
+            Some(v) => cx.non_negative(v, ddim, &format!("{owner} damping"))?,
+            None => 0.0,
+        };
+        let rotor_mass = match (&d.rotor_mass, rotary) {
+            (Some(v), true) => cx.positive(v, Dimension::Mass, &format!("{owner} rotor_mass"))?,
+            (Some(v), false) => {
+                return Err(cx.err(
+                    v.span().start,
+                    Problem::NotApplicable,
+                    format!("{owner}: on a prismatic joint the rotor's mass is its rotor_inertia (kg); give no rotor_mass"),
+                ))
+            }
+            (None, _) => DEFAULT_ROTOR_MASS,
+        };
+        let motor = if self.opts.measured_joints.contains(jn.get_ref()) {
+            None
+        } else {
+            let joint = self.joints[k].clone();
+            let rotor_name = format!("{} rotor", joint.name);
+            let motor_name = format!("{} motor", joint.name);
+            if self.out_bodies.iter().any(|(n, _)| *n == rotor_name)
+                || self.joint_places.contains(&motor_name)
+            {
+                return Err(cx.err(
+                    jn.span().start,
+                    Problem::Duplicate,
+                    format!("{owner}: its rotor is built as body '{rotor_name}' on joint '{motor_name}', but the file already has one of those names"),
+                ));
+            }
+            let (pi, roti) = self.pose(joint.i);
+            let point = pi + roti * joint.frame_i.origin;
+            let axis: Vector3<f64> = roti * joint.frame_i.axes.column(2);
+            let x: Vector3<f64> = roti * joint.frame_i.axes.column(0);
+            let (mass, inertia) = if rotary {
+                let jp = rotor_inertia / 2.0;
+                (
+                    rotor_mass,
+                    Matrix3::identity() * jp + axis * axis.transpose() * (rotor_inertia - jp),
+                )
+            } else {
+                (
+                    rotor_inertia,
+                    Matrix3::identity() * rotor_inertia * PRISMATIC_ROTOR_GYRATION.powi(2),
+                )
+            };
+            let rotor = self
+                .mech
+                .add_body(RigidBody::new(rotor_name, mass, inertia).at(point));
+            let h = if rotary {
+                self.mech
+                    .revolute_at(&motor_name, joint.i, Attach::Body(rotor), point, axis)
+            } else {
+                self.mech
+                    .prismatic_along(&motor_name, joint.i, Attach::Body(rotor), point, axis)
+            };
+            let stiffness = 1.0 / compliance;
+            let fail = || {
+                cx.err(
+                    at,
+                    Problem::Model,
+                    format!("{owner}: the joint has no finite axis in the build configuration"),
+                )
+            };
+            let spring = format!("{} transmission", joint.name);
+            self.forces.push((spring.clone(), "transmission".into()));
+            if rotary {
+                let rotation =
+                    RelativeRotation::from_initial_poses(&self.mech, Attach::Body(rotor), joint.j, axis)
+                        .ok_or_else(fail)?;
+                self.mech.add_force(Box::new(RotationalSpringDamper {
+                    name: spring,
+                    rotation,
+                    stiffness,
+                    damping,
+                    free_angle: 0.0,
+                }));
+            } else {
+                let translation = RelativeTranslation::from_initial_poses(
+                    &self.mech,
+                    Attach::Body(rotor),
+                    joint.j,
+                    point,
+                    axis,
+                )
+                .ok_or_else(fail)?;
+                self.mech.add_force(Box::new(TranslationalForce {
+                    name: spring,
+                    translation,
+                    law: Arc::new(move |_t, x, v| -stiffness * x - damping * v),
+                }));
+            }
+            Some(Box::new(JointInfo {
+                name: motor_name,
+                kind,
+                i: joint.i,
+                j: Attach::Body(rotor),
+                frame_i: joint.frame_i,
+                frame_j: JointFrame::with_x(Vector3::zeros(), axis, x),
+                coordinate0: joint.coordinate0,
+                handle: Some(h),
+                driver: None,
+                efforts: vec![],
+                clearance: None,
+                limits: None,
+                transmission: None,
+            }))
+        };
+        self.joints[k].transmission = Some(Transmission {
+            compliance,
+            compliance_parameter,
+            rotor_inertia,
+            damping,
+            motor,
+        });
         Ok(())
     }
 
@@ -769,7 +974,13 @@ impl Builder {
             return Ok(());
         }
         let joint = &self.joints[k];
-        let Some(jh) = joint.handle else {
+        // With a transmission the motor turns the rotor, and the joint follows.
+        let motor = joint
+            .transmission
+            .as_ref()
+            .and_then(|t| t.motor.as_ref())
+            .and_then(|m| m.handle);
+        let Some(jh) = motor.or(joint.handle) else {
             return Err(cx.err(
                 jn.span().start,
                 Problem::NotApplicable,
@@ -1175,7 +1386,12 @@ impl Builder {
                 };
                 if !self.opts.measured_joints.contains(&joint.name) {
                     let l2 = law.clone();
-                    self.coordinate_force(&joint, nm.clone(), Arc::new(move |t, _x, _v| l2(t)))
+                    // With a transmission the effort acts on the rotor.
+                    let on = match joint.transmission.as_ref().and_then(|t| t.motor.as_deref()) {
+                        Some(m) => m.clone(),
+                        None => joint.clone(),
+                    };
+                    self.coordinate_force(&on, nm.clone(), Arc::new(move |t, _x, _v| l2(t)))
                         .map_err(|m| cx.err(at, Problem::Model, format!("{owner}: {m}")))?;
                     self.joints[k].efforts.push(law);
                 }
@@ -1283,21 +1499,17 @@ impl Builder {
                 ))
             }
         };
-        if let Some(side) = &d.side {
-            match side.get_ref().as_str() {
-                "arm" | "joint" => {}
-                "motor" => {
-                    return Err(cx.err(
-                        side.span().start,
-                        Problem::NotApplicable,
-                        format!("{owner}: a motor-side sensor needs a transmission between motor and joint, which this format does not declare yet; use side = \"joint\""),
-                    ))
-                }
-                other => {
-                    return Err(cx.err(side.span().start, Problem::UnknownType, format!("{owner}: unknown side '{other}' (joint, motor)")))
-                }
+        let motor_side = match d.side.as_ref().map(|s| (s.get_ref().as_str(), s.span().start)) {
+            None | Some(("arm" | "joint", _)) => false,
+            Some(("motor", _)) => true,
+            Some((other, sat)) => {
+                return Err(cx.err(
+                    sat,
+                    Problem::UnknownType,
+                    format!("{owner}: unknown side '{other}' (joint, motor)"),
+                ))
             }
-        }
+        };
         let target = match kind {
             SensorKind::BodyPosition | SensorKind::BodyOrientation => {
                 if let Some(j) = &d.joint {
@@ -1382,10 +1594,34 @@ impl Builder {
                 SensorTarget::Joint(k)
             }
         };
+        if motor_side {
+            let side = d.side.as_ref().expect("motor_side comes from a side");
+            match target {
+                SensorTarget::Joint(k) if self.joints[k].transmission.is_some() => {}
+                SensorTarget::Joint(k) => {
+                    return Err(cx.err(
+                        side.span().start,
+                        Problem::NotApplicable,
+                        format!(
+                            "{owner}: joint '{}' has no [[transmission]], so it has no motor side; declare one (joint, compliance, rotor_inertia, damping) or use side = \"joint\"",
+                            self.joints[k].name
+                        ),
+                    ))
+                }
+                SensorTarget::Body(..) => {
+                    return Err(cx.err(
+                        side.span().start,
+                        Problem::NotApplicable,
+                        format!("{owner}: only a joint sensor has a motor side"),
+                    ))
+                }
+            }
+        }
         self.sensors.push(Sensor {
             name: name.get_ref().clone(),
             kind,
             target,
+            motor_side,
         });
         self.sensor_names.push(name.get_ref().clone());
         Ok(())

@@ -83,12 +83,23 @@
 //!                                        #   effort (joint, value | file + column),
 //!                                        #   point_force (body, point, force)
 //!
+//! [[transmission]]                     # optional: a compliant drive between a motor and a
+//! joint = "A"                            # revolute or prismatic joint; built as a rotor on
+//! compliance = "5e-4 rad/(N m)"          # a joint of the same kind beside it, coupled to the
+//! rotor_inertia = "2e-3 kg m^2"          # joint's side j by a spring (1/compliance) and a
+//! damping = "3.5 N m s/rad"              # damper; the joint's driver and efforts turn the
+//! # rotor_mass = "1 g"                   # rotor. Values reflected to the joint; prismatic:
+//!                                        # m/N, kg (its mass), N s/m
+//!
 //! [[sensor]]
 //! name = "q"                             # the recording column (vectors: q_x, q_y, q_z)
 //! type = "joint_position"                # joint_position, joint_velocity,
 //! joint = "A"                            # joint_acceleration, joint_effort (joint: the
-//!                                        # actuator's effort, 0 on a passive joint);
+//!                                        # actuator's effort, 0 on a passive joint; behind a
+//!                                        # transmission the motor's);
 //!                                        # body_position (body or marker), body_orientation
+//! # side = "motor"                       # joint sensors behind a [[transmission]]: read the
+//!                                        # rotor (an encoder on the motor); default "joint"
 //!
 //! [[candidate]]                          # optional: an effect of your own for the diagnosis:
 //! name = "direction-dependent damping"   # force elements in the file whose parameters
@@ -151,7 +162,7 @@ mod simulate;
 pub mod units;
 mod urdf;
 
-pub use build::{BuildOptions, BuiltModel, EffortLaw, JointInfo};
+pub use build::{BuildOptions, BuiltModel, EffortLaw, JointInfo, Transmission, DEFAULT_ROTOR_MASS};
 pub use error::{ModelFileError, Problem};
 pub use read::{FileCandidate, Parameter};
 pub use sensors::{Sensor, SensorKind, SensorTarget};
@@ -242,6 +253,22 @@ pub struct CheckJoint {
     /// Lower and upper limit of the joint's coordinate (rad or m), if declared (reported,
     /// not enforced).
     pub limits: Option<[f64; 2]>,
+    /// Its compliant transmission, if declared.
+    pub transmission: Option<CheckTransmission>,
+}
+
+/// A compliant transmission in a [`CheckReport`] (SI, by the joint's type: revolute in
+/// rad/(N m), kg m², N m s/rad; prismatic in m/N, kg, N s/m).
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckTransmission {
+    /// Compliance.
+    pub compliance: f64,
+    /// Rotor inertia (prismatic: mass).
+    pub rotor_inertia: f64,
+    /// Damping.
+    pub damping: f64,
+    /// The declared parameter the compliance names, if any.
+    pub compliance_parameter: Option<String>,
 }
 
 /// A driver in a [`CheckReport`].
@@ -273,14 +300,43 @@ pub struct CheckSensor {
     pub kind: SensorKind,
     /// Recording columns and their units.
     pub columns: Vec<[String; 2]>,
+    /// `"motor"` for a joint sensor on the motor side of a transmission, else `"joint"`
+    /// (body sensors too).
+    pub side: &'static str,
 }
 
 impl ModelFile {
     /// Reads a model file and its includes.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, ModelFileError> {
         let path = path.as_ref();
-        let files = read::read_tree(path)?;
+        let files = read::read_tree(path, None)?;
         Self::from_parsed(path, files)
+    }
+
+    /// A side file (TOML) applied over the URDF `urdf`, in place of the URDF the side file
+    /// names itself (if any): `lash diagnose --model robot.urdf --side robot.toml`.
+    pub fn load_over_urdf(urdf: impl AsRef<Path>, side: impl AsRef<Path>) -> Result<Self, ModelFileError> {
+        let side = side.as_ref();
+        let files = read::read_tree(side, Some(urdf.as_ref()))?;
+        Self::from_parsed(side, files)
+    }
+
+    /// What the CLI's `--model FILE [--side SIDE]` names: a model file or URDF alone, or a
+    /// side TOML over a URDF. A side file with a model that is not a URDF is refused.
+    pub fn load_with_side(model: impl AsRef<Path>, side: Option<&Path>) -> Result<Self, ModelFileError> {
+        let model = model.as_ref();
+        match side {
+            None => Self::load(model),
+            Some(s) if read::is_urdf(model) => Self::load_over_urdf(model, s),
+            Some(s) => Err(ModelFileError::File {
+                file: s.display().to_string(),
+                problem: Problem::Inconsistent,
+                message: format!(
+                    "a side file goes over a URDF, but the model '{}' is not a .urdf file",
+                    model.display()
+                ),
+            }),
+        }
     }
 
     /// A model from text (`name` stands for the file in messages; includes and series are
@@ -413,6 +469,7 @@ impl ModelFile {
                     name: s.name.clone(),
                     kind: s.kind,
                     columns: c,
+                    side: if s.motor_side { "motor" } else { "joint" },
                 }
             })
             .collect();
@@ -452,6 +509,12 @@ impl ModelFile {
                     j: name_of(j.j),
                     clearance_m: j.clearance.map(|c| [c.radial_clearance, c.axial_clearance]),
                     limits: j.limits,
+                    transmission: j.transmission.as_ref().map(|t| CheckTransmission {
+                        compliance: t.compliance,
+                        rotor_inertia: t.rotor_inertia,
+                        damping: t.damping,
+                        compliance_parameter: t.compliance_parameter.map(|k| self.parameters[k].name.clone()),
+                    }),
                 })
                 .collect(),
             drivers: built

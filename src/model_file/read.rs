@@ -22,10 +22,13 @@ const MAX_FILES: usize = 64;
 
 /// Reads `path` and its includes (depth first, includes before the including file's own
 /// tables), refusing cycles and missing files with the place of the include.
-pub(crate) fn read_tree(path: &Path) -> Result<Vec<Parsed>, ModelFileError> {
+///
+/// `urdf`: a URDF that takes the place of the root file's own `urdf = …` (a side file
+/// applied over another copy of its robot); the root need not name one.
+pub(crate) fn read_tree(path: &Path, urdf: Option<&Path>) -> Result<Vec<Parsed>, ModelFileError> {
     let mut out = vec![];
     let mut stack = vec![];
-    read_one(path, &mut stack, &mut out, None)?;
+    read_one(path, &mut stack, &mut out, None, urdf)?;
     Ok(out)
 }
 
@@ -34,6 +37,7 @@ fn read_one(
     stack: &mut Vec<PathBuf>,
     out: &mut Vec<Parsed>,
     from: Option<(&Source, usize)>,
+    urdf_over: Option<&Path>,
 ) -> Result<(), ModelFileError> {
     let fail = |message: String| match from {
         Some((src, at)) => src.error(at, Problem::Include, message),
@@ -67,10 +71,24 @@ fn read_one(
     stack.push(canonical);
     for inc in &doc.include {
         let child = dir.join(inc.get_ref());
-        read_one(&child, stack, out, Some((&src, inc.span().start)))?;
+        read_one(&child, stack, out, Some((&src, inc.span().start)), None)?;
     }
     stack.pop();
-    if let Some(u) = &doc.urdf {
+    if let Some(file) = urdf_over.filter(|_| from.is_none()) {
+        if !is_urdf(file) {
+            return Err(ModelFileError::File {
+                file: file.display().to_string(),
+                problem: Problem::Include,
+                message: "the URDF a side file is applied over must end in .urdf".into(),
+            });
+        }
+        let text = std::fs::read_to_string(file).map_err(|e| ModelFileError::File {
+            file: file.display().to_string(),
+            problem: Problem::Read,
+            message: format!("cannot read URDF: {e}"),
+        })?;
+        out.push(super::urdf::import(file, text, false)?);
+    } else if let Some(u) = &doc.urdf {
         let file = dir.join(u.get_ref());
         if !is_urdf(&file) {
             return Err(src.error(
@@ -169,6 +187,14 @@ impl Ctx<'_> {
     ) -> Result<&'v Name, ModelFileError> {
         v.as_ref()
             .ok_or_else(|| self.err(table_at, Problem::Missing, format!("{owner} has no '{key}'")))
+    }
+
+    /// The declared parameter a value names, if it is one (index into the parameters).
+    pub fn parameter_index(&self, v: &Val) -> Option<usize> {
+        match v.get_ref() {
+            toml::Value::String(s) => self.params.iter().position(|p| p.name == s.trim()),
+            _ => None,
+        }
     }
 
     /// A scalar of dimension `dim`: a number (SI), a string with a unit, or a parameter name.

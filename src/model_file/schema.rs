@@ -33,6 +33,8 @@ pub(crate) struct FileDoc {
     pub force: Vec<Spanned<ForceDoc>>,
     #[serde(default)]
     pub sensor: Vec<Spanned<SensorDoc>>,
+    #[serde(default)]
+    pub transmission: Vec<Spanned<TransmissionDoc>>,
     pub recordings: Option<Spanned<RecordingsDoc>>,
     #[serde(default)]
     pub candidate: Vec<Spanned<CandidateDoc>>,
@@ -46,6 +48,17 @@ pub(crate) struct CandidateDoc {
     #[serde(default)]
     pub parameters: Vec<Name>,
     pub description: Option<Name>,
+}
+
+/// A compliant transmission between a motor and the joint it drives.
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct TransmissionDoc {
+    pub joint: Option<Name>,
+    pub compliance: Option<Val>,
+    pub rotor_inertia: Option<Val>,
+    pub damping: Option<Val>,
+    pub rotor_mass: Option<Val>,
 }
 
 /// Recordings of the machine the file describes (paths relative to the file).

@@ -42,6 +42,9 @@ pub struct Sensor {
     pub kind: SensorKind,
     /// What it is on.
     pub target: SensorTarget,
+    /// A joint sensor on the motor side of the joint's transmission (`side = "motor"`): it
+    /// reads the rotor's coordinate (an effort sensor reads the motor's effort either way).
+    pub motor_side: bool,
 }
 
 /// Kinematics of one side at a sample: position, rotation, velocity, angular velocity and
@@ -193,7 +196,18 @@ impl BuiltModel {
                     out.extend(s.body_euler_parameters(h).iter());
                 }
                 (kind, SensorTarget::Joint(k)) => {
-                    let joint = &self.joints[k];
+                    let effort = kind == SensorKind::JointEffort;
+                    let joint = match (&self.joints[k].transmission, sensor.motor_side && !effort) {
+                        (Some(t), true) => match t.motor.as_deref() {
+                            Some(m) => m,
+                            None => {
+                                // Not built (a measured joint): nothing to read.
+                                out.push(f64::NAN);
+                                continue;
+                            }
+                        },
+                        _ => &self.joints[k],
+                    };
                     let v = match kind {
                         SensorKind::JointEffort => match joint.driver {
                             Some(d) => s.driver_effort(&self.mechanism, d).unwrap_or(f64::NAN),

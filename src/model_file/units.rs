@@ -38,6 +38,10 @@ pub enum Dimension {
     RotationalDamping,
     /// Pressure or elastic modulus [Pa].
     Pressure,
+    /// Translational compliance [m/N].
+    Compliance,
+    /// Rotational compliance [rad/(N m)].
+    RotationalCompliance,
 }
 
 impl Dimension {
@@ -60,6 +64,8 @@ impl Dimension {
             Dimension::Damping => "N s/m",
             Dimension::RotationalDamping => "N m s/rad",
             Dimension::Pressure => "Pa",
+            Dimension::Compliance => "m/N",
+            Dimension::RotationalCompliance => "rad/(N m)",
         }
     }
 
@@ -116,6 +122,12 @@ const UNITS: &[(&str, Dimension, f64)] = &[
     ("Pa", Dimension::Pressure, 1.0),
     ("MPa", Dimension::Pressure, 1e6),
     ("GPa", Dimension::Pressure, 1e9),
+    ("m/N", Dimension::Compliance, 1.0),
+    ("mm/N", Dimension::Compliance, 1e-3),
+    ("um/N", Dimension::Compliance, 1e-6),
+    ("rad/(N m)", Dimension::RotationalCompliance, 1.0),
+    ("mrad/(N m)", Dimension::RotationalCompliance, 1e-3),
+    ("urad/(N m)", Dimension::RotationalCompliance, 1e-6),
 ];
 
 /// Parses `"<number> <unit>"` (or a number alone, SI) as a quantity of dimension `dim`,
@@ -188,6 +200,8 @@ fn name_of(d: Dimension) -> &'static str {
         Dimension::Damping => "damping",
         Dimension::RotationalDamping => "rotational damping",
         Dimension::Pressure => "pressure",
+        Dimension::Compliance => "compliance",
+        Dimension::RotationalCompliance => "rotational compliance",
     }
 }
 

@@ -142,7 +142,9 @@ impl MotionLaw {
     }
 }
 
-/// A natural cubic spline through (t_k, x_k), held constant outside [t_0, t_n].
+/// A natural cubic spline through (t_k, x_k), held constant outside [t_0, t_n]. At t_0 itself
+/// it has the first interval's rate and acceleration (a motion that starts at t_0 starts
+/// consistently with the spline that follows).
 #[derive(Debug, Clone)]
 pub struct Spline {
     t: Vec<f64>,
@@ -197,7 +199,7 @@ impl Spline {
     /// (x, ẋ, ẍ) at `s`.
     pub fn eval(&self, s: f64) -> [f64; 3] {
         let n = self.t.len();
-        if s <= self.t[0] {
+        if s < self.t[0] {
             return [self.x[0], 0.0, 0.0];
         }
         if s >= self.t[n - 1] {
