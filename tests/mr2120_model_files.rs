@@ -255,6 +255,16 @@ fn the_ideal_file_assembles_like_the_built_in_model_at_driven_points() {
     }
 }
 
+/// Simulates `m` from t = 0 and samples it at `times`.
+fn simulate_at(m: Mechanism, times: &[f64], opts: SimulationOptions) -> (Arc<Mechanism>, Vec<Sample>) {
+    let mech = Arc::new(m);
+    let traj = Simulation::new(mech.clone(), 0.0, opts)
+        .unwrap()
+        .run(times, |_| {})
+        .unwrap();
+    (mech, traj.samples)
+}
+
 /// Largest drive-torque difference (N m) and platform-position difference (m) between the
 /// built-in ideal model and the file's, both driven along the paper's trajectory for 0.3 s.
 fn trajectory_difference(platform_mass: f64) -> (f64, f64) {
@@ -265,14 +275,7 @@ fn trajectory_difference(platform_mass: f64) -> (f64, f64) {
     let built = file_driven(&file, &[platform_mass], drive_laws(&g));
     let times: Vec<f64> = (1..=6).map(|k| k as f64 * 0.05).collect();
     let opts = SimulationOptions::with_tolerances(1e-8, 1e-10);
-    let run = |m: Mechanism| {
-        let mech = Arc::new(m);
-        let traj = Simulation::new(mech.clone(), 0.0, opts.clone())
-            .unwrap()
-            .run(&times, |_| {})
-            .unwrap();
-        (mech, traj.samples)
-    };
+    let run = |m: Mechanism| simulate_at(m, &times, opts.clone());
     let hb = builtin.platform;
     let hf = built.body("platform").unwrap();
     let (bm, sb) = run(builtin.mechanism);
@@ -359,14 +362,7 @@ fn the_clearance_file_is_the_built_in_63_dof_clearance_model() {
     // Settling from the build configuration: the platform sags into the clearances (gravity
     // pulls it through 12 bearings' play) the same way in both models.
     let times: Vec<f64> = (1..=5).map(|k| k as f64 * 0.01).collect();
-    let run = |m: Mechanism| {
-        let mech = Arc::new(m);
-        let traj = Simulation::new(mech.clone(), 0.0, clearance_options())
-            .unwrap()
-            .run(&times, |_| {})
-            .unwrap();
-        (mech, traj.samples)
-    };
+    let run = |m: Mechanism| simulate_at(m, &times, clearance_options());
     let hb = builtin.platform;
     let hf = built.body("platform").unwrap();
     let started = std::time::Instant::now();

@@ -185,12 +185,7 @@ pub(crate) fn build(
         opts: opts.clone(),
     };
     // Gravity: the last [model] table that sets it (the including file after its includes).
-    for f in files {
-        let cx = Ctx {
-            src: &f.src,
-            params,
-            values,
-        };
+    for (cx, f) in contexts(files, params, values) {
         if let Some(m) = &f.doc.model {
             if let Some(g) = &m.get_ref().gravity {
                 b.mech
@@ -198,12 +193,7 @@ pub(crate) fn build(
             }
         }
     }
-    for f in files {
-        let cx = Ctx {
-            src: &f.src,
-            params,
-            values,
-        };
+    for (cx, f) in contexts(files, params, values) {
         for d in &f.doc.body {
             let replaced = f.urdf
                 && d.get_ref().name.as_ref().is_some_and(|n| {
@@ -227,12 +217,7 @@ pub(crate) fn build(
             message: "the model declares no [[body]]".into(),
         });
     }
-    for f in files {
-        let cx = Ctx {
-            src: &f.src,
-            params,
-            values,
-        };
+    for (cx, f) in contexts(files, params, values) {
         for d in &f.doc.marker {
             let d2 = d.get_ref();
             let at = d.span().start;
@@ -264,52 +249,27 @@ pub(crate) fn build(
             b.markers.push((name.get_ref().clone(), mh, h, local));
         }
     }
-    for f in files {
-        let cx = Ctx {
-            src: &f.src,
-            params,
-            values,
-        };
+    for (cx, f) in contexts(files, params, values) {
         for d in &f.doc.joint {
             b.joint(&cx, d.span().start, d.get_ref())?;
         }
     }
-    for f in files {
-        let cx = Ctx {
-            src: &f.src,
-            params,
-            values,
-        };
+    for (cx, f) in contexts(files, params, values) {
         for d in &f.doc.transmission {
             b.transmission(&cx, d.span().start, d.get_ref())?;
         }
     }
-    for f in files {
-        let cx = Ctx {
-            src: &f.src,
-            params,
-            values,
-        };
+    for (cx, f) in contexts(files, params, values) {
         for d in &f.doc.driver {
             b.driver(&cx, &f.dir, d.span().start, d.get_ref())?;
         }
     }
-    for f in files {
-        let cx = Ctx {
-            src: &f.src,
-            params,
-            values,
-        };
+    for (cx, f) in contexts(files, params, values) {
         for d in &f.doc.force {
             b.force(&cx, &f.dir, d.span().start, d.get_ref())?;
         }
     }
-    for f in files {
-        let cx = Ctx {
-            src: &f.src,
-            params,
-            values,
-        };
+    for (cx, f) in contexts(files, params, values) {
         for d in &f.doc.sensor {
             b.sensor(&cx, d.span().start, d.get_ref())?;
         }
@@ -330,6 +290,24 @@ pub(crate) fn build(
         drivers: b.drivers,
         forces: b.forces,
         sensors: b.sensors,
+    })
+}
+
+/// Each file with its reading context (its source, the parameters and their values).
+fn contexts<'a>(
+    files: &'a [Parsed],
+    params: &'a [Parameter],
+    values: &'a [f64],
+) -> impl Iterator<Item = (Ctx<'a>, &'a Parsed)> {
+    files.iter().map(move |f| {
+        (
+            Ctx {
+                src: &f.src,
+                params,
+                values,
+            },
+            f,
+        )
     })
 }
 
