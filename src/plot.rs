@@ -187,3 +187,186 @@ impl LineChart {
         Ok(())
     }
 }
+
+/// A heatmap of a value over a regular grid, with a colour bar: cells with `None` are drawn
+/// in a marker colour of their own (e.g. outside the work zone, on a singular locus).
+#[derive(Debug, Clone)]
+pub struct Heatmap {
+    /// Title.
+    pub title: String,
+    /// x-axis label, with unit.
+    pub x_label: String,
+    /// y-axis label, with unit.
+    pub y_label: String,
+    /// Colour-bar label, with unit.
+    pub value_label: String,
+    /// Cell centres along x (increasing).
+    pub xs: Vec<f64>,
+    /// Cell centres along y (increasing).
+    pub ys: Vec<f64>,
+    /// Values row by row (y outer, x inner): `Ok(v)`, or `Err(k)` for marker class k.
+    pub values: Vec<Result<f64, usize>>,
+    /// Marker classes: legend name and colour (r, g, b).
+    pub markers: Vec<(String, (u8, u8, u8))>,
+    /// Points marked with a dot on top of the cells (e.g. near a singular locus), and
+    /// their legend name.
+    pub dots: (String, Vec<(f64, f64)>),
+}
+
+/// A perceptually ordered colour scale (viridis, by its published anchor colours).
+fn viridis(t: f64) -> RGBColor {
+    const A: [(f64, f64, f64); 6] = [
+        (68.0, 1.0, 84.0),
+        (65.0, 68.0, 135.0),
+        (42.0, 120.0, 142.0),
+        (34.0, 168.0, 132.0),
+        (122.0, 209.0, 81.0),
+        (253.0, 231.0, 37.0),
+    ];
+    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 } * (A.len() - 1) as f64;
+    let k = (t.floor() as usize).min(A.len() - 2);
+    let f = t - k as f64;
+    let mix = |a: f64, b: f64| (a + (b - a) * f).round() as u8;
+    RGBColor(
+        mix(A[k].0, A[k + 1].0),
+        mix(A[k].1, A[k + 1].1),
+        mix(A[k].2, A[k + 1].2),
+    )
+}
+
+fn draw_heatmap<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    h: &Heatmap,
+) -> Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let (main, bar) = root.split_horizontally(820);
+    let half = |v: &[f64], k: usize| -> (f64, f64) {
+        let d = if v.len() > 1 { (v[1] - v[0]) / 2.0 } else { 0.5 };
+        (v[k] - d, v[k] + d)
+    };
+    let (x0, x1) = (half(&h.xs, 0).0, half(&h.xs, h.xs.len() - 1).1);
+    let (y0, y1) = (half(&h.ys, 0).0, half(&h.ys, h.ys.len() - 1).1);
+    let finite = h
+        .values
+        .iter()
+        .filter_map(|v| v.as_ref().ok().copied())
+        .filter(|v| v.is_finite());
+    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    let (lo, hi) = if lo.is_finite() {
+        (lo, if hi > lo { hi } else { lo + 1.0 })
+    } else {
+        (0.0, 1.0)
+    };
+    let mut chart = ChartBuilder::on(&main)
+        .caption(&h.title, (FONT_NAME, 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc(&h.x_label)
+        .y_desc(&h.y_label)
+        .label_style((FONT_NAME, 14))
+        .axis_desc_style((FONT_NAME, 16))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let nx = h.xs.len();
+    chart
+        .draw_series(h.values.iter().enumerate().map(|(c, v)| {
+            let (i, k) = (c % nx, c / nx);
+            let (xa, xb) = half(&h.xs, i);
+            let (ya, yb) = half(&h.ys, k);
+            let colour = match v {
+                Ok(v) => viridis((v - lo) / (hi - lo)),
+                Err(m) => {
+                    let (r, g, b) = h.markers.get(*m).map(|x| x.1).unwrap_or((128, 128, 128));
+                    RGBColor(r, g, b)
+                }
+            };
+            Rectangle::new([(xa, ya), (xb, yb)], colour.filled())
+        }))
+        .map_err(|e| e.to_string())?;
+    for (name, (r, g, b)) in &h.markers {
+        let col = RGBColor(*r, *g, *b);
+        chart
+            .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
+            .map_err(|e| e.to_string())?
+            .label(name.clone())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 14, y + 6)], col.filled()));
+    }
+    if !h.dots.1.is_empty() {
+        chart
+            .draw_series(h.dots.1.iter().map(|&p| Circle::new(p, 2, BLACK.filled())))
+            .map_err(|e| e.to_string())?
+            .label(h.dots.0.clone())
+            .legend(|(x, y)| Circle::new((x + 7, y), 3, BLACK.filled()));
+    }
+    if !h.markers.is_empty() || !h.dots.1.is_empty() {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT_NAME, 13))
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    // The colour bar.
+    let mut cb = ChartBuilder::on(&bar)
+        .margin_top(50)
+        .margin_bottom(57)
+        .margin_right(10)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..1.0, lo..hi)
+        .map_err(|e| e.to_string())?;
+    cb.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_desc(&h.value_label)
+        .label_style((FONT_NAME, 13))
+        .axis_desc_style((FONT_NAME, 14))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let steps = 100;
+    cb.draw_series((0..steps).map(|s| {
+        let a = lo + (hi - lo) * s as f64 / steps as f64;
+        let b = lo + (hi - lo) * (s + 1) as f64 / steps as f64;
+        Rectangle::new(
+            [(0.0, a), (1.0, b)],
+            viridis((s as f64 + 0.5) / steps as f64).filled(),
+        )
+    }))
+    .map_err(|e| e.to_string())?;
+    root.present().map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+impl Heatmap {
+    /// Writes `<stem>.png` and `<stem>.svg` (stem without extension).
+    pub fn save(&self, stem: &Path) -> Result<(), String> {
+        ensure_font();
+        if self.xs.is_empty() || self.ys.is_empty() || self.values.len() != self.xs.len() * self.ys.len() {
+            return Err(format!(
+                "heatmap: {} values for {} × {} cells",
+                self.values.len(),
+                self.xs.len(),
+                self.ys.len()
+            ));
+        }
+        let png = stem.with_extension("png");
+        let svg = stem.with_extension("svg");
+        draw_heatmap(BitMapBackend::new(&png, (1000, 800)).into_drawing_area(), self)
+            .map_err(|e| format!("{}: {e}", png.display()))?;
+        draw_heatmap(SVGBackend::new(&svg, (1000, 800)).into_drawing_area(), self)
+            .map_err(|e| format!("{}: {e}", svg.display()))?;
+        Ok(())
+    }
+}

@@ -258,3 +258,60 @@ fn design_clearance_refuses_bad_accuracies_and_points_with_exit_2() {
     assert_eq!(v["verified"], true);
     assert!(v["accuracy"]["position_m"].as_f64().unwrap() == 2e-4);
 }
+
+/// `lash design map`: bad grids and sets are exit 2; a small map writes its CSV and heatmaps
+/// and its JSON has the grid, both methods' cells and where they part most.
+#[cfg(all(feature = "cli", feature = "plot", feature = "peers"))]
+#[test]
+fn design_map_writes_both_methods_and_refuses_bad_grids() {
+    let dir = std::env::temp_dir().join(format!("lash-design-map-{}", std::process::id()));
+    let d = dir.to_string_lossy().to_string();
+    for args in [
+        &["design", "map", "--n", "1", "--out", &d][..],
+        &["design", "map", "--extent", "0", "--out", &d],
+        &["design", "map", "--set", "L9", "--out", &d],
+        &["design", "map", "--z", "NaN", "--out", &d],
+    ] {
+        let out = lash(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("error:"),
+            "{args:?}"
+        );
+    }
+    let out = lash(&[
+        "design",
+        "map",
+        "--n",
+        "9",
+        "--extent",
+        "0.2",
+        "--nonlinear-every",
+        "4",
+        "--out",
+        &d,
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["grid"]["nx"], 9);
+    let linear = v["linear"].as_array().unwrap();
+    let nonlinear = v["nonlinear"].as_array().unwrap();
+    assert!(linear.len() > 10 && !nonlinear.is_empty(), "{v}");
+    // The first order at the centre (M1) in µm per the errors there: positive, finite.
+    assert!(linear.iter().all(|c| c["errors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|e| e.as_f64().unwrap() >= 0.0)));
+    assert!(v["max_disagreement"]["position_m"].as_f64().unwrap() >= 0.0);
+    for f in [
+        "map.csv",
+        "map-first-order.png",
+        "map-first-order.svg",
+        "map-nonlinear.png",
+    ] {
+        assert!(dir.join(f).exists(), "{f}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -41,6 +41,34 @@ pub enum DesignWhat {
         #[arg(long)]
         json: bool,
     },
+    /// A worst-case error map over a horizontal slice of the work zone for one clearance
+    /// set of Table 1: the largest platform position error over the static load cases at
+    /// every cell by the first-order play bound, and on a coarser sub-grid by the nonlinear
+    /// equilibria; heatmaps (PNG and SVG; cells outside the work zone and on singular loci
+    /// marked), a CSV and --json. All cores.
+    Map {
+        /// Height of the slice z_M, m (M1: 0.5; the direct singularity M3: 0.2509).
+        #[arg(long, default_value_t = 0.5)]
+        z: f64,
+        /// Half-width of the square slice around the z axis, m.
+        #[arg(long, default_value_t = 0.25)]
+        extent: f64,
+        /// Cells per side.
+        #[arg(long, default_value_t = 41)]
+        n: usize,
+        /// Clearance set (L1, L2, L3).
+        #[arg(long, default_value = "L1")]
+        set: String,
+        /// Solve the nonlinear equilibria on every k-th cell in both directions (0: none).
+        #[arg(long, default_value_t = 10)]
+        nonlinear_every: usize,
+        /// Output folder (map.csv, heatmaps).
+        #[arg(long, default_value = "out/design-map")]
+        out: std::path::PathBuf,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 /// A length or an angle with its unit, in SI (m or rad).
@@ -80,7 +108,250 @@ pub fn run(what: DesignWhat) -> Result<Output, CliError> {
             out,
             json,
         } => curve(&accuracy, poses, &out, json),
+        DesignWhat::Map {
+            z,
+            extent,
+            n,
+            set,
+            nonlinear_every,
+            out,
+            json,
+        } => map(z, extent, n, &set, nonlinear_every, &out, json),
     }
+}
+
+/// Direct-kinematics singularity measure below which a map cell is dotted as near the
+/// direct singularity (the measure is 0.70–0.76 over the slice through M1 and 0.03 on the
+/// axis 9 mm above M3).
+const NEAR_DIRECT_MARK: f64 = 0.1;
+
+#[allow(clippy::too_many_arguments)]
+fn map(
+    z: f64,
+    extent: f64,
+    n: usize,
+    set: &str,
+    nonlinear_every: usize,
+    out: &std::path::Path,
+    as_json: bool,
+) -> Result<Output, CliError> {
+    use lash::design::{error_map, CellKind, MapGrid};
+    if !(extent > 0.0 && extent.is_finite()) {
+        return Err(CliError::input(format!(
+            "--extent must be positive, not {extent} m"
+        )));
+    }
+    let cs = lash::mechanisms::mr2120::clearance::clearance_set(set).map_err(CliError::input)?;
+    let grid = MapGrid {
+        z,
+        x: [-extent, extent],
+        y: [-extent, extent],
+        nx: n,
+        ny: n,
+        nonlinear_every,
+    };
+    let started = std::time::Instant::now();
+    let progress = std::sync::Mutex::new(Progress::new("design map", (n * n) as f64));
+    let r = error_map(
+        &Geometry::default(),
+        &MassProperties::default(),
+        &grid,
+        &cs,
+        |done, _| {
+            if let Ok(mut p) = progress.lock() {
+                p.update(done as f64);
+            }
+        },
+    );
+    if let Ok(p) = progress.lock() {
+        p.finish();
+    }
+    let map = r.map_err(|e| match e {
+        lash::design::DesignError::BadGrid(_) => CliError::input(e),
+        other => CliError::run(other),
+    })?;
+    let wall = started.elapsed().as_secs_f64();
+    std::fs::create_dir_all(out).map_err(|e| CliError::run(format!("{}: {e}", out.display())))?;
+    // CSV: every cell.
+    let mut csv = String::from(
+        "x_mm,y_mm,kind,direct_measure,lin_dx_um,lin_dy_um,lin_dz_um,lin_rx_deg,lin_ry_deg,lin_rz_deg,nl_dx_um,nl_dy_um,nl_dz_um,nl_rx_deg,nl_ry_deg,nl_rz_deg\n",
+    );
+    let six = |e: Option<[f64; 6]>| -> String {
+        match e {
+            Some(e) => (0..6)
+                .map(|k| {
+                    if k < 3 {
+                        format!("{}", e[k] * 1e6)
+                    } else {
+                        format!("{}", e[k].to_degrees())
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join(","),
+            None => ",,,,,".into(),
+        }
+    };
+    for c in &map.cells {
+        csv += &format!(
+            "{},{},{},{},{},{}\n",
+            c.x * 1e3,
+            c.y * 1e3,
+            serde_json::to_value(c.kind)
+                .map(|v| v.as_str().unwrap_or("").to_string())
+                .unwrap_or_default(),
+            c.direct_measure.map(|m| m.to_string()).unwrap_or_default(),
+            six(c.linear),
+            six(c.nonlinear)
+        );
+    }
+    std::fs::write(out.join("map.csv"), csv).map_err(|e| CliError::run(format!("{}: {e}", out.display())))?;
+    // Heatmaps of the worst position error, µm.
+    let markers = vec![
+        ("outside the work zone".to_string(), (200, 200, 200)),
+        (
+            "no answer (singular, or no equilibrium found)".to_string(),
+            (0, 0, 0),
+        ),
+    ];
+    let heat = |which: &str, every: usize, value: &dyn Fn(&lash::design::MapCell) -> Option<[f64; 6]>| {
+        let (is, ks): (Vec<usize>, Vec<usize>) = (
+            (0..n).step_by(every.max(1)).collect(),
+            (0..n).step_by(every.max(1)).collect(),
+        );
+        let values = ks
+            .iter()
+            .flat_map(|&k| is.iter().map(move |&i| (i, k)))
+            .map(|(i, k)| {
+                let c = map.cell(i, k);
+                match (c.kind, value(c)) {
+                    (_, Some(e)) => Ok(lash::design::map::worst_position(&e) * 1e6),
+                    (CellKind::Unreachable, None) => Err(0),
+                    (CellKind::Singular, None) => Err(1),
+                    (CellKind::Regular, None) => Err(1),
+                }
+            })
+            .collect();
+        lash::plot::Heatmap {
+            title: format!(
+                "MR2120 at z_M = {} mm, clearance set {}: worst |d| over the load cases ({which})",
+                z * 1e3,
+                cs.name
+            ),
+            x_label: "x_M, mm".into(),
+            y_label: "y_M, mm".into(),
+            value_label: "largest |d_x|, |d_y|, |d_z|, um".into(),
+            xs: is.iter().map(|&i| grid.x_at(i) * 1e3).collect(),
+            ys: ks.iter().map(|&k| grid.y_at(k) * 1e3).collect(),
+            values,
+            markers: markers.clone(),
+            dots: (
+                format!("near the direct singularity (measure < {NEAR_DIRECT_MARK})"),
+                ks.iter()
+                    .flat_map(|&k| is.iter().map(move |&i| (i, k)))
+                    .filter(|&(i, k)| {
+                        map.cell(i, k)
+                            .direct_measure
+                            .is_some_and(|m| m < NEAR_DIRECT_MARK)
+                    })
+                    .map(|(i, k)| (grid.x_at(i) * 1e3, grid.y_at(k) * 1e3))
+                    .collect(),
+            ),
+        }
+    };
+    heat("first order", 1, &|c| c.linear)
+        .save(&out.join("map-first-order"))
+        .map_err(CliError::run)?;
+    if nonlinear_every > 0 {
+        heat("nonlinear equilibria", nonlinear_every, &|c| c.nonlinear)
+            .save(&out.join("map-nonlinear"))
+            .map_err(CliError::run)?;
+    }
+    let count = |k: CellKind| map.cells.iter().filter(|c| c.kind == k).count();
+    if as_json {
+        let linear: Vec<_> = map
+            .cells
+            .iter()
+            .filter_map(|c| {
+                c.linear
+                    .map(|e| serde_json::json!({"x": c.x, "y": c.y, "errors": e}))
+            })
+            .collect();
+        let nonlinear: Vec<_> = map
+            .cells
+            .iter()
+            .filter_map(|c| {
+                c.nonlinear
+                    .map(|e| serde_json::json!({"x": c.x, "y": c.y, "errors": e}))
+            })
+            .collect();
+        println!(
+            "{}",
+            json(&serde_json::json!({
+                "grid": map.grid,
+                "clearance": {"set": cs.name, "radial_m": cs.radial, "axial_m": cs.axial},
+                "cells": map.cells,
+                "linear": linear,
+                "nonlinear": nonlinear,
+                "max_disagreement": map.max_disagreement,
+                "wall_s": wall,
+            }))
+        );
+        return Ok(Output::OK);
+    }
+    println!(
+        "MR2120 error map at z_M = {} mm, clearance set {} ({} um radial, {} um axial): {n} x {n} cells over x, y in [{}, {}] mm, {:.1} s",
+        z * 1e3,
+        cs.name,
+        cs.radial * 1e6,
+        cs.axial * 1e6,
+        -extent * 1e3,
+        extent * 1e3,
+        wall
+    );
+    println!(
+        "  {} regular, {} singular (no first-order answer), {} outside the work zone",
+        count(CellKind::Regular),
+        count(CellKind::Singular),
+        count(CellKind::Unreachable)
+    );
+    let range = |f: &dyn Fn(&lash::design::MapCell) -> Option<[f64; 6]>| {
+        let v: Vec<f64> = map
+            .cells
+            .iter()
+            .filter_map(|c| f(c).map(|e| lash::design::map::worst_position(&e) * 1e6))
+            .collect();
+        (
+            v.iter().copied().fold(f64::INFINITY, f64::min),
+            v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            v.len(),
+        )
+    };
+    let (a, b, k) = range(&|c| c.linear);
+    println!("  first order: worst |d| {a:.2} to {b:.2} um over {k} cells");
+    if nonlinear_every > 0 {
+        let (a, b, k) = range(&|c| c.nonlinear);
+        println!("  nonlinear equilibria (every {nonlinear_every}th cell): worst |d| {a:.2} to {b:.2} um over {k} cells");
+    }
+    match map.max_disagreement {
+        Some(d) => println!(
+            "  the methods part most at x = {:.1} mm, y = {:.1} mm: {:.2} um ({:.0} % of the nonlinear value)",
+            d.at[0] * 1e3,
+            d.at[1] * 1e3,
+            d.position_m * 1e6,
+            d.relative * 100.0
+        ),
+        None => println!("  no cell has both methods"),
+    }
+    println!(
+        "  wrote {0}/map.csv, {0}/map-first-order.png (.svg){1}",
+        out.display(),
+        if nonlinear_every > 0 {
+            ", map-nonlinear.png (.svg)"
+        } else {
+            ""
+        }
+    );
+    Ok(Output::OK)
 }
 
 fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliError> {

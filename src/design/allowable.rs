@@ -47,6 +47,9 @@ pub enum DesignError {
         /// Rotation accuracy, rad.
         rotation: f64,
     },
+    /// A map grid that is empty, not finite or too large.
+    #[error("bad map grid: {0}")]
+    BadGrid(String),
     /// The model failed.
     #[error(transparent)]
     Model(#[from] Mr2120Error),

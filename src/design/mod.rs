@@ -4,7 +4,10 @@
 //! | file | concern |
 //! |---|---|
 //! | `allowable.rs` | the largest uniform clearance that meets an accuracy at given poses: first-order estimate ([`crate::contact::play_bound`]) and verification by the nonlinear static equilibria ([`crate::multibody::static_equilibrium`]) |
+//! | `map.rs` | worst-case error maps over a slice of the work zone, both methods, where they part |
 
 pub mod allowable;
+pub mod map;
 
 pub use allowable::{allowable_along, allowable_uniform, Accuracy, AllowablePoint, CurvePoint, DesignError};
+pub use map::{error_map, CellKind, ErrorMap, MapCell, MapGrid};

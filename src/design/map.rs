@@ -1,0 +1,280 @@
+//! Worst-case error maps over a slice of the MR2120's work zone: at every pose of a grid in a
+//! horizontal plane z = const, the largest |d_x|, |d_y|, |d_z|, |δx|, |δy|, |δz| (eq. 4.1)
+//! over the static load cases for one clearance set, by the first-order play bound
+//! ([`linear_envelope`]) at every cell and, on every k-th cell in both directions, by the
+//! nonlinear equilibria of the clearance model ([`static_envelope`]); where both exist, how
+//! far they part.
+//!
+//! A cell the platform cannot reach (no inverse kinematics) is outside the work zone; a
+//! reachable cell where the first order has no answer sits on a singular locus (the
+//! assembly's sensitivity is singular there). Cells are evaluated in parallel (rayon).
+
+use super::allowable::DesignError;
+use crate::mechanisms::mr2120::accuracy::{linear_envelope, static_envelope, Excitation, Ranges};
+use crate::mechanisms::mr2120::geometry::{Geometry, MassProperties};
+use crate::mechanisms::mr2120::ideal::Mr2120Error;
+use crate::mechanisms::mr2120::kinematics::{inverse, singularity};
+use crate::mechanisms::mr2120::paper::{ClearanceSet, Table2Point};
+use crate::multibody::ModelError;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Most cells a map may have in either direction.
+pub const MAX_CELLS_PER_SIDE: usize = 1000;
+
+/// A grid of platform-centre positions in the plane z = `z` (base frame, m).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MapGrid {
+    /// Height of the plane, m.
+    pub z: f64,
+    /// x range [min, max], m.
+    pub x: [f64; 2],
+    /// y range [min, max], m.
+    pub y: [f64; 2],
+    /// Cells along x (≥ 2).
+    pub nx: usize,
+    /// Cells along y (≥ 2).
+    pub ny: usize,
+    /// The nonlinear equilibria are solved on every `nonlinear_every`-th cell in both
+    /// directions (0: none).
+    pub nonlinear_every: usize,
+}
+
+impl MapGrid {
+    /// The x coordinate of column `i`, m.
+    pub fn x_at(&self, i: usize) -> f64 {
+        self.x[0] + (self.x[1] - self.x[0]) * i as f64 / (self.nx - 1) as f64
+    }
+    /// The y coordinate of row `k`, m.
+    pub fn y_at(&self, k: usize) -> f64 {
+        self.y[0] + (self.y[1] - self.y[0]) * k as f64 / (self.ny - 1) as f64
+    }
+}
+
+/// What a cell is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CellKind {
+    /// Reachable, the first order has an answer.
+    Regular,
+    /// Reachable, but the first-order sensitivity is singular there.
+    Singular,
+    /// Outside the work zone (no inverse kinematics).
+    Unreachable,
+}
+
+/// One cell of a map.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MapCell {
+    /// Platform centre x, m.
+    pub x: f64,
+    /// Platform centre y, m.
+    pub y: f64,
+    /// What the cell is.
+    pub kind: CellKind,
+    /// Direct-kinematics singularity measure (0 at a direct singularity), if reachable.
+    pub direct_measure: Option<f64>,
+    /// First-order worst |error| per component over the load cases (d in m, δ in rad).
+    pub linear: Option<[f64; 6]>,
+    /// Nonlinear worst |error| per component (on the nonlinear sub-grid only).
+    pub nonlinear: Option<[f64; 6]>,
+}
+
+/// Where the two methods part most.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Disagreement {
+    /// The largest |nonlinear − linear| worst position error (max of |d_x|, |d_y|, |d_z|)
+    /// over the cells that have both, m.
+    pub position_m: f64,
+    /// The same as a fraction of the nonlinear value there.
+    pub relative: f64,
+    /// Where (platform centre x, y), m.
+    pub at: [f64; 2],
+}
+
+/// A worst-case error map (see the [module docs](self)).
+#[derive(Debug, Clone, Serialize)]
+pub struct ErrorMap {
+    /// The grid.
+    pub grid: MapGrid,
+    /// The clearance set: name, radial and axial clearance (m).
+    pub clearance: (String, f64, f64),
+    /// Cells, row by row (y outer, x inner).
+    pub cells: Vec<MapCell>,
+    /// Where the first order and the equilibria part most (`None` without nonlinear cells).
+    pub max_disagreement: Option<Disagreement>,
+}
+
+impl ErrorMap {
+    /// The cell at column `i`, row `k`.
+    pub fn cell(&self, i: usize, k: usize) -> &MapCell {
+        &self.cells[k * self.grid.nx + i]
+    }
+}
+
+fn worst(r: &Ranges) -> [f64; 6] {
+    std::array::from_fn(|k| r[k].0.abs().max(r[k].1.abs()))
+}
+
+/// The worst position error of a cell's errors, m.
+pub fn worst_position(e: &[f64; 6]) -> f64 {
+    e[0].max(e[1]).max(e[2])
+}
+
+/// The map of `set` over `grid` (see the [module docs](self)). `progress(done, total)` is
+/// called as cells finish (from the worker threads).
+pub fn error_map(
+    g: &Geometry,
+    mp: &MassProperties,
+    grid: &MapGrid,
+    set: &ClearanceSet,
+    progress: impl Fn(usize, usize) + Sync,
+) -> Result<ErrorMap, DesignError> {
+    let sides_ok = |n: usize| (2..=MAX_CELLS_PER_SIDE).contains(&n);
+    let finite = [grid.z, grid.x[0], grid.x[1], grid.y[0], grid.y[1]]
+        .iter()
+        .all(|v| v.is_finite());
+    if !(sides_ok(grid.nx) && sides_ok(grid.ny) && finite && grid.x[0] < grid.x[1] && grid.y[0] < grid.y[1]) {
+        return Err(DesignError::BadGrid(format!(
+            "x [{}, {}] m, y [{}, {}] m, z {} m, {} × {} cells: the ranges must be finite and increasing, 2 to {MAX_CELLS_PER_SIDE} cells a side",
+            grid.x[0], grid.x[1], grid.y[0], grid.y[1], grid.z, grid.nx, grid.ny
+        )));
+    }
+    let ex = Excitation::default();
+    let total = grid.nx * grid.ny;
+    let done = AtomicUsize::new(0);
+    let cells: Result<Vec<MapCell>, DesignError> = (0..total)
+        .into_par_iter()
+        .map(|c| {
+            let (i, k) = (c % grid.nx, c / grid.nx);
+            let (x, y) = (grid.x_at(i), grid.y_at(k));
+            let cell = evaluate(g, mp, grid, set, &ex, i, k, x, y);
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            cell
+        })
+        .collect();
+    let cells = cells?;
+    let max_disagreement = cells
+        .iter()
+        .filter_map(|c| match (c.linear, c.nonlinear) {
+            (Some(l), Some(n)) => {
+                let (l, n) = (worst_position(&l), worst_position(&n));
+                Some(Disagreement {
+                    position_m: (n - l).abs(),
+                    relative: (n - l).abs() / n.max(f64::MIN_POSITIVE),
+                    at: [c.x, c.y],
+                })
+            }
+            _ => None,
+        })
+        .max_by(|a, b| a.position_m.total_cmp(&b.position_m));
+    Ok(ErrorMap {
+        grid: *grid,
+        clearance: (set.name.to_string(), set.radial, set.axial),
+        cells,
+        max_disagreement,
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn evaluate(
+    g: &Geometry,
+    mp: &MassProperties,
+    grid: &MapGrid,
+    set: &ClearanceSet,
+    ex: &Excitation,
+    i: usize,
+    k: usize,
+    x: f64,
+    y: f64,
+) -> Result<MapCell, DesignError> {
+    let m = nalgebra::Vector3::new(x, y, grid.z);
+    let Ok(q) = inverse(g, m) else {
+        return Ok(MapCell {
+            x,
+            y,
+            kind: CellKind::Unreachable,
+            direct_measure: None,
+            linear: None,
+            nonlinear: None,
+        });
+    };
+    let direct_measure = Some(singularity(g, q, m).direct_measure);
+    let pose = Table2Point {
+        name: "map",
+        m: [x, y, grid.z],
+        q_deg: q.map(f64::to_degrees),
+    };
+    let (kind, linear) = match linear_envelope(g, mp, &pose, set, ex) {
+        Ok(r) => (CellKind::Regular, Some(worst(&r))),
+        Err(Mr2120Error::Model(ModelError::Singular { .. })) => (CellKind::Singular, None),
+        // A pose the ideal model cannot assemble or evaluate counts as singular: the
+        // first order has no answer there either.
+        Err(Mr2120Error::Model(_)) => (CellKind::Singular, None),
+        Err(e) => return Err(e.into()),
+    };
+    let every = grid.nonlinear_every;
+    let nonlinear = if every > 0 && i % every == 0 && k % every == 0 {
+        static_envelope(g, mp, &pose, set, ex)
+            .ok()
+            .map(|(r, _)| worst(&r))
+    } else {
+        None
+    };
+    Ok(MapCell {
+        x,
+        y,
+        kind,
+        direct_measure,
+        linear,
+        nonlinear,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mechanisms::mr2120::clearance::clearance_set;
+
+    /// A small map at the height of M1: the centre cell is M1 itself and agrees with the
+    /// first-order envelope there; cells far outside are unreachable; the nonlinear cells
+    /// exist where asked and part from the first order by less than their own value at this
+    /// regular height.
+    #[test]
+    fn a_map_at_m1_height_holds_m1_and_the_work_zone_edge() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let set = clearance_set("L1").unwrap();
+        let grid = MapGrid {
+            z: 0.5,
+            x: [-2.0, 0.0],
+            y: [-2.0, 0.0],
+            nx: 3,
+            ny: 3,
+            nonlinear_every: 2,
+        };
+        let map = error_map(&g, &mp, &grid, &set, |_, _| {}).unwrap();
+        assert_eq!(map.cells.len(), 9);
+        let m1 = map.cell(2, 2);
+        assert_eq!((m1.x, m1.y), (0.0, 0.0));
+        assert_eq!(m1.kind, CellKind::Regular);
+        let direct = linear_envelope(
+            &g,
+            &mp,
+            &crate::mechanisms::mr2120::paper::TABLE2[0],
+            &set,
+            &Excitation::default(),
+        )
+        .unwrap();
+        assert_eq!(m1.linear.unwrap(), worst(&direct));
+        assert_eq!(map.cell(0, 0).kind, CellKind::Unreachable, "2 m off the axis");
+        let n = m1.nonlinear.expect("a nonlinear cell");
+        let d = map.max_disagreement.expect("one cell has both");
+        assert!(d.relative < 1.0, "{d:?} (nonlinear {n:?})");
+        let bad = MapGrid { nx: 1, ..grid };
+        assert!(matches!(
+            error_map(&g, &mp, &bad, &set, |_, _| {}),
+            Err(DesignError::BadGrid(_))
+        ));
+    }
+}
