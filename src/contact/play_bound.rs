@@ -63,6 +63,22 @@ pub fn play_pose_error(
     body: BodyHandle,
     assembly: AssemblyOptions,
 ) -> Result<PlayPoseError, ModelError> {
+    play_pose_errors(model, t, joints, body, assembly, 1, |_| {}).map(|v| v[0])
+}
+
+/// [`play_pose_error`] for `cases` load cases at one pose: the assembly, the singularity
+/// test and the constraint-offset sensitivity are computed once (they do not depend on the
+/// loads); before case k the caller's `set_case(k)` sets the loads (e.g. through a force
+/// element whose load it shares), and the joints' reactions are evaluated for it.
+pub fn play_pose_errors(
+    model: &Mechanism,
+    t: f64,
+    joints: &[JointPlay],
+    body: BodyHandle,
+    assembly: AssemblyOptions,
+    cases: usize,
+    mut set_case: impl FnMut(usize),
+) -> Result<Vec<PlayPoseError>, ModelError> {
     let free = 6 * model.bodies().len() as isize - model.constraint_count() as isize;
     if free != 0 {
         return Err(ModelError::BadElement {
@@ -101,15 +117,6 @@ pub fn play_pose_error(
             detail: "the first-order play bound does not hold at a singular configuration; solve the equilibria (static_equilibrium)".into(),
         });
     }
-    let w = vec![0.0; model.layout().w_len()];
-    let (wdot, lambda) = analysis.accelerations(model, &mut data, t, &q, &w)?;
-    let s = Snapshot {
-        t,
-        q: q.clone(),
-        w,
-        wdot,
-        lambda,
-    };
     let lay = model.layout();
     let rows: Vec<usize> = joints
         .iter()
@@ -120,38 +127,6 @@ pub fn play_pose_error(
         .collect();
     let dq = analysis.constraint_offset_sensitivity(model, &mut data, t, &q, &rows)?;
     let n = q.len();
-    let (mut dq_r, mut dq_a) = (vec![0.0; n], vec![0.0; n]);
-    for (k, jp) in joints.iter().enumerate() {
-        let joint = model.joint(jp.joint).expect("checked above");
-        let reaction = s
-            .reaction(model, jp.joint)
-            .ok_or_else(|| ModelError::BadElement {
-                kind: "joint",
-                name: joint.name.clone(),
-                reason: "no reaction at this state".into(),
-            })?;
-        let axis = |side: Attach, a: Vector3<f64>| match side {
-            Attach::Ground => a,
-            Attach::Body(h) => s.body_rotation(h) * a,
-        };
-        let z_i = axis(joint.body_i, joint.frame_i.axes.column(2).into());
-        let z_j = axis(joint.body_j, joint.frame_j.axes.column(2).into());
-        let shift = jp.play.shift(
-            &z_i,
-            &z_j,
-            &Vector3::from(reaction.force),
-            &Vector3::from(reaction.torque),
-            0.0,
-        );
-        for i in 0..n {
-            for c in 0..3 {
-                dq_r[i] += shift.radial_translation[c] * dq[4 * k + c][i];
-                dq_a[i] += shift.axial_translation[c] * dq[4 * k + c][i];
-            }
-            // The perpendicularity row's offset ε is −φ, φ the tilt about z_i × z_j.
-            dq_r[i] -= shift.radial_tilt * dq[4 * k + 3][i];
-        }
-    }
     let pose = |dq: &[f64]| -> [f64; 6] {
         let d = Analysis::point_variation(model, &q, dq, body, &Vector3::zeros());
         let r = lay.body_q(body);
@@ -161,8 +136,54 @@ pub fn play_pose_error(
         let om = rotation(&p) * (2.0 * l_matrix(&p) * dp);
         [d.x, d.y, d.z, om.x, om.y, om.z]
     };
-    Ok(PlayPoseError {
-        radial: pose(&dq_r),
-        axial: pose(&dq_a),
-    })
+    let mut out = Vec::with_capacity(cases);
+    for case in 0..cases {
+        set_case(case);
+        let w = vec![0.0; model.layout().w_len()];
+        let (wdot, lambda) = analysis.accelerations(model, &mut data, t, &q, &w)?;
+        let s = Snapshot {
+            t,
+            q: q.clone(),
+            w,
+            wdot,
+            lambda,
+        };
+        let (mut dq_r, mut dq_a) = (vec![0.0; n], vec![0.0; n]);
+        for (k, jp) in joints.iter().enumerate() {
+            let joint = model.joint(jp.joint).expect("checked above");
+            let reaction = s
+                .reaction(model, jp.joint)
+                .ok_or_else(|| ModelError::BadElement {
+                    kind: "joint",
+                    name: joint.name.clone(),
+                    reason: "no reaction at this state".into(),
+                })?;
+            let axis = |side: Attach, a: Vector3<f64>| match side {
+                Attach::Ground => a,
+                Attach::Body(h) => s.body_rotation(h) * a,
+            };
+            let z_i = axis(joint.body_i, joint.frame_i.axes.column(2).into());
+            let z_j = axis(joint.body_j, joint.frame_j.axes.column(2).into());
+            let shift = jp.play.shift(
+                &z_i,
+                &z_j,
+                &Vector3::from(reaction.force),
+                &Vector3::from(reaction.torque),
+                0.0,
+            );
+            for i in 0..n {
+                for c in 0..3 {
+                    dq_r[i] += shift.radial_translation[c] * dq[4 * k + c][i];
+                    dq_a[i] += shift.axial_translation[c] * dq[4 * k + c][i];
+                }
+                // The perpendicularity row's offset ε is −φ, φ the tilt about z_i × z_j.
+                dq_r[i] -= shift.radial_tilt * dq[4 * k + 3][i];
+            }
+        }
+        out.push(PlayPoseError {
+            radial: pose(&dq_r),
+            axial: pose(&dq_a),
+        });
+    }
+    Ok(out)
 }

@@ -16,7 +16,7 @@ use super::kinematics::inverse;
 use super::paper::{ClearanceSet, Table2Point, TABLE3};
 use super::trajectory::{clearance_options, pose_errors};
 use crate::contact::play::UniversalPlay;
-use crate::contact::play_bound::{play_pose_error, JointPlay, PlayPoseError};
+use crate::contact::play_bound::{play_pose_error, play_pose_errors, JointPlay, PlayPoseError};
 use crate::multibody::forces::{BodyLoad, BodyState, ForceElement};
 use crate::multibody::{static_equilibrium, BodyHandle, MotionLaw, Simulation, StaticsOptions};
 use crate::multibody::{AssemblyOptions, ModelError};
@@ -349,12 +349,48 @@ pub fn linear_envelope(
     set: &ClearanceSet,
     ex: &Excitation,
 ) -> Result<Ranges, Mr2120Error> {
+    // One model for all load cases: the pose and its sensitivity do not depend on the
+    // loads; a shared load element carries each case's load in turn.
+    let m = Vector3::from(point.m);
+    let q = inverse(g, m)?;
+    let mut model = ideal_model(g, mp, m, Some(q.map(MotionLaw::Constant)))?;
+    let cases = static_load_cases(ex);
+    let load = Arc::new(std::sync::Mutex::new((Vector3::zeros(), Vector3::zeros())));
+    model.mechanism.add_force(Box::new(SharedLoad {
+        body: model.platform,
+        load: load.clone(),
+    }));
+    let joints = play_joints(&model.mechanism, set);
+    let errors = play_pose_errors(
+        &model.mechanism,
+        0.0,
+        &joints,
+        model.platform,
+        AssemblyOptions::default(),
+        cases.len(),
+        |k| {
+            if let Ok(mut l) = load.lock() {
+                *l = cases[k];
+            }
+        },
+    )?;
     let mut r = [(f64::INFINITY, f64::NEG_INFINITY); 6];
-    for (force, torque) in static_load_cases(ex) {
-        let e = linear_case(g, mp, point, set, force, torque)?;
+    for e in &errors {
         widen(&mut r, &e.at(set.radial, set.axial));
     }
     Ok(r)
+}
+
+/// The universal joints of the ideal model (elbows and platform joints), each with the play
+/// of the bearings of `set`.
+fn play_joints(mech: &crate::multibody::Mechanism, set: &ClearanceSet) -> Vec<JointPlay> {
+    let play = UniversalPlay::from_design(&bearing_design(set, DEFAULT_DAMPING));
+    mech.joints()
+        .filter(|(_, j)| {
+            ELBOW_JOINTS.contains(&j.name.as_str()) || PLATFORM_JOINTS.contains(&j.name.as_str())
+        })
+        .map(|(joint, _)| JointPlay { joint, play })
+        .collect()
 }
 
 /// One load case of [`linear_envelope`]: the platform's pose error per metre of radial
@@ -377,15 +413,7 @@ pub fn linear_case(
             torque,
         }));
     }
-    let play = UniversalPlay::from_design(&bearing_design(set, DEFAULT_DAMPING));
-    let joints: Vec<JointPlay> = model
-        .mechanism
-        .joints()
-        .filter(|(_, j)| {
-            ELBOW_JOINTS.contains(&j.name.as_str()) || PLATFORM_JOINTS.contains(&j.name.as_str())
-        })
-        .map(|(joint, _)| JointPlay { joint, play })
-        .collect();
+    let joints = play_joints(&model.mechanism, set);
     Ok(play_pose_error(
         &model.mechanism,
         0.0,
@@ -488,6 +516,29 @@ impl ForceElement for Relaxation {
     }
 }
 
+/// A load on a body (force N, torque N·m, base frame) that the caller sets between
+/// evaluations: the load cases of one pose share one model.
+#[derive(Debug, Clone)]
+struct SharedLoad {
+    body: BodyHandle,
+    load: Arc<std::sync::Mutex<(Vector3<f64>, Vector3<f64>)>>,
+}
+
+impl ForceElement for SharedLoad {
+    fn name(&self) -> &str {
+        "static load"
+    }
+    fn bodies(&self) -> Vec<BodyHandle> {
+        vec![self.body]
+    }
+    fn apply(&self, _t: f64, states: &[BodyState], loads: &mut [BodyLoad]) {
+        let (force, torque) = self.load.lock().map(|l| *l).unwrap_or_default();
+        let b = self.body.index();
+        loads[b].force += force;
+        loads[b].torque += states[b].a.transpose() * torque;
+    }
+}
+
 #[derive(Debug, Clone)]
 struct ConstantLoad {
     body: BodyHandle,
@@ -513,6 +564,33 @@ impl ForceElement for ConstantLoad {
 mod tests {
     use super::*;
     use crate::mechanisms::mr2120::paper::{TABLE1, TABLE2};
+
+    /// The first-order envelope from one model whose load changes between cases equals the
+    /// envelope of one freshly built model per load case.
+    #[test]
+    fn the_shared_model_envelope_is_the_envelope_of_models_built_per_case() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let ex = Excitation::default();
+        for (point, set) in [(&TABLE2[0], &TABLE1[0]), (&TABLE2[1], &TABLE1[2])] {
+            let shared = linear_envelope(&g, &mp, point, set, &ex).unwrap();
+            let mut fresh = [(f64::INFINITY, f64::NEG_INFINITY); 6];
+            for (force, torque) in static_load_cases(&ex) {
+                let e = linear_case(&g, &mp, point, set, force, torque).unwrap();
+                widen(&mut fresh, &e.at(set.radial, set.axial));
+            }
+            for k in 0..6 {
+                let scale = fresh[k].0.abs().max(fresh[k].1.abs()).max(1e-12);
+                assert!(
+                    (shared[k].0 - fresh[k].0).abs() <= 1e-9 * scale
+                        && (shared[k].1 - fresh[k].1).abs() <= 1e-9 * scale,
+                    "{} component {k}: {:?} vs {:?}",
+                    point.name,
+                    shared[k],
+                    fresh[k]
+                );
+            }
+        }
+    }
 
     /// The direct equilibrium is the state dynamic relaxation tends to: at M1 (regular) and
     /// at M3 (near the direct singularity, where the platform sags 12.7 mm under gravity in
