@@ -17,7 +17,15 @@ fn clearance_chain_has_two_bodies_and_12_dof_per_link_and_its_bearings_engage() 
         // The chain falls into its clearances: contact needs many more steps than free fall.
         assert!(r.steps > 20, "{} steps", r.steps);
         assert_eq!(r.unknowns, 14 * r.bodies);
+        assert_eq!(r.lu_per_step, r.factorisations as f64 / r.steps as f64);
     }
+    // The stable keys of `lash bench scaling --json`.
+    let j = s.to_json();
+    assert!(
+        j["slope_time"].is_number() && j["slope_memory"].is_number(),
+        "{j}"
+    );
+    assert!(j["rows"][0]["lu_per_step"].is_number(), "{j}");
     assert!((log_slope(&[(10.0, 1.0), (100.0, 10.0), (1000.0, 100.0)]) - 1.0).abs() < 1e-12);
 }
 
@@ -96,6 +104,17 @@ fn mr2120_bench_without_an_independent_run_claims_no_horizon() {
     assert!(!s.contains("agree within"), "{s}");
     let json = serde_json::to_value(&b).unwrap();
     assert!(json["horizon_s"].is_null());
+    // The stable summary keys of `lash bench mr2120 --json`.
+    let j = b.to_json();
+    assert!(j["horizon"].is_null() && j["horizon_source"].is_null(), "{j}");
+    let run = &j["runs"][0];
+    for key in ["wall_s", "steps", "lu", "err_to_horizon", "err_whole"] {
+        assert!(run[key].is_number(), "{key}: {run}");
+    }
+    assert_eq!(
+        run["err_to_horizon"], run["err_whole"],
+        "no horizon: both over the whole run"
+    );
     // lash's run is still measured against the reference, over the whole run.
     let p = &b.points[0];
     assert!(

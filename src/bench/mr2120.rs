@@ -146,7 +146,59 @@ pub struct Mr2120Bench {
     pub comparison: Vec<Comparison>,
 }
 
+/// One run of the sweep in the benchmark's JSON summary (`runs`, see
+/// [`Mr2120Bench::to_json`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    /// Solver name.
+    pub solver: String,
+    /// Its setting (tolerance or fixed step).
+    pub setting: String,
+    /// Wall time of the whole run, s.
+    pub wall_s: f64,
+    /// Accepted steps.
+    pub steps: usize,
+    /// LU factorisations.
+    pub lu: usize,
+    /// Largest distance from the reference up to the agreement horizon (the whole run when
+    /// no horizon was measured), m.
+    pub err_to_horizon: f64,
+    /// Largest distance from the reference over the whole run, m.
+    pub err_whole: f64,
+}
+
 impl Mr2120Bench {
+    /// Every run of the sweep, summarised.
+    pub fn runs(&self) -> Vec<RunSummary> {
+        self.points
+            .iter()
+            .map(|p| RunSummary {
+                solver: p.solver.clone(),
+                setting: p.setting(),
+                wall_s: p.wall_s,
+                steps: p.steps,
+                lu: p.factorisations,
+                err_to_horizon: p.error_to_horizon,
+                err_whole: p.error,
+            })
+            .collect()
+    }
+
+    /// The result as `lash bench mr2120 --json` prints it: every field, and the stable
+    /// summary keys `horizon` (s, null when no independent run measured it),
+    /// `horizon_source` and `runs` ([`RunSummary`] per solver and setting).
+    pub fn to_json(&self) -> serde_json::Value {
+        let mut v = serde_json::to_value(self).unwrap_or_default();
+        if let Some(o) = v.as_object_mut() {
+            o.insert("horizon".into(), serde_json::json!(self.horizon_s));
+            o.insert(
+                "runs".into(),
+                serde_json::to_value(self.runs()).unwrap_or_default(),
+            );
+        }
+        v
+    }
+
     /// End of the interval every accuracy figure "to the horizon" holds over, s: the
     /// agreement horizon when an independent run measured it, else the whole run.
     pub fn compared_until(&self) -> f64 {

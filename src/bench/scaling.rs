@@ -29,6 +29,8 @@ pub struct ScalingRow {
     pub residual_evals: usize,
     /// Wall time per step, s.
     pub per_step_s: f64,
+    /// LU factorisations per accepted step.
+    pub lu_per_step: f64,
     /// Resident memory of the process after the run, bytes (Linux; 0 elsewhere).
     pub resident_bytes: u64,
     /// Failure, if any.
@@ -47,6 +49,19 @@ pub struct Scaling {
     pub slope: f64,
     /// The same for memory.
     pub memory_slope: f64,
+}
+
+impl Scaling {
+    /// The result as `lash bench scaling --json` prints it: every field, and the stable keys
+    /// `slope_time` and `slope_memory` (the rows carry `lu_per_step`).
+    pub fn to_json(&self) -> serde_json::Value {
+        let mut v = serde_json::to_value(self).unwrap_or_default();
+        if let Some(o) = v.as_object_mut() {
+            o.insert("slope_time".into(), serde_json::json!(self.slope));
+            o.insert("slope_memory".into(), serde_json::json!(self.memory_slope));
+        }
+        v
+    }
 }
 
 fn resident_bytes() -> u64 {
@@ -97,6 +112,7 @@ pub fn bench_scaling(lengths: &[usize], t_end: f64, mut progress: impl FnMut(usi
             factorisations: 0,
             residual_evals: 0,
             per_step_s: f64::NAN,
+            lu_per_step: f64::NAN,
             resident_bytes: 0,
             failure: None,
         };
@@ -121,6 +137,7 @@ pub fn bench_scaling(lengths: &[usize], t_end: f64, mut progress: impl FnMut(usi
                 row.factorisations = st.lu_factorisations;
                 row.residual_evals = st.residual_evals;
                 row.per_step_s = row.wall_s / st.steps.max(1) as f64;
+                row.lu_per_step = st.lu_factorisations as f64 / st.steps.max(1) as f64;
                 row.resident_bytes = resident_bytes();
                 if let Err(e) = res {
                     row.failure = Some(e.to_string());

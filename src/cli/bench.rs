@@ -282,7 +282,7 @@ fn scaling(links: &str, t_end: f64, out: &Path, as_json: bool) -> Result<Output,
     progress.finish();
     let note = charts::scaling_chart(&s, out);
     if as_json {
-        println!("{}", json(&s));
+        println!("{}", json(&s.to_json()));
         return Ok(Output::OK);
     }
     println!(
@@ -376,7 +376,7 @@ fn mr2120(a: &Mr2120BenchArgs) -> Result<Output, CliError> {
             .map_err(|e| CliError::Run(format!("cannot write {}: {e}", path.display())))?;
     }
     if a.json {
-        println!("{}", json(&b));
+        println!("{}", json(&b.to_json()));
         return Ok(Output::OK);
     }
     print_mr2120(&b);
