@@ -271,6 +271,7 @@ fn design_map_writes_both_methods_and_refuses_bad_grids() {
         &["design", "map", "--extent", "0", "--out", &d],
         &["design", "map", "--set", "L9", "--out", &d],
         &["design", "map", "--z", "NaN", "--out", &d],
+        &["design", "map", "--z", "3", "--n", "3", "--out", &d],
     ] {
         let out = lash(args);
         assert_eq!(out.status.code(), Some(2), "{args:?}");

@@ -167,7 +167,9 @@ fn map(
         p.finish();
     }
     let map = r.map_err(|e| match e {
-        lash::design::DesignError::BadGrid(_) => CliError::input(e),
+        lash::design::DesignError::BadGrid(_) | lash::design::DesignError::OutsideWorkZone(_) => {
+            CliError::input(e)
+        }
         other => CliError::run(other),
     })?;
     let wall = started.elapsed().as_secs_f64();

@@ -50,6 +50,9 @@ pub enum DesignError {
     /// A map grid that is empty, not finite or too large.
     #[error("bad map grid: {0}")]
     BadGrid(String),
+    /// A map whose every cell lies outside the work zone.
+    #[error("no cell of the map is inside the work zone: {0}")]
+    OutsideWorkZone(String),
     /// The model failed.
     #[error(transparent)]
     Model(#[from] Mr2120Error),

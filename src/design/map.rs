@@ -155,6 +155,12 @@ pub fn error_map(
         })
         .collect();
     let cells = cells?;
+    if cells.iter().all(|c| c.kind == CellKind::Unreachable) {
+        return Err(DesignError::OutsideWorkZone(format!(
+            "z {} m, x [{}, {}] m, y [{}, {}] m: the platform reaches none of its {} cells",
+            grid.z, grid.x[0], grid.x[1], grid.y[0], grid.y[1], total
+        )));
+    }
     let max_disagreement = cells
         .iter()
         .filter_map(|c| match (c.linear, c.nonlinear) {
@@ -275,6 +281,11 @@ mod tests {
         assert!(matches!(
             error_map(&g, &mp, &bad, &set, |_, _| {}),
             Err(DesignError::BadGrid(_))
+        ));
+        let outside = MapGrid { z: 5.0, ..grid };
+        assert!(matches!(
+            error_map(&g, &mp, &outside, &set, |_, _| {}),
+            Err(DesignError::OutsideWorkZone(_))
         ));
     }
 }
