@@ -53,6 +53,13 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // A closed pipe (`lash check … | head`) ends the process as it ends any Unix tool,
+    // instead of a panic on the next print: Rust starts programs with SIGPIPE ignored.
+    #[cfg(unix)]
+    // SAFETY: called once at start-up, before any thread exists; SIG_DFL is a valid action.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let args = Cli::parse();
     cli::progress::set_quiet(args.quiet);
     let result = match args.command {
