@@ -63,6 +63,19 @@ fn lash(args: &[&str]) -> std::process::Output {
         .expect("lash runs")
 }
 
+/// Each command line is bad input: exit 2 and an `error:` line.
+#[cfg(all(feature = "cli", feature = "plot", feature = "peers"))]
+fn refused_with_exit_2(cases: &[&[&str]]) {
+    for args in cases {
+        let out = lash(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("error:"),
+            "{args:?}"
+        );
+    }
+}
+
 #[test]
 #[cfg(all(feature = "cli", feature = "plot", feature = "peers"))]
 fn trajectory_command_writes_csv_and_plots() {
@@ -229,19 +242,12 @@ fn quasi_static_envelope_agrees_on_the_singular_z_sensitivity() {
 #[cfg(all(feature = "cli", feature = "plot", feature = "peers"))]
 #[test]
 fn design_clearance_refuses_bad_accuracies_and_points_with_exit_2() {
-    for args in [
+    refused_with_exit_2(&[
         &["design", "clearance", "--accuracy=-0.1mm", "--points", "M1"][..],
         &["design", "clearance", "--accuracy", "0.1", "--points", "M1"],
         &["design", "clearance", "--accuracy", "0.1mm,2", "--points", "M1"],
         &["design", "clearance", "--accuracy", "0.1mm", "--points", "M4"],
-    ] {
-        let out = lash(args);
-        assert_eq!(out.status.code(), Some(2), "{args:?}");
-        assert!(
-            String::from_utf8_lossy(&out.stderr).contains("error:"),
-            "{args:?}"
-        );
-    }
+    ]);
     let out = lash(&[
         "design",
         "clearance",
@@ -266,20 +272,13 @@ fn design_clearance_refuses_bad_accuracies_and_points_with_exit_2() {
 fn design_map_writes_both_methods_and_refuses_bad_grids() {
     let dir = std::env::temp_dir().join(format!("lash-design-map-{}", std::process::id()));
     let d = dir.to_string_lossy().to_string();
-    for args in [
+    refused_with_exit_2(&[
         &["design", "map", "--n", "1", "--out", &d][..],
         &["design", "map", "--extent", "0", "--out", &d],
         &["design", "map", "--set", "L9", "--out", &d],
         &["design", "map", "--z", "NaN", "--out", &d],
         &["design", "map", "--z", "3", "--n", "3", "--out", &d],
-    ] {
-        let out = lash(args);
-        assert_eq!(out.status.code(), Some(2), "{args:?}");
-        assert!(
-            String::from_utf8_lossy(&out.stderr).contains("error:"),
-            "{args:?}"
-        );
-    }
+    ]);
     let out = lash(&[
         "design",
         "map",
