@@ -275,7 +275,7 @@ pub fn simulate_cmd(a: SimulateArgs) -> Result<Output, CliError> {
         );
     } else {
         println!(
-            "{}: simulated 0 to {t_last} s ({} samples, {} bodies, {} sensors columns) in {wall:.2} s",
+            "{}: simulated 0 to {t_last} s ({} samples, {} bodies, {} sensor columns) in {wall:.2} s",
             file.name,
             record.t.len(),
             built.bodies.len(),
