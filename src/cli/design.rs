@@ -17,9 +17,16 @@ pub enum DesignWhat {
         /// (deg or rad) after a comma, e.g. 0.1mm,0.05deg (rotation defaults to 1 deg).
         #[arg(long)]
         accuracy: String,
-        /// Poses, comma-separated (M1, M2, M3).
-        #[arg(long, default_value = "M1,M2,M3")]
-        points: String,
+        /// The region: poses by name (M1,M2,M3), a path through poses or 'x y z' positions
+        /// in m (path:M1,M2), or a box of positions in m (box:xmin,xmax,ymin,ymax,zmin,zmax).
+        #[arg(long, alias = "points", default_value = "M1,M2,M3")]
+        region: String,
+        /// Poses a leg of a path, or a side of a box.
+        #[arg(long, default_value_t = 5)]
+        samples: usize,
+        /// Cost weight of an axial clearance against a radial one (cost = sum of weight / h).
+        #[arg(long, default_value_t = 1.0)]
+        axial_weight: f64,
         /// Print the result as JSON.
         #[arg(long)]
         json: bool,
@@ -99,9 +106,11 @@ pub fn run(what: DesignWhat) -> Result<Output, CliError> {
     match what {
         DesignWhat::Clearance {
             accuracy,
-            points,
+            region,
+            samples,
+            axial_weight,
             json,
-        } => clearance(&accuracy, &points, json),
+        } => clearance(&accuracy, &region, samples, axial_weight, json),
         DesignWhat::Curve {
             accuracy,
             poses,
@@ -356,41 +365,95 @@ fn map(
     Ok(Output::OK)
 }
 
-fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliError> {
+fn clearance(accuracy: &str, region: &str, samples: usize, axial_weight: f64, as_json: bool) -> Result<Output, CliError> {
+    use lash::design::{allocate, CostModel, DesignError, Grouping, Region};
     let acc = parse_accuracy(accuracy)?;
     let (position, rotation) = (acc.position, acc.rotation);
-    let pts = super::mr2120_points(points)?;
-    if pts.is_empty() {
-        return Err(CliError::input("--points names no pose"));
-    }
-    let mut progress = Progress::new("design clearance", pts.len() as f64);
-    let r = allowable_uniform(
-        &Geometry::default(),
-        &MassProperties::default(),
-        &pts,
-        acc,
-        |k, _| progress.update(k as f64),
-    );
-    progress.finish();
-    let r = r.map_err(|e| match e {
-        lash::design::DesignError::BadAccuracy { .. } => CliError::input(e),
+    let (g, mp) = (Geometry::default(), MassProperties::default());
+    let input_or_run = |e: DesignError| match e {
+        DesignError::BadAccuracy { .. }
+        | DesignError::BadRegion(_)
+        | DesignError::BadCost(_)
+        | DesignError::OutsideWorkZone(_) => CliError::input(e),
         other => CliError::run(other),
-    })?;
-    let verified = r.iter().all(|p| p.verified);
+    };
+    let region: Region = region.parse().map_err(|e| CliError::Input(format!("--region: {e}")))?;
+    let sampled = region.poses(&g, samples).map_err(input_or_run)?;
+    let pts = &sampled.poses;
+    if !(axial_weight > 0.0 && axial_weight.is_finite()) {
+        return Err(CliError::input(format!(
+            "--axial-weight must be positive and finite, not {axial_weight}"
+        )));
+    }
+    let progress = std::sync::Mutex::new(Progress::new("design clearance", pts.len() as f64));
+    let r = allowable_uniform(&g, &mp, pts, acc, |k, _| {
+        if let Ok(mut p) = progress.lock() {
+            p.update(k as f64)
+        }
+    });
+    if let Ok(p) = progress.lock() {
+        p.finish()
+    }
+    let r = r.map_err(input_or_run)?;
+    let cost = CostModel {
+        radial: [1.0; 6],
+        axial: [axial_weight; 6],
+    };
+    let progress = std::sync::Mutex::new(Progress::new("clearance allocation", 1.0));
+    let design = allocate(&g, &mp, pts, acc, cost, |k, n| {
+        if let Ok(mut p) = progress.lock() {
+            p.update(k as f64 / n as f64)
+        }
+    });
+    if let Ok(p) = progress.lock() {
+        p.finish()
+    }
+    // A singular pose leaves the allocation without a first order: said, not an error.
+    let (design, allocation_note) = match design {
+        Ok(d) => (Some(d), None),
+        Err(e @ (DesignError::SingularPose { .. } | DesignError::NoClearanceAllowable { .. })) => {
+            (None, Some(e.to_string()))
+        }
+        Err(e) => return Err(input_or_run(e)),
+    };
+    let per_point_verified = r.iter().all(|p| p.verified);
     // The uniform answer over all poses: the smallest nonlinear h, none if any pose has none.
     let uniform: Option<f64> = r
         .iter()
         .map(|p| p.nonlinear_h)
         .try_fold(f64::INFINITY, |m, h| h.map(|h| m.min(h)));
+    let per_joint = design.as_ref().and_then(|d| d.get(Grouping::PerJoint)).cloned();
+    let uniform_cost = design
+        .as_ref()
+        .and_then(|d| d.get(Grouping::Uniform))
+        .and_then(|a| a.cost);
+    let verified = per_point_verified && per_joint.as_ref().is_none_or(|a| a.verified);
     if as_json {
+        let joints = per_joint.as_ref().and_then(|a| a.clearances).map(|h| {
+            lash::design::allocation::JOINTS
+                .iter()
+                .enumerate()
+                .map(|(k, name)| serde_json::json!({ "joint": name, "h_lr": h.radial[k], "h_lw": h.axial[k] }))
+                .collect::<Vec<_>>()
+        });
         let out = serde_json::json!({
             "accuracy": { "position_m": position, "rotation_rad": rotation },
+            "region": { "poses": pts.len(), "unreachable": sampled.unreachable },
             "uniform": {
                 "h_lr": uniform,
                 "h_lw": uniform,
             },
             "per_point": r,
-            "per_joint": serde_json::Value::Null,
+            "per_joint": per_joint.as_ref().map(|a| serde_json::json!({
+                "joints": joints,
+                "cost_per_m": a.cost,
+                "relative_cost": a.cost.zip(uniform_cost).map(|(c, u)| c / u),
+                "scale": a.scale,
+                "verified": a.verified,
+                "limiting": a.limiting,
+            })),
+            "allocation": design,
+            "allocation_note": allocation_note,
             "verified": verified,
         });
         println!("{}", json(&out));
@@ -401,9 +464,15 @@ fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliE
         position * 1e3,
         rotation.to_degrees()
     );
+    if sampled.unreachable > 0 {
+        println!(
+            "({} poses of the region lie outside the work zone and are left out)",
+            sampled.unreachable
+        );
+    }
     println!(
-        "{:<4} {:>16} {:>8} {:>18} {:>10}   largest errors there (mm, deg)",
-        "pose", "first order um", "limit", "nonlinear um", "verified"
+        "{:<26} {:>16} {:>8} {:>18} {:>10}   largest errors there (mm, deg)",
+        "pose (x, y, z mm)", "first order um", "limit", "nonlinear um", "verified"
     );
     for p in &r {
         let lin = p
@@ -415,9 +484,14 @@ fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliE
             .map(|h| format!("{:.3}", h * 1e6))
             .unwrap_or_else(|| "none".into());
         let e = &p.nonlinear_errors;
+        let name = if p.point == "region" {
+            format!("{:.1} {:.1} {:.1}", p.m[0] * 1e3, p.m[1] * 1e3, p.m[2] * 1e3)
+        } else {
+            p.point.clone()
+        };
         println!(
-            "{:<4} {:>16} {:>8} {:>18} {:>10}   d {:.4} {:.4} {:.4}  delta {:.4} {:.4} {:.4}",
-            p.point,
+            "{:<26} {:>16} {:>8} {:>18} {:>10}   d {:.4} {:.4} {:.4}  delta {:.4} {:.4} {:.4}",
+            name,
             lin,
             p.linear_limit.as_deref().unwrap_or("-"),
             nl,
@@ -435,10 +509,92 @@ fn clearance(accuracy: &str, points: &str, as_json: bool) -> Result<Output, CliE
         Some(h) => println!(
             "uniform over these poses: h_LR = h_LW = {:.3} um (nonlinear, verified: {})",
             h * 1e6,
-            if verified { "yes" } else { "no" }
+            if per_point_verified { "yes" } else { "no" }
         ),
     }
+    println!();
+    match (&design, &allocation_note) {
+        (Some(d), _) => print_allocation(d, axial_weight),
+        (None, Some(note)) => println!("no per-joint allocation: {note}"),
+        (None, None) => {}
+    }
     Ok(Output::OK)
+}
+
+/// The allocation table of `design clearance`.
+fn print_allocation(d: &lash::design::RegionDesign, axial_weight: f64) {
+    use lash::design::Grouping;
+    println!(
+        "allocation over the region's {} poses, cost = sum of 1/h_LR + {axial_weight}/h_LW (1/m): first order with the joints' contributions added in absolute value (conservative), then scaled until the 63-DOF equilibria verify it at every pose:",
+        d.poses
+    );
+    let uniform_cost = d.get(Grouping::Uniform).and_then(|a| a.cost);
+    println!(
+        "{:<14} {:<6} {:>12} {:>12} {:>8} {:>12} {:>10} {:>9}   limiting",
+        "design", "joint", "h_LR um", "h_LW um", "scale", "cost 1/m", "vs uniform", "verified"
+    );
+    for a in &d.allocations {
+        let name = match a.grouping {
+            Grouping::Uniform => "uniform",
+            Grouping::PerDirection => "per direction",
+            Grouping::PerJoint => "per joint",
+        };
+        let h = a.clearances.unwrap_or(a.first_order);
+        let rows: Vec<usize> = if a.grouping == Grouping::PerJoint {
+            (0..6).collect()
+        } else {
+            vec![0]
+        };
+        for (i, k) in rows.into_iter().enumerate() {
+            let joint = if a.grouping == Grouping::PerJoint {
+                lash::design::allocation::JOINTS[k]
+            } else {
+                "all"
+            };
+            if i == 0 {
+                let limiting = a
+                    .limiting
+                    .map(|l| {
+                        let v = if l.component.starts_with('d') {
+                            format!("{:.4} mm", l.value * 1e3)
+                        } else {
+                            format!("{:.4} deg", l.value.to_degrees())
+                        };
+                        format!(
+                            "{} = {v} at ({:.1}, {:.1}, {:.1}) mm",
+                            l.component,
+                            l.m[0] * 1e3,
+                            l.m[1] * 1e3,
+                            l.m[2] * 1e3
+                        )
+                    })
+                    .unwrap_or_default();
+                println!(
+                    "{:<14} {:<6} {:>12.3} {:>12.3} {:>8} {:>12} {:>10} {:>9}   {}",
+                    name,
+                    joint,
+                    h.radial[k] * 1e6,
+                    h.axial[k] * 1e6,
+                    a.scale.map(|s| format!("{s:.3}")).unwrap_or_else(|| "none".into()),
+                    a.cost.map(|c| format!("{c:.4e}")).unwrap_or_else(|| "-".into()),
+                    a.cost
+                        .zip(uniform_cost)
+                        .map(|(c, u)| format!("{:.3}", c / u))
+                        .unwrap_or_else(|| "-".into()),
+                    if a.verified { "yes" } else { "no" },
+                    limiting
+                );
+            } else {
+                println!(
+                    "{:<14} {:<6} {:>12.3} {:>12.3}",
+                    "",
+                    joint,
+                    h.radial[k] * 1e6,
+                    h.axial[k] * 1e6
+                );
+            }
+        }
+    }
 }
 
 fn curve(accuracy: &str, poses: usize, out: &std::path::Path, as_json: bool) -> Result<Output, CliError> {

@@ -77,8 +77,32 @@ pub fn play_pose_errors(
     body: BodyHandle,
     assembly: AssemblyOptions,
     cases: usize,
-    mut set_case: impl FnMut(usize),
+    set_case: impl FnMut(usize),
 ) -> Result<Vec<PlayPoseError>, ModelError> {
+    let per_joint = play_pose_errors_per_joint(model, t, joints, body, assembly, cases, set_case)?;
+    Ok(per_joint
+        .iter()
+        .map(|case| PlayPoseError {
+            radial: std::array::from_fn(|c| case.iter().map(|e| e.radial[c]).sum()),
+            axial: std::array::from_fn(|c| case.iter().map(|e| e.axial[c]).sum()),
+        })
+        .collect())
+}
+
+/// [`play_pose_errors`] joint by joint: for each load case, the pose error per metre of
+/// radial clearance and per metre of axial play in each joint of `joints` alone (in their
+/// order), the others ideal. To first order the errors add: a design with clearance h_k and
+/// play h_a,k in joint k errs by Σ_k (h_k · radial_k + h_a,k · axial_k), the load-dependent
+/// sides of the play fixed by the ideal model's reactions.
+pub fn play_pose_errors_per_joint(
+    model: &Mechanism,
+    t: f64,
+    joints: &[JointPlay],
+    body: BodyHandle,
+    assembly: AssemblyOptions,
+    cases: usize,
+    mut set_case: impl FnMut(usize),
+) -> Result<Vec<Vec<PlayPoseError>>, ModelError> {
     let free = 6 * model.bodies().len() as isize - model.constraint_count() as isize;
     if free != 0 {
         return Err(ModelError::BadElement {
@@ -148,8 +172,9 @@ pub fn play_pose_errors(
             wdot,
             lambda,
         };
-        let (mut dq_r, mut dq_a) = (vec![0.0; n], vec![0.0; n]);
+        let mut per_joint = Vec::with_capacity(joints.len());
         for (k, jp) in joints.iter().enumerate() {
+            let (mut dq_r, mut dq_a) = (vec![0.0; n], vec![0.0; n]);
             let joint = model.joint(jp.joint).expect("checked above");
             let reaction = s
                 .reaction(model, jp.joint)
@@ -179,11 +204,12 @@ pub fn play_pose_errors(
                 // The perpendicularity row's offset ε is −φ, φ the tilt about z_i × z_j.
                 dq_r[i] -= shift.radial_tilt * dq[4 * k + 3][i];
             }
+            per_joint.push(PlayPoseError {
+                radial: pose(&dq_r),
+                axial: pose(&dq_a),
+            });
         }
-        out.push(PlayPoseError {
-            radial: pose(&dq_r),
-            axial: pose(&dq_a),
-        });
+        out.push(per_joint);
     }
     Ok(out)
 }

@@ -53,16 +53,59 @@ pub enum DesignError {
     /// A map whose every cell lies outside the work zone.
     #[error("no cell of the map is inside the work zone: {0}")]
     OutsideWorkZone(String),
+    /// A region that cannot be read or sampled.
+    #[error("bad region: {0}")]
+    BadRegion(String),
+    /// A cost model that is not positive and finite, or that admits no allocation.
+    #[error("bad cost model: {0}")]
+    BadCost(String),
+    /// A pose of the region where the first order has no answer (a singular configuration).
+    #[error("the first-order play bound has no answer at the pose ({:.4}, {:.4}, {:.4}) m (singularity measure {measure:.2e}): a per-joint allocation needs a region that keeps off singular configurations; `lash design clearance --region` at that pose alone gives the nonlinear uniform answer", m[0], m[1], m[2])]
+    SingularPose {
+        /// Platform centre, m.
+        m: [f64; 3],
+        /// The constraint Jacobian's singularity measure there.
+        measure: f64,
+    },
+    /// A pose where the contact elasticity alone, at a vanishing clearance, breaks the
+    /// accuracy: no clearance is allowable there.
+    #[error("no clearance is allowable at the pose ({:.4}, {:.4}, {:.4}) m: with a vanishing clearance the contact elasticity alone gives |{component}| = {elastic:.4e} (m or rad), beyond the accuracy", m[0], m[1], m[2])]
+    NoClearanceAllowable {
+        /// Platform centre, m.
+        m: [f64; 3],
+        /// The component that breaks the accuracy ("d_x", …, "δz").
+        component: &'static str,
+        /// Its worst |value| there (m or rad).
+        elastic: f64,
+    },
     /// The model failed.
     #[error(transparent)]
     Model(#[from] Mr2120Error),
 }
 
+/// [`DesignError::BadAccuracy`] unless both limits are positive and finite.
+pub fn check_accuracy(accuracy: &Accuracy) -> Result<(), DesignError> {
+    if accuracy.position > 0.0
+        && accuracy.position.is_finite()
+        && accuracy.rotation > 0.0
+        && accuracy.rotation.is_finite()
+    {
+        Ok(())
+    } else {
+        Err(DesignError::BadAccuracy {
+            position: accuracy.position,
+            rotation: accuracy.rotation,
+        })
+    }
+}
+
 /// The allowable uniform clearance at one pose.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AllowablePoint {
-    /// Pose (M1, M2, M3).
+    /// Pose (M1, M2, M3; "region" for a pose of a path or a box).
     pub point: String,
+    /// Platform centre, m.
+    pub m: [f64; 3],
     /// First-order allowable h, m (`None` at a singular configuration).
     pub linear_h: Option<f64>,
     /// The error that limits the first-order answer ("d_x", …, "δz").
@@ -101,27 +144,41 @@ pub fn allowable_uniform(
     mp: &MassProperties,
     points: &[Table2Point],
     accuracy: Accuracy,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl Fn(usize, usize) + Sync,
 ) -> Result<Vec<AllowablePoint>, DesignError> {
-    if !(accuracy.position > 0.0
-        && accuracy.position.is_finite()
-        && accuracy.rotation > 0.0
-        && accuracy.rotation.is_finite())
-    {
-        return Err(DesignError::BadAccuracy {
-            position: accuracy.position,
-            rotation: accuracy.rotation,
-        });
-    }
+    use rayon::prelude::*;
+    check_accuracy(&accuracy)?;
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    progress(0, points.len());
+    let out = points
+        .par_iter()
+        .map(|p| {
+            let r = allowable_at(g, mp, p, &accuracy);
+            progress(
+                done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1,
+                points.len(),
+            );
+            r
+        })
+        .collect();
+    out
+}
+
+/// [`allowable_uniform`] at one pose.
+fn allowable_at(
+    g: &Geometry,
+    mp: &MassProperties,
+    p: &Table2Point,
+    accuracy: &Accuracy,
+) -> Result<AllowablePoint, DesignError> {
+    let accuracy = *accuracy;
     let ex = Excitation::default();
     let set = |h: f64| ClearanceSet {
         name: "uniform",
         radial: h,
         axial: h,
     };
-    let mut out = vec![];
-    for (i, p) in points.iter().enumerate() {
-        progress(i, points.len());
+    {
         // First order: the envelope is linear in h, so at h = 1 m it holds the errors per
         // metre of uniform clearance.
         let (linear_h, linear_limit) = match linear_envelope(g, mp, p, &set(1.0), &ex) {
@@ -174,17 +231,16 @@ pub fn allowable_uniform(
             }
             (Some(lo.0), lo.1)
         };
-        out.push(AllowablePoint {
+        Ok(AllowablePoint {
             point: p.name.into(),
+            m: p.m,
             linear_h,
             linear_limit,
             nonlinear_h,
             verified: nonlinear_h.is_some() && meets(&nonlinear_errors, &accuracy),
             nonlinear_errors,
-        });
+        })
     }
-    progress(points.len(), points.len());
-    Ok(out)
 }
 
 /// One pose of [`allowable_along`]: the allowable uniform clearance against the distance to

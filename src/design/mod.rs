@@ -4,10 +4,16 @@
 //! | file | concern |
 //! |---|---|
 //! | `allowable.rs` | the largest uniform clearance that meets an accuracy at given poses: first-order estimate ([`crate::contact::play_bound`]) and verification by the nonlinear static equilibria ([`crate::multibody::static_equilibrium`]) |
+//! | `allocation.rs` | clearances per joint and per direction over a region under a cost model (∝ 1/h), first-order optimum verified by the equilibria |
+//! | `region.rs` | the region a design holds over: named poses, a path, a box |
 //! | `map.rs` | worst-case error maps over a slice of the work zone, both methods, where they part |
 
+pub mod allocation;
 pub mod allowable;
 pub mod map;
+pub mod region;
 
+pub use allocation::{allocate, Allocation, CostModel, Grouping, RegionDesign};
 pub use allowable::{allowable_along, allowable_uniform, Accuracy, AllowablePoint, CurvePoint, DesignError};
 pub use map::{error_map, CellKind, ErrorMap, MapCell, MapGrid};
+pub use region::{Region, RegionPoses};

@@ -9,14 +9,21 @@
 //! through its play, one pulse after the other. The errors are recorded after settling.
 //! The paper does not state its excitation; these amplitudes are lash's documented choice.
 
-use super::clearance::{bearing_design, clearance_model, ClearanceModel, DEFAULT_DAMPING};
+use super::clearance::{
+    bearing_design, clearance_model, clearance_model_per_joint, ClearanceModel, JointClearances,
+    DEFAULT_DAMPING, UNIVERSAL_JOINTS,
+};
 use super::geometry::{Geometry, MassProperties};
-use super::ideal::{ideal_model, EquilibriumError, Mr2120Error, ELBOW_JOINTS, PLATFORM_JOINTS};
+use super::ideal::{
+    ideal_model, EquilibriumError, LinkSpec, Mr2120Error, ELBOW_JOINTS, PLATFORM_JOINTS,
+};
 use super::kinematics::inverse;
-use super::paper::{ClearanceSet, Table2Point, TABLE3};
+use super::paper::{ClearanceSet, Table2Point, TABLE1, TABLE3};
 use super::trajectory::{clearance_options, pose_errors};
 use crate::contact::play::UniversalPlay;
-use crate::contact::play_bound::{play_pose_error, play_pose_errors, JointPlay, PlayPoseError};
+use crate::contact::play_bound::{
+    play_pose_error, play_pose_errors, play_pose_errors_per_joint, JointPlay, PlayPoseError,
+};
 use crate::multibody::forces::{BodyLoad, BodyState, ForceElement};
 use crate::multibody::{static_equilibrium, BodyHandle, MotionLaw, Simulation, StaticsOptions};
 use crate::multibody::{AssemblyOptions, ModelError};
@@ -293,10 +300,44 @@ pub fn static_envelope(
     set: &ClearanceSet,
     ex: &Excitation,
 ) -> Result<(Ranges, usize), Mr2120Error> {
-    let m = Vector3::from(point.m);
     let model = locked_clearance_model(g, mp, point, set)?;
-    let platform = model.platform;
-    let mut mech = Arc::new(model.mechanism);
+    equilibria_envelope(model.mechanism, model.platform, point, set.name, ex)
+}
+
+/// [`static_envelope`] with its own clearances in each universal joint: the drives locked
+/// at q(M), the same load cases and solver. With the clearances of a set in every joint it
+/// is [`static_envelope`] for that set.
+pub fn static_envelope_per_joint(
+    g: &Geometry,
+    mp: &MassProperties,
+    point: &Table2Point,
+    clearances: &JointClearances,
+    ex: &Excitation,
+) -> Result<(Ranges, usize), Mr2120Error> {
+    let m = Vector3::from(point.m);
+    let q = inverse(g, m)?;
+    let model = clearance_model_per_joint(
+        g,
+        mp,
+        &LinkSpec::nominal(g),
+        m,
+        Some(q.map(MotionLaw::Constant)),
+        &clearances.designs(),
+    )?;
+    equilibria_envelope(model.mechanism, model.platform, point, "per joint", ex)
+}
+
+/// The envelope of the static equilibria of `mechanism` (drives locked) under the load
+/// cases, the loaded cases warm-started from the unloaded one.
+fn equilibria_envelope(
+    mechanism: crate::multibody::Mechanism,
+    platform: BodyHandle,
+    point: &Table2Point,
+    set_name: &str,
+    ex: &Excitation,
+) -> Result<(Ranges, usize), Mr2120Error> {
+    let m = Vector3::from(point.m);
+    let mut mech = Arc::new(mechanism);
     let opts = StaticsOptions::default();
     let mut r = [(f64::INFINITY, f64::NEG_INFINITY); 6];
     let mut steps = 0;
@@ -316,7 +357,7 @@ pub fn static_envelope(
         let eq = static_equilibrium(&mech, 0.0, start.as_deref(), &opts).map_err(|source| {
             Mr2120Error::Equilibrium(Box::new(EquilibriumError {
                 point: point.name.into(),
-                set: set.name.into(),
+                set: set_name.into(),
                 case,
                 force: force.into(),
                 torque: torque.into(),
@@ -379,6 +420,59 @@ pub fn linear_envelope(
         widen(&mut r, &e.at(set.radial, set.axial));
     }
     Ok(r)
+}
+
+/// Method (c) joint by joint: for each load case of [`static_load_cases`], the platform's
+/// pose error per metre of radial clearance and per metre of axial play in each universal
+/// joint alone, in the order of [`UNIVERSAL_JOINTS`] (the play geometry of the MR2120's
+/// bearings; it does not depend on the clearances). To first order a design with clearances
+/// h errs by Σ_k (h_LR,k · radial_k + h_LW,k · axial_k) in each case.
+pub fn linear_per_joint(
+    g: &Geometry,
+    mp: &MassProperties,
+    point: &Table2Point,
+    ex: &Excitation,
+) -> Result<Vec<Vec<PlayPoseError>>, Mr2120Error> {
+    let m = Vector3::from(point.m);
+    let q = inverse(g, m)?;
+    let mut model = ideal_model(g, mp, m, Some(q.map(MotionLaw::Constant)))?;
+    let cases = static_load_cases(ex);
+    let load = Arc::new(std::sync::Mutex::new((Vector3::zeros(), Vector3::zeros())));
+    model.mechanism.add_force(Box::new(SharedLoad {
+        body: model.platform,
+        load: load.clone(),
+    }));
+    let play = UniversalPlay::from_design(&bearing_design(&TABLE1[0], DEFAULT_DAMPING));
+    let joints: Vec<JointPlay> = UNIVERSAL_JOINTS
+        .iter()
+        .map(|name| {
+            model
+                .mechanism
+                .joints()
+                .find(|(_, j)| j.name == *name)
+                .map(|(joint, _)| JointPlay { joint, play })
+                .ok_or_else(|| {
+                    Mr2120Error::Model(ModelError::BadElement {
+                        kind: "joint",
+                        name: (*name).into(),
+                        reason: "not in the ideal model".into(),
+                    })
+                })
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(play_pose_errors_per_joint(
+        &model.mechanism,
+        0.0,
+        &joints,
+        model.platform,
+        AssemblyOptions::default(),
+        cases.len(),
+        |k| {
+            if let Ok(mut l) = load.lock() {
+                *l = cases[k];
+            }
+        },
+    )?)
 }
 
 /// The universal joints of the ideal model (elbows and platform joints), each with the play
@@ -590,6 +684,44 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The joint-by-joint first order adds up to the envelope of the whole set, and the
+    /// equilibria with a set's clearances given joint by joint are those of the set.
+    #[test]
+    fn per_joint_play_adds_up_to_the_set() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let ex = Excitation::default();
+        let (point, set) = (&TABLE2[1], &TABLE1[1]);
+        let per_joint = linear_per_joint(&g, &mp, point, &ex).unwrap();
+        assert_eq!(per_joint.len(), static_load_cases(&ex).len());
+        let mut summed = [(f64::INFINITY, f64::NEG_INFINITY); 6];
+        for case in &per_joint {
+            assert_eq!(case.len(), 6);
+            let e: [f64; 6] = std::array::from_fn(|c| {
+                case.iter()
+                    .map(|j| set.radial * j.radial[c] + set.axial * j.axial[c])
+                    .sum()
+            });
+            widen(&mut summed, &e);
+        }
+        let whole = linear_envelope(&g, &mp, point, set, &ex).unwrap();
+        for c in 0..6 {
+            let scale = whole[c].0.abs().max(whole[c].1.abs());
+            assert!(scale > 0.0);
+            assert!(
+                (summed[c].0 - whole[c].0).abs() <= 1e-9 * scale
+                    && (summed[c].1 - whole[c].1).abs() <= 1e-9 * scale,
+                "component {c}: {:?} vs {:?}",
+                summed[c],
+                whole[c]
+            );
+        }
+        let (a, _) = static_envelope(&g, &mp, &TABLE2[0], set, &ex).unwrap();
+        let (b, _) =
+            static_envelope_per_joint(&g, &mp, &TABLE2[0], &JointClearances::uniform(set), &ex)
+                .unwrap();
+        assert_eq!(a, b);
     }
 
     /// The direct equilibrium is the state dynamic relaxation tends to: at M1 (regular) and

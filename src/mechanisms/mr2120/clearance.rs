@@ -49,6 +49,51 @@ pub fn clearance_set(name: &str) -> Result<ClearanceSet, Mr2120Error> {
         .ok_or_else(|| Mr2120Error::UnknownClearanceSet(name.into()))
 }
 
+/// The six universal joints in the order of per-joint clearances ([`JointClearances`]) and
+/// of [`clearance_model_per_joint`]'s designs: elbows D, E, F, then platform joints P, Q, R.
+pub const UNIVERSAL_JOINTS: [&str; 6] = ["D", "E", "F", "P", "Q", "R"];
+
+/// A clearance per universal joint and per direction, in the order of [`UNIVERSAL_JOINTS`].
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct JointClearances {
+    /// Radial clearance h_LR of each joint's bearings, m.
+    pub radial: [f64; 6],
+    /// Axial clearance h_LW of each joint's bearings, m.
+    pub axial: [f64; 6],
+}
+
+impl JointClearances {
+    /// The clearances of `set` in every joint.
+    pub fn uniform(set: &ClearanceSet) -> Self {
+        Self {
+            radial: [set.radial; 6],
+            axial: [set.axial; 6],
+        }
+    }
+
+    /// Every clearance times `s`.
+    pub fn scaled(&self, s: f64) -> Self {
+        Self {
+            radial: self.radial.map(|h| h * s),
+            axial: self.axial.map(|h| h * s),
+        }
+    }
+
+    /// The bearing designs of the six joints (lash's default contact damping).
+    pub fn designs(&self) -> [Option<BearingDesign>; 6] {
+        std::array::from_fn(|k| {
+            Some(bearing_design(
+                &ClearanceSet {
+                    name: "per joint",
+                    radial: self.radial[k],
+                    axial: self.axial[k],
+                },
+                DEFAULT_DAMPING,
+            ))
+        })
+    }
+}
+
 /// Bearing design of the MR2120 for a clearance set and a damping model.
 pub fn bearing_design(set: &ClearanceSet, damping: Damping) -> BearingDesign {
     let mut d = BearingDesign::mr2120(set.radial, set.axial, damping);

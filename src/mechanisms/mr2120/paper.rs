@@ -18,7 +18,7 @@ pub const STEEL_E: f64 = 2.1e11;
 pub const CLEARANCE_MODEL_DOF: usize = 63;
 
 /// A named point of the paper's Table 2.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Table2Point {
     /// Name (M1, M2, M3).
     pub name: &'static str,
