@@ -247,14 +247,58 @@ fn design_clearance_refuses_bad_accuracies_and_points_with_exit_2() {
         &["design", "clearance", "--accuracy", "0.1", "--points", "M1"],
         &["design", "clearance", "--accuracy", "0.1mm,2", "--points", "M1"],
         &["design", "clearance", "--accuracy", "0.1mm", "--points", "M4"],
+        &[
+            "design",
+            "clearance",
+            "--accuracy",
+            "0.1mm",
+            "--region",
+            "path:M1",
+        ],
+        &[
+            "design",
+            "clearance",
+            "--accuracy",
+            "0.1mm",
+            "--region",
+            "box:0,1,0,1",
+        ],
+        &[
+            "design",
+            "clearance",
+            "--accuracy",
+            "0.1mm",
+            "--region",
+            "box:5,6,5,6,5,6",
+        ],
+        &[
+            "design",
+            "clearance",
+            "--accuracy",
+            "0.1mm",
+            "--region",
+            "path:M1,M2",
+            "--samples",
+            "1",
+        ],
+        &[
+            "design",
+            "clearance",
+            "--accuracy",
+            "0.1mm",
+            "--region",
+            "M1",
+            "--axial-weight",
+            "0",
+        ],
     ]);
     let out = lash(&[
         "design",
         "clearance",
         "--accuracy",
         "0.2mm,0.5deg",
-        "--points",
-        "M1",
+        "--region",
+        "M1,M2",
         "--json",
     ]);
     assert!(out.status.success());
@@ -263,6 +307,35 @@ fn design_clearance_refuses_bad_accuracies_and_points_with_exit_2() {
     assert!(h > 1e-6 && h < 1e-4, "{v}");
     assert_eq!(v["verified"], true);
     assert!(v["accuracy"]["position_m"].as_f64().unwrap() == 2e-4);
+    // Per joint: six joints with both clearances in m, verified, no dearer than uniform.
+    let pj = &v["per_joint"];
+    let joints = pj["joints"].as_array().unwrap();
+    assert_eq!(joints.len(), 6, "{pj}");
+    for j in joints {
+        let (r, a) = (j["h_lr"].as_f64().unwrap(), j["h_lw"].as_f64().unwrap());
+        assert!(r > 1e-7 && r < 1e-4 && a > 1e-7 && a < 1e-3, "{j}");
+    }
+    assert_eq!(pj["verified"], true);
+    assert!(pj["relative_cost"].as_f64().unwrap() <= 1.0 + 1e-9, "{pj}");
+    assert_eq!(v["allocation"]["allocations"].as_array().unwrap().len(), 3);
+    // Through the direct singularity the allocation is refused with the reason, not an error.
+    let out = lash(&[
+        "design",
+        "clearance",
+        "--accuracy",
+        "0.2mm",
+        "--region",
+        "M1,M3",
+        "--json",
+    ]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["per_joint"].is_null(), "{v}");
+    assert!(
+        v["allocation_note"].as_str().unwrap().contains("first-order"),
+        "{v}"
+    );
+    assert_eq!(v["uniform"]["h_lr"], serde_json::Value::Null);
 }
 
 /// `lash design map`: bad grids and sets are exit 2; a small map writes its CSV and heatmaps

@@ -365,7 +365,13 @@ fn map(
     Ok(Output::OK)
 }
 
-fn clearance(accuracy: &str, region: &str, samples: usize, axial_weight: f64, as_json: bool) -> Result<Output, CliError> {
+fn clearance(
+    accuracy: &str,
+    region: &str,
+    samples: usize,
+    axial_weight: f64,
+    as_json: bool,
+) -> Result<Output, CliError> {
     use lash::design::{allocate, CostModel, DesignError, Grouping, Region};
     let acc = parse_accuracy(accuracy)?;
     let (position, rotation) = (acc.position, acc.rotation);
@@ -377,7 +383,9 @@ fn clearance(accuracy: &str, region: &str, samples: usize, axial_weight: f64, as
         | DesignError::OutsideWorkZone(_) => CliError::input(e),
         other => CliError::run(other),
     };
-    let region: Region = region.parse().map_err(|e| CliError::Input(format!("--region: {e}")))?;
+    let region: Region = region
+        .parse()
+        .map_err(|e| CliError::Input(format!("--region: {e}")))?;
     let sampled = region.poses(&g, samples).map_err(input_or_run)?;
     let pts = &sampled.poses;
     if !(axial_weight > 0.0 && axial_weight.is_finite()) {
@@ -433,7 +441,9 @@ fn clearance(accuracy: &str, region: &str, samples: usize, axial_weight: f64, as
             lash::design::allocation::JOINTS
                 .iter()
                 .enumerate()
-                .map(|(k, name)| serde_json::json!({ "joint": name, "h_lr": h.radial[k], "h_lw": h.axial[k] }))
+                .map(
+                    |(k, name)| serde_json::json!({ "joint": name, "h_lr": h.radial[k], "h_lw": h.axial[k] }),
+                )
                 .collect::<Vec<_>>()
         });
         let out = serde_json::json!({
@@ -575,7 +585,9 @@ fn print_allocation(d: &lash::design::RegionDesign, axial_weight: f64) {
                     joint,
                     h.radial[k] * 1e6,
                     h.axial[k] * 1e6,
-                    a.scale.map(|s| format!("{s:.3}")).unwrap_or_else(|| "none".into()),
+                    a.scale
+                        .map(|s| format!("{s:.3}"))
+                        .unwrap_or_else(|| "none".into()),
                     a.cost.map(|c| format!("{c:.4e}")).unwrap_or_else(|| "-".into()),
                     a.cost
                         .zip(uniform_cost)

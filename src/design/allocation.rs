@@ -179,6 +179,9 @@ impl RegionDesign {
     }
 }
 
+/// The worst errors of a design over the region, and where it is closest to its limit.
+type Worst = ([f64; 6], Option<Limiting>);
+
 const NAMES: [&str; 6] = ["d_x", "d_y", "d_z", "δx", "δy", "δz"];
 
 fn limit(acc: &Accuracy, c: usize) -> f64 {
@@ -204,11 +207,12 @@ pub fn min_inverse_cost(rows: &[Vec<f64>], w: &[f64], x_max: f64) -> Option<Vec<
     }
     let rows: Vec<&Vec<f64>> = rows.iter().filter(|r| r.iter().any(|&v| v > 0.0)).collect();
     // Scale: x = x0 · y with x0 the largest feasible uniform value.
-    let widest = rows
-        .iter()
-        .map(|r| r.iter().sum::<f64>())
-        .fold(0.0, f64::max);
-    let x0 = if widest > 0.0 { (1.0 / widest).min(x_max) } else { x_max };
+    let widest = rows.iter().map(|r| r.iter().sum::<f64>()).fold(0.0, f64::max);
+    let x0 = if widest > 0.0 {
+        (1.0 / widest).min(x_max)
+    } else {
+        x_max
+    };
     let y_max = x_max / x0;
     let a: Vec<Vec<f64>> = rows.iter().map(|r| r.iter().map(|v| v * x0).collect()).collect();
     let mut y = vec![0.5; n];
@@ -398,10 +402,9 @@ pub fn allocate(
         .par_iter()
         .map(|p| {
             let r = linear_per_joint(g, mp, p, &ex).map_err(|e| match e {
-                Mr2120Error::Model(ModelError::Singular { measure, .. }) => DesignError::SingularPose {
-                    m: p.m,
-                    measure,
-                },
+                Mr2120Error::Model(ModelError::Singular { measure, .. }) => {
+                    DesignError::SingularPose { m: p.m, measure }
+                }
                 other => DesignError::Model(other),
             });
             done();
@@ -422,7 +425,7 @@ pub fn allocate(
         })
         .collect();
     for (p, e0) in poses.iter().zip(&elastic) {
-        if let Some(c) = (0..6).find(|&c| !(e0[c] < limit(&accuracy, c))) {
+        if let Some(c) = (0..6).find(|&c| e0[c].is_nan() || e0[c] >= limit(&accuracy, c)) {
             return Err(DesignError::NoClearanceAllowable {
                 m: p.m,
                 component: NAMES[c],
@@ -438,14 +441,12 @@ pub fn allocate(
             ))
         })?;
         let eval = |s: f64| nonlinear_worst(g, mp, poses, &h1.scaled(s), &accuracy, &done);
-        let largest = (0..6)
-            .map(|k| h1.radial[k].max(h1.axial[k]))
-            .fold(0.0, f64::max);
+        let largest = (0..6).map(|k| h1.radial[k].max(h1.axial[k])).fold(0.0, f64::max);
         let mut at_one = eval(1.0);
         // Bracket: lo meets (or none does), hi fails (or the largest clearance is reached).
-        let (mut lo, mut hi): (Option<(f64, ([f64; 6], Option<Limiting>))>, f64);
+        let (mut lo, mut hi): (Option<(f64, Worst)>, f64);
         if meets(&at_one.0, &accuracy) {
-            lo = Some((1.0, at_one.clone()));
+            lo = Some((1.0, at_one));
             hi = 2.0;
             loop {
                 if hi * largest > MAX_CLEARANCE {
@@ -545,14 +546,20 @@ mod tests {
         // Deterministic pseudo-random search over directions, each scaled onto the boundary.
         let mut seed = 12345u64;
         let mut next = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         for _ in 0..20_000 {
             let d: Vec<f64> = (0..3).map(|_| 0.01 + next()).collect();
             let s = 1.0 / worst(&d);
             let p: Vec<f64> = d.iter().map(|v| (v * s).min(10.0)).collect();
-            assert!(cost(&p) >= best * (1.0 - 1e-9), "{p:?} costs {} < {best}", cost(&p));
+            assert!(
+                cost(&p) >= best * (1.0 - 1e-9),
+                "{p:?} costs {} < {best}",
+                cost(&p)
+            );
         }
         // A variable no constraint touches goes to its bound.
         let x = min_inverse_cost(&[vec![1.0, 0.0]], &[1.0, 1.0], 2.0).unwrap();
@@ -575,8 +582,14 @@ mod tests {
         };
         let d = allocate(&g, &mp, &TABLE2[..2], acc, CostModel::default(), |_, _| {}).unwrap();
         let costs: Vec<f64> = d.allocations.iter().map(|a| a.first_order_cost).collect();
-        assert!(costs[2] <= costs[1] * (1.0 + 1e-6) && costs[1] <= costs[0] * (1.0 + 1e-6), "{costs:?}");
-        assert!(costs[1] < 0.9 * costs[0], "axial play matters less than radial: {costs:?}");
+        assert!(
+            costs[2] <= costs[1] * (1.0 + 1e-6) && costs[1] <= costs[0] * (1.0 + 1e-6),
+            "{costs:?}"
+        );
+        assert!(
+            costs[1] < 0.9 * costs[0],
+            "axial play matters less than radial: {costs:?}"
+        );
         for a in &d.allocations {
             assert!(a.verified, "{a:?}");
             let s = a.scale.unwrap();

@@ -51,7 +51,10 @@ fn bad(s: &str, why: &str) -> DesignError {
 }
 
 fn named(name: &str) -> Option<Table2Point> {
-    TABLE2.iter().copied().find(|p| p.name.eq_ignore_ascii_case(name.trim()))
+    TABLE2
+        .iter()
+        .copied()
+        .find(|p| p.name.eq_ignore_ascii_case(name.trim()))
 }
 
 fn numbers(s: &str, sep: char) -> Option<Vec<f64>> {
@@ -111,10 +114,12 @@ impl Region {
     /// than [`MAX_POSES`] poses, or no pose inside the work zone.
     pub fn poses(&self, g: &Geometry, samples: usize) -> Result<RegionPoses, DesignError> {
         let positions: Vec<[f64; 3]> = match self {
-            Region::Points(p) => return Ok(RegionPoses {
-                poses: p.clone(),
-                unreachable: 0,
-            }),
+            Region::Points(p) => {
+                return Ok(RegionPoses {
+                    poses: p.clone(),
+                    unreachable: 0,
+                })
+            }
             Region::Path(through) => {
                 if samples < 2 {
                     return Err(DesignError::BadRegion(format!(
@@ -195,7 +200,15 @@ mod tests {
         let b: Region = "box:-0.05,0.05,-0.05,0.05,0.45,0.5".parse().unwrap();
         let p = b.poses(&g, 3).unwrap();
         assert_eq!(p.poses.len() + p.unreachable, 27);
-        for bad in ["", "M7", "path:M1", "path:M1,1 2", "box:1,0,0,1,0,1", "box:0,1", "box:a,1,0,1,0,1"] {
+        for bad in [
+            "",
+            "M7",
+            "path:M1",
+            "path:M1,1 2",
+            "box:1,0,0,1,0,1",
+            "box:0,1",
+            "box:a,1,0,1,0,1",
+        ] {
             assert!(
                 matches!(bad.parse::<Region>(), Err(DesignError::BadRegion(_))),
                 "{bad}"

@@ -14,9 +14,7 @@ use super::clearance::{
     DEFAULT_DAMPING, UNIVERSAL_JOINTS,
 };
 use super::geometry::{Geometry, MassProperties};
-use super::ideal::{
-    ideal_model, EquilibriumError, LinkSpec, Mr2120Error, ELBOW_JOINTS, PLATFORM_JOINTS,
-};
+use super::ideal::{ideal_model, EquilibriumError, LinkSpec, Mr2120Error, ELBOW_JOINTS, PLATFORM_JOINTS};
 use super::kinematics::inverse;
 use super::paper::{ClearanceSet, Table2Point, TABLE1, TABLE3};
 use super::trajectory::{clearance_options, pose_errors};
@@ -719,8 +717,7 @@ mod tests {
         }
         let (a, _) = static_envelope(&g, &mp, &TABLE2[0], set, &ex).unwrap();
         let (b, _) =
-            static_envelope_per_joint(&g, &mp, &TABLE2[0], &JointClearances::uniform(set), &ex)
-                .unwrap();
+            static_envelope_per_joint(&g, &mp, &TABLE2[0], &JointClearances::uniform(set), &ex).unwrap();
         assert_eq!(a, b);
     }
 
