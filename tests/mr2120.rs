@@ -351,6 +351,7 @@ fn design_map_writes_both_methods_and_refuses_bad_grids() {
         &["design", "map", "--set", "L9", "--out", &d],
         &["design", "map", "--z", "NaN", "--out", &d],
         &["design", "map", "--z", "3", "--n", "3", "--out", &d],
+        &["design", "map", "--n", "3", "--accuracy", "0.1", "--out", &d],
     ]);
     let out = lash(&[
         "design",
@@ -361,6 +362,8 @@ fn design_map_writes_both_methods_and_refuses_bad_grids() {
         "0.2",
         "--nonlinear-every",
         "4",
+        "--accuracy",
+        "0.5mm,1deg",
         "--out",
         &d,
         "--json",
@@ -378,11 +381,20 @@ fn design_map_writes_both_methods_and_refuses_bad_grids() {
         .iter()
         .all(|e| e.as_f64().unwrap() >= 0.0)));
     assert!(v["max_disagreement"]["position_m"].as_f64().unwrap() >= 0.0);
+    // The inverse question: at 0.5 mm the L1 clearances hold near the axis, not everywhere.
+    let r = &v["accuracy_region"];
+    let (holds, reachable) = (
+        r["holds_first_order"].as_u64().unwrap(),
+        r["reachable"].as_u64().unwrap(),
+    );
+    assert!(holds > 0 && holds < reachable, "{r}");
+    assert_eq!(r["accuracy"]["position"], 5e-4);
     for f in [
         "map.csv",
         "map-first-order.png",
         "map-first-order.svg",
         "map-nonlinear.png",
+        "map-accuracy.png",
     ] {
         assert!(dir.join(f).exists(), "{f}");
     }

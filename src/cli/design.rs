@@ -69,6 +69,11 @@ pub enum DesignWhat {
         /// Solve the nonlinear equilibria on every k-th cell in both directions (0: none).
         #[arg(long, default_value_t = 10)]
         nonlinear_every: usize,
+        /// The inverse question: where does this accuracy hold for the set's clearances (as
+        /// for `design clearance`, e.g. 0.2mm,0.5deg)? Adds map-accuracy.png/svg and
+        /// `accuracy_region` to --json.
+        #[arg(long)]
+        accuracy: Option<String>,
         /// Output folder (map.csv, heatmaps).
         #[arg(long, default_value = "out/design-map")]
         out: std::path::PathBuf,
@@ -123,9 +128,19 @@ pub fn run(what: DesignWhat) -> Result<Output, CliError> {
             n,
             set,
             nonlinear_every,
+            accuracy,
             out,
             json,
-        } => map(z, extent, n, &set, nonlinear_every, &out, json),
+        } => map(
+            z,
+            extent,
+            n,
+            &set,
+            nonlinear_every,
+            accuracy.as_deref(),
+            &out,
+            json,
+        ),
     }
 }
 
@@ -141,10 +156,12 @@ fn map(
     n: usize,
     set: &str,
     nonlinear_every: usize,
+    accuracy: Option<&str>,
     out: &std::path::Path,
     as_json: bool,
 ) -> Result<Output, CliError> {
     use lash::design::{error_map, CellKind, MapGrid};
+    let accuracy = accuracy.map(parse_accuracy).transpose()?;
     if !(extent > 0.0 && extent.is_finite()) {
         return Err(CliError::input(format!(
             "--extent must be positive, not {extent} m"
@@ -224,7 +241,11 @@ fn map(
             (0, 0, 0),
         ),
     ];
-    let heat = |which: &str, every: usize, value: &dyn Fn(&lash::design::MapCell) -> Option<[f64; 6]>| {
+    let heat = |which: &str,
+                every: usize,
+                value: &dyn Fn(&lash::design::MapCell) -> Option<[f64; 6]>,
+                scalar: &dyn Fn(&[f64; 6]) -> f64,
+                value_label: &str| {
         let (is, ks): (Vec<usize>, Vec<usize>) = (
             (0..n).step_by(every.max(1)).collect(),
             (0..n).step_by(every.max(1)).collect(),
@@ -235,7 +256,7 @@ fn map(
             .map(|(i, k)| {
                 let c = map.cell(i, k);
                 match (c.kind, value(c)) {
-                    (_, Some(e)) => Ok(lash::design::map::worst_position(&e) * 1e6),
+                    (_, Some(e)) => Ok(scalar(&e)),
                     (CellKind::Unreachable, None) => Err(0),
                     (CellKind::Singular, None) => Err(1),
                     (CellKind::Regular, None) => Err(1),
@@ -244,13 +265,13 @@ fn map(
             .collect();
         lash::plot::Heatmap {
             title: format!(
-                "MR2120 at z_M = {} mm, clearance set {}: worst |d| over the load cases ({which})",
+                "MR2120 at z_M = {} mm, clearance set {}: {which}",
                 z * 1e3,
                 cs.name
             ),
             x_label: "x_M, mm".into(),
             y_label: "y_M, mm".into(),
-            value_label: "largest |d_x|, |d_y|, |d_z|, um".into(),
+            value_label: value_label.into(),
             xs: is.iter().map(|&i| grid.x_at(i) * 1e3).collect(),
             ys: ks.iter().map(|&k| grid.y_at(k) * 1e3).collect(),
             values,
@@ -269,13 +290,44 @@ fn map(
             ),
         }
     };
-    heat("first order", 1, &|c| c.linear)
-        .save(&out.join("map-first-order"))
-        .map_err(CliError::run)?;
+    let um = |e: &[f64; 6]| lash::design::map::worst_position(e) * 1e6;
+    let d_label = "largest |d_x|, |d_y|, |d_z|, um";
+    heat(
+        "worst |d| over the load cases (first order)",
+        1,
+        &|c| c.linear,
+        &um,
+        d_label,
+    )
+    .save(&out.join("map-first-order"))
+    .map_err(CliError::run)?;
     if nonlinear_every > 0 {
-        heat("nonlinear equilibria", nonlinear_every, &|c| c.nonlinear)
-            .save(&out.join("map-nonlinear"))
-            .map_err(CliError::run)?;
+        heat(
+            "worst |d| over the load cases (nonlinear equilibria)",
+            nonlinear_every,
+            &|c| c.nonlinear,
+            &um,
+            d_label,
+        )
+        .save(&out.join("map-nonlinear"))
+        .map_err(CliError::run)?;
+    }
+    let region = accuracy.map(|a| map.where_accuracy_holds(&a));
+    if let Some(a) = accuracy {
+        let which = format!(
+            "where |d| <= {} mm and |delta| <= {} deg hold (first order; <= 1 holds)",
+            a.position * 1e3,
+            a.rotation.to_degrees()
+        );
+        heat(
+            &which,
+            1,
+            &|c| c.linear,
+            &|e| lash::design::map::accuracy_ratio(e, &a),
+            "worst error / required accuracy",
+        )
+        .save(&out.join("map-accuracy"))
+        .map_err(CliError::run)?;
     }
     let count = |k: CellKind| map.cells.iter().filter(|c| c.kind == k).count();
     if as_json {
@@ -304,6 +356,7 @@ fn map(
                 "linear": linear,
                 "nonlinear": nonlinear,
                 "max_disagreement": map.max_disagreement,
+                "accuracy_region": region,
                 "wall_s": wall,
             }))
         );
@@ -353,11 +406,32 @@ fn map(
         ),
         None => println!("  no cell has both methods"),
     }
+    if let Some(r) = region {
+        let pct = |a: usize, b: usize| 100.0 * a as f64 / b.max(1) as f64;
+        println!(
+            "  |d| <= {} mm and |delta| <= {} deg hold at first order in {} of {} cells inside the work zone ({:.1} %; {} singular cells without an answer); by the equilibria in {} of {} cells ({:.1} %); the methods disagree at {} cells",
+            r.accuracy.position * 1e3,
+            r.accuracy.rotation.to_degrees(),
+            r.holds_first_order,
+            r.reachable,
+            pct(r.holds_first_order, r.reachable),
+            r.singular,
+            r.holds_nonlinear,
+            r.nonlinear_cells,
+            pct(r.holds_nonlinear, r.nonlinear_cells),
+            r.methods_disagree
+        );
+    }
     println!(
-        "  wrote {0}/map.csv, {0}/map-first-order.png (.svg){1}",
+        "  wrote {0}/map.csv, {0}/map-first-order.png (.svg){1}{2}",
         out.display(),
         if nonlinear_every > 0 {
             ", map-nonlinear.png (.svg)"
+        } else {
+            ""
+        },
+        if region.is_some() {
+            ", map-accuracy.png (.svg)"
         } else {
             ""
         }

@@ -9,7 +9,7 @@
 //! reachable cell where the first order has no answer sits on a singular locus (the
 //! assembly's sensitivity is singular there). Cells are evaluated in parallel (rayon).
 
-use super::allowable::DesignError;
+use super::allowable::{Accuracy, DesignError};
 use crate::mechanisms::mr2120::accuracy::{linear_envelope, static_envelope, Excitation, Ranges};
 use crate::mechanisms::mr2120::geometry::{Geometry, MassProperties};
 use crate::mechanisms::mr2120::ideal::Mr2120Error;
@@ -110,6 +110,64 @@ impl ErrorMap {
     /// The cell at column `i`, row `k`.
     pub fn cell(&self, i: usize, k: usize) -> &MapCell {
         &self.cells[k * self.grid.nx + i]
+    }
+}
+
+/// The inverse question on a map: where a required accuracy holds for the map's clearances.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct AccuracyRegion {
+    /// The accuracy asked for.
+    pub accuracy: Accuracy,
+    /// Cells inside the work zone.
+    pub reachable: usize,
+    /// Cells where the first order holds the accuracy.
+    pub holds_first_order: usize,
+    /// Reachable cells without a first-order answer (singular).
+    pub singular: usize,
+    /// Cells with a nonlinear answer.
+    pub nonlinear_cells: usize,
+    /// Of those, cells where the equilibria hold the accuracy.
+    pub holds_nonlinear: usize,
+    /// Cells with both answers where they disagree on whether the accuracy holds.
+    pub methods_disagree: usize,
+}
+
+/// The largest error of `e` relative to its limit in `accuracy` (≤ 1: the accuracy holds).
+pub fn accuracy_ratio(e: &[f64; 6], accuracy: &Accuracy) -> f64 {
+    (0..6)
+        .map(|c| {
+            e[c] / if c < 3 {
+                accuracy.position
+            } else {
+                accuracy.rotation
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
+impl ErrorMap {
+    /// Where `accuracy` holds over the map (see [`AccuracyRegion`]).
+    pub fn where_accuracy_holds(&self, accuracy: &Accuracy) -> AccuracyRegion {
+        let holds = |e: &Option<[f64; 6]>| e.map(|e| accuracy_ratio(&e, accuracy) <= 1.0);
+        let mut r = AccuracyRegion {
+            accuracy: *accuracy,
+            reachable: 0,
+            holds_first_order: 0,
+            singular: 0,
+            nonlinear_cells: 0,
+            holds_nonlinear: 0,
+            methods_disagree: 0,
+        };
+        for c in &self.cells {
+            r.reachable += usize::from(c.kind != CellKind::Unreachable);
+            r.singular += usize::from(c.kind == CellKind::Singular);
+            let (l, n) = (holds(&c.linear), holds(&c.nonlinear));
+            r.holds_first_order += usize::from(l == Some(true));
+            r.nonlinear_cells += usize::from(n.is_some());
+            r.holds_nonlinear += usize::from(n == Some(true));
+            r.methods_disagree += usize::from(matches!((l, n), (Some(a), Some(b)) if a != b));
+        }
+        r
     }
 }
 
@@ -277,6 +335,20 @@ mod tests {
         let n = m1.nonlinear.expect("a nonlinear cell");
         let d = map.max_disagreement.expect("one cell has both");
         assert!(d.relative < 1.0, "{d:?} (nonlinear {n:?})");
+        // The inverse question: a loose accuracy holds wherever there is an answer, a
+        // needlessly tight one nowhere.
+        let loose = map.where_accuracy_holds(&Accuracy {
+            position: 1.0,
+            rotation: 1.0,
+        });
+        assert!(loose.reachable >= 1 && loose.reachable < 9, "{loose:?}");
+        assert_eq!(loose.holds_first_order, loose.reachable - loose.singular);
+        assert_eq!(loose.holds_nonlinear, loose.nonlinear_cells);
+        let tight = map.where_accuracy_holds(&Accuracy {
+            position: 1e-9,
+            rotation: 1e-9,
+        });
+        assert_eq!((tight.holds_first_order, tight.holds_nonlinear), (0, 0));
         let bad = MapGrid { nx: 1, ..grid };
         assert!(matches!(
             error_map(&g, &mp, &bad, &set, |_, _| {}),
