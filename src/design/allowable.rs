@@ -60,7 +60,7 @@ pub enum DesignError {
     #[error("bad cost model: {0}")]
     BadCost(String),
     /// A pose of the region where the first order has no answer (a singular configuration).
-    #[error("the first-order play bound has no answer at the pose ({:.4}, {:.4}, {:.4}) m (singularity measure {measure:.2e}): a per-joint allocation needs a region that keeps off singular configurations; `lash design clearance --region` at that pose alone gives the nonlinear uniform answer", m[0], m[1], m[2])]
+    #[error("the first-order play bound has no answer at the pose ({:.4}, {:.4}, {:.4}) m (singularity measure {measure:.2e}): a per-joint allocation needs a region that keeps off singular configurations (the nonlinear uniform answer per pose does not: allowable_uniform, the first table of `lash design clearance`)", m[0], m[1], m[2])]
     SingularPose {
         /// Platform centre, m.
         m: [f64; 3],
