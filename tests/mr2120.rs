@@ -400,3 +400,70 @@ fn design_map_writes_both_methods_and_refuses_bad_grids() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `lash design map --shard K/N` then `lash design merge`: the same CSV, JSON (but for the
+/// wall time) and heatmaps as one unsharded run; a missing part and a malformed file are
+/// exit 2, the file placed by line and column.
+#[cfg(all(feature = "cli", feature = "plot", feature = "peers"))]
+#[test]
+fn sharded_maps_merge_into_the_unsharded_output() {
+    let dir = std::env::temp_dir().join(format!("lash-design-shard-{}", std::process::id()));
+    let d = |s: &str| dir.join(s).to_string_lossy().to_string();
+    let common = [
+        "design",
+        "map",
+        "--n",
+        "9",
+        "--extent",
+        "0.2",
+        "--nonlinear-every",
+        "4",
+    ];
+    for k in 0..3 {
+        let shard = format!("{k}/3");
+        let mut args = common.to_vec();
+        args.extend(["--shard", &shard, "--out"]);
+        let parts = d("parts");
+        args.push(&parts);
+        let out = lash(&args);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let whole = d("whole");
+    let mut args = common.to_vec();
+    args.extend(["--out", &whole, "--json"]);
+    let w = lash(&args);
+    assert!(w.status.success());
+    let parts: Vec<String> = (0..3).map(|k| d(&format!("parts/part-{k}-of-3.json"))).collect();
+    let merged = d("merged");
+    let mut args = vec!["design", "merge", "--out", &merged, "--json"];
+    args.extend(parts.iter().map(String::as_str));
+    let m = lash(&args);
+    assert!(m.status.success(), "{}", String::from_utf8_lossy(&m.stderr));
+    let strip = |b: &[u8]| {
+        let mut v: serde_json::Value = serde_json::from_slice(b).unwrap();
+        v.as_object_mut().unwrap().remove("wall_s");
+        v
+    };
+    assert_eq!(strip(&m.stdout), strip(&w.stdout));
+    for f in ["map.csv", "map-first-order.svg", "map-nonlinear.svg"] {
+        assert_eq!(
+            std::fs::read(dir.join("whole").join(f)).unwrap(),
+            std::fs::read(dir.join("merged").join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    std::fs::write(dir.join("bad.json"), "{\n  \"format\": 3\n}").unwrap();
+    let bad = d("bad.json");
+    refused_with_exit_2(&[
+        &["design", "merge", "--out", &merged, &parts[0], &parts[1]][..],
+        &["design", "merge", "--out", &merged, &bad],
+        &["design", "map", "--shard", "3/3", "--out", &merged],
+    ]);
+    let out = lash(&["design", "merge", "--out", &merged, &bad]);
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("bad.json:2:"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -74,7 +74,27 @@ pub enum DesignWhat {
         /// `accuracy_region` to --json.
         #[arg(long)]
         accuracy: Option<String>,
+        /// Compute only part K of N (0 <= K < N) and write it to OUT/part-K-of-N.json, for
+        /// `lash design merge` (e.g. a Slurm job array: --shard $SLURM_ARRAY_TASK_ID/N).
+        #[arg(long)]
+        shard: Option<String>,
         /// Output folder (map.csv, heatmaps).
+        #[arg(long, default_value = "out/design-map")]
+        out: std::path::PathBuf,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Joins the parts of a sharded `design map` (files part-K-of-N.json) into the CSV,
+    /// heatmaps and JSON an unsharded run writes.
+    Merge {
+        /// The part files.
+        #[arg(required = true)]
+        parts: Vec<std::path::PathBuf>,
+        /// The inverse question, as for `design map --accuracy`.
+        #[arg(long)]
+        accuracy: Option<String>,
+        /// Output folder.
         #[arg(long, default_value = "out/design-map")]
         out: std::path::PathBuf,
         /// Print the result as JSON.
@@ -129,6 +149,7 @@ pub fn run(what: DesignWhat) -> Result<Output, CliError> {
             set,
             nonlinear_every,
             accuracy,
+            shard,
             out,
             json,
         } => map(
@@ -138,9 +159,16 @@ pub fn run(what: DesignWhat) -> Result<Output, CliError> {
             &set,
             nonlinear_every,
             accuracy.as_deref(),
+            shard.as_deref(),
             &out,
             json,
         ),
+        DesignWhat::Merge {
+            parts,
+            accuracy,
+            out,
+            json,
+        } => merge(&parts, accuracy.as_deref(), &out, json),
     }
 }
 
@@ -157,11 +185,15 @@ fn map(
     set: &str,
     nonlinear_every: usize,
     accuracy: Option<&str>,
+    shard: Option<&str>,
     out: &std::path::Path,
     as_json: bool,
 ) -> Result<Output, CliError> {
-    use lash::design::{error_map, CellKind, MapGrid};
+    use lash::design::{error_map, MapGrid, Shard};
     let accuracy = accuracy.map(parse_accuracy).transpose()?;
+    let shard: Option<Shard> = shard
+        .map(|s| s.parse().map_err(|e| CliError::Input(format!("--shard: {e}"))))
+        .transpose()?;
     if !(extent > 0.0 && extent.is_finite()) {
         return Err(CliError::input(format!(
             "--extent must be positive, not {extent} m"
@@ -176,6 +208,9 @@ fn map(
         ny: n,
         nonlinear_every,
     };
+    if let Some(shard) = shard {
+        return map_part(&grid, &cs, shard, out, as_json);
+    }
     let started = std::time::Instant::now();
     let progress = std::sync::Mutex::new(Progress::new("design map", (n * n) as f64));
     let r = error_map(
@@ -199,6 +234,103 @@ fn map(
         other => CliError::run(other),
     })?;
     let wall = started.elapsed().as_secs_f64();
+    write_map(&map, accuracy, wall, out, as_json)
+}
+
+/// `design map --shard K/N`: one part, written to OUT/part-K-of-N.json.
+fn map_part(
+    grid: &lash::design::MapGrid,
+    cs: &paper::ClearanceSet,
+    shard: lash::design::Shard,
+    out: &std::path::Path,
+    as_json: bool,
+) -> Result<Output, CliError> {
+    let cells = grid.nx * grid.ny;
+    let mine = (shard.index..cells).step_by(shard.count).count();
+    let progress = std::sync::Mutex::new(Progress::new("design map part", mine as f64));
+    let part = lash::design::error_map_part(
+        &Geometry::default(),
+        &MassProperties::default(),
+        grid,
+        cs,
+        shard,
+        |done, _| {
+            if let Ok(mut p) = progress.lock() {
+                p.update(done as f64);
+            }
+        },
+    );
+    if let Ok(p) = progress.lock() {
+        p.finish();
+    }
+    let part = part.map_err(|e| match e {
+        lash::design::DesignError::BadGrid(_) | lash::design::DesignError::BadShard(_) => CliError::input(e),
+        other => CliError::run(other),
+    })?;
+    std::fs::create_dir_all(out).map_err(|e| CliError::run(format!("{}: {e}", out.display())))?;
+    let file = out.join(format!("part-{}-of-{}.json", shard.index, shard.count));
+    std::fs::write(&file, serde_json::to_string(&part).map_err(CliError::run)?)
+        .map_err(|e| CliError::run(format!("{}: {e}", file.display())))?;
+    if as_json {
+        println!(
+            "{}",
+            json(
+                &serde_json::json!({"part": file, "shard": shard, "cells": part.cells.len(), "wall_s": part.wall_s})
+            )
+        );
+    } else {
+        println!(
+            "part {}/{} of the map: {} of {cells} cells in {:.1} s, wrote {}",
+            shard.index,
+            shard.count,
+            part.cells.len(),
+            part.wall_s,
+            file.display()
+        );
+    }
+    Ok(Output::OK)
+}
+
+/// `design merge`: the parts of a sharded map joined and written as an unsharded run would.
+fn merge(
+    parts: &[std::path::PathBuf],
+    accuracy: Option<&str>,
+    out: &std::path::Path,
+    as_json: bool,
+) -> Result<Output, CliError> {
+    let accuracy = accuracy.map(parse_accuracy).transpose()?;
+    let mut read = vec![];
+    for p in parts {
+        let text =
+            std::fs::read_to_string(p).map_err(|e| CliError::Input(format!("{}: {e}", p.display())))?;
+        let part: lash::design::MapPart = serde_json::from_str(&text).map_err(|e| {
+            CliError::Input(format!(
+                "{}:{}:{}: not a map part: {e}",
+                p.display(),
+                e.line(),
+                e.column()
+            ))
+        })?;
+        read.push(part);
+    }
+    let wall: f64 = read.iter().map(|p| p.wall_s).sum();
+    let map = lash::design::merge_parts(&read).map_err(CliError::input)?;
+    write_map(&map, accuracy, wall, out, as_json)
+}
+
+/// Writes a map's CSV, heatmaps and summary (or JSON): the same for an unsharded run and a
+/// merged one.
+fn write_map(
+    map: &lash::design::ErrorMap,
+    accuracy: Option<Accuracy>,
+    wall: f64,
+    out: &std::path::Path,
+    as_json: bool,
+) -> Result<Output, CliError> {
+    use lash::design::CellKind;
+    let grid = map.grid;
+    let (n, ny, z, extent, nonlinear_every) = (grid.nx, grid.ny, grid.z, grid.x[1], grid.nonlinear_every);
+    let (set_name, radial, axial) = (map.clearance.0.as_str(), map.clearance.1, map.clearance.2);
     std::fs::create_dir_all(out).map_err(|e| CliError::run(format!("{}: {e}", out.display())))?;
     // CSV: every cell.
     let mut csv = String::from(
@@ -248,7 +380,7 @@ fn map(
                 value_label: &str| {
         let (is, ks): (Vec<usize>, Vec<usize>) = (
             (0..n).step_by(every.max(1)).collect(),
-            (0..n).step_by(every.max(1)).collect(),
+            (0..ny).step_by(every.max(1)).collect(),
         );
         let values = ks
             .iter()
@@ -267,7 +399,7 @@ fn map(
             title: format!(
                 "MR2120 at z_M = {} mm, clearance set {}: {which}",
                 z * 1e3,
-                cs.name
+                set_name
             ),
             x_label: "x_M, mm".into(),
             y_label: "y_M, mm".into(),
@@ -351,7 +483,7 @@ fn map(
             "{}",
             json(&serde_json::json!({
                 "grid": map.grid,
-                "clearance": {"set": cs.name, "radial_m": cs.radial, "axial_m": cs.axial},
+                "clearance": {"set": set_name, "radial_m": radial, "axial_m": axial},
                 "cells": map.cells,
                 "linear": linear,
                 "nonlinear": nonlinear,
@@ -363,11 +495,11 @@ fn map(
         return Ok(Output::OK);
     }
     println!(
-        "MR2120 error map at z_M = {} mm, clearance set {} ({} um radial, {} um axial): {n} x {n} cells over x, y in [{}, {}] mm, {:.1} s",
+        "MR2120 error map at z_M = {} mm, clearance set {} ({} um radial, {} um axial): {n} x {ny} cells over x, y in [{}, {}] mm, {:.1} s",
         z * 1e3,
-        cs.name,
-        cs.radial * 1e6,
-        cs.axial * 1e6,
+        set_name,
+        radial * 1e6,
+        axial * 1e6,
         -extent * 1e3,
         extent * 1e3,
         wall

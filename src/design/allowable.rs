@@ -53,6 +53,9 @@ pub enum DesignError {
     /// A map whose every cell lies outside the work zone.
     #[error("no cell of the map is inside the work zone: {0}")]
     OutsideWorkZone(String),
+    /// A shard that cannot be read, or parts that do not make one map.
+    #[error("bad shard: {0}")]
+    BadShard(String),
     /// A region that cannot be read or sampled.
     #[error("bad region: {0}")]
     BadRegion(String),

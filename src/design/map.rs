@@ -17,14 +17,14 @@ use crate::mechanisms::mr2120::kinematics::{inverse, singularity};
 use crate::mechanisms::mr2120::paper::{ClearanceSet, Table2Point};
 use crate::multibody::ModelError;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Most cells a map may have in either direction.
 pub const MAX_CELLS_PER_SIDE: usize = 1000;
 
 /// A grid of platform-centre positions in the plane z = `z` (base frame, m).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MapGrid {
     /// Height of the plane, m.
     pub z: f64,
@@ -53,7 +53,7 @@ impl MapGrid {
 }
 
 /// What a cell is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CellKind {
     /// Reachable, the first order has an answer.
@@ -65,7 +65,7 @@ pub enum CellKind {
 }
 
 /// One cell of a map.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MapCell {
     /// Platform centre x, m.
     pub x: f64,
@@ -82,7 +82,7 @@ pub struct MapCell {
 }
 
 /// Where the two methods part most.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Disagreement {
     /// The largest |nonlinear − linear| worst position error (max of |d_x|, |d_y|, |d_z|)
     /// over the cells that have both, m.
@@ -94,7 +94,7 @@ pub struct Disagreement {
 }
 
 /// A worst-case error map (see the [module docs](self)).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ErrorMap {
     /// The grid.
     pub grid: MapGrid,
@@ -180,15 +180,55 @@ pub fn worst_position(e: &[f64; 6]) -> f64 {
     e[0].max(e[1]).max(e[2])
 }
 
-/// The map of `set` over `grid` (see the [module docs](self)). `progress(done, total)` is
-/// called as cells finish (from the worker threads).
-pub fn error_map(
-    g: &Geometry,
-    mp: &MassProperties,
-    grid: &MapGrid,
-    set: &ClearanceSet,
-    progress: impl Fn(usize, usize) + Sync,
-) -> Result<ErrorMap, DesignError> {
+/// One of `count` parts of a map: part `index` (0 ≤ index < count) holds the cells whose
+/// row-major number c has c mod count = index, so every part gets a share of each region of
+/// the slice. Written `index/count` (e.g. `3/8`; Slurm's `$SLURM_ARRAY_TASK_ID` with
+/// `--array=0-7`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    /// This part, from 0.
+    pub index: usize,
+    /// Number of parts.
+    pub count: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = DesignError;
+    fn from_str(s: &str) -> Result<Self, DesignError> {
+        let bad = || DesignError::BadShard(format!("'{s}': expected K/N with 0 <= K < N, e.g. 0/4"));
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let (index, count) = (
+            k.trim().parse::<usize>().map_err(|_| bad())?,
+            n.trim().parse::<usize>().map_err(|_| bad())?,
+        );
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+/// Format tag of a [`MapPart`] file.
+pub const MAP_PART_FORMAT: &str = "lash-map-part/1";
+
+/// The cells of one shard of a map ([`error_map_part`]), to be joined by [`merge_parts`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MapPart {
+    /// [`MAP_PART_FORMAT`].
+    pub format: String,
+    /// The whole map's grid.
+    pub grid: MapGrid,
+    /// The clearance set: name, radial and axial clearance (m).
+    pub clearance: (String, f64, f64),
+    /// Which part.
+    pub shard: Shard,
+    /// The part's cells with their row-major numbers.
+    pub cells: Vec<(usize, MapCell)>,
+    /// Wall time of the part, s.
+    pub wall_s: f64,
+}
+
+fn check_grid(grid: &MapGrid) -> Result<(), DesignError> {
     let sides_ok = |n: usize| (2..=MAX_CELLS_PER_SIDE).contains(&n);
     let finite = [grid.z, grid.x[0], grid.x[1], grid.y[0], grid.y[1]]
         .iter()
@@ -199,10 +239,22 @@ pub fn error_map(
             grid.x[0], grid.x[1], grid.y[0], grid.y[1], grid.z, grid.nx, grid.ny
         )));
     }
+    Ok(())
+}
+
+/// The cells numbered `numbers` (row-major), in parallel.
+fn cells_of(
+    g: &Geometry,
+    mp: &MassProperties,
+    grid: &MapGrid,
+    set: &ClearanceSet,
+    numbers: Vec<usize>,
+    progress: impl Fn(usize, usize) + Sync,
+) -> Result<Vec<MapCell>, DesignError> {
     let ex = Excitation::default();
-    let total = grid.nx * grid.ny;
+    let total = numbers.len();
     let done = AtomicUsize::new(0);
-    let cells: Result<Vec<MapCell>, DesignError> = (0..total)
+    numbers
         .into_par_iter()
         .map(|c| {
             let (i, k) = (c % grid.nx, c / grid.nx);
@@ -211,8 +263,108 @@ pub fn error_map(
             progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
             cell
         })
-        .collect();
-    let cells = cells?;
+        .collect()
+}
+
+/// The map of `set` over `grid` (see the [module docs](self)). `progress(done, total)` is
+/// called as cells finish (from the worker threads).
+pub fn error_map(
+    g: &Geometry,
+    mp: &MassProperties,
+    grid: &MapGrid,
+    set: &ClearanceSet,
+    progress: impl Fn(usize, usize) + Sync,
+) -> Result<ErrorMap, DesignError> {
+    check_grid(grid)?;
+    let cells = cells_of(g, mp, grid, set, (0..grid.nx * grid.ny).collect(), progress)?;
+    assemble(*grid, (set.name.to_string(), set.radial, set.axial), cells)
+}
+
+/// One shard of [`error_map`]: the cells of part `shard` only (no check that the slice
+/// meets the work zone: [`merge_parts`] makes it on the whole map).
+pub fn error_map_part(
+    g: &Geometry,
+    mp: &MassProperties,
+    grid: &MapGrid,
+    set: &ClearanceSet,
+    shard: Shard,
+    progress: impl Fn(usize, usize) + Sync,
+) -> Result<MapPart, DesignError> {
+    check_grid(grid)?;
+    if shard.count == 0 || shard.index >= shard.count {
+        return Err(DesignError::BadShard(format!("{}/{}", shard.index, shard.count)));
+    }
+    let started = std::time::Instant::now();
+    let numbers: Vec<usize> = (shard.index..grid.nx * grid.ny).step_by(shard.count).collect();
+    let cells = cells_of(g, mp, grid, set, numbers.clone(), progress)?;
+    Ok(MapPart {
+        format: MAP_PART_FORMAT.into(),
+        grid: *grid,
+        clearance: (set.name.to_string(), set.radial, set.axial),
+        shard,
+        cells: numbers.into_iter().zip(cells).collect(),
+        wall_s: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// Joins the parts of a sharded map into the map [`error_map`] makes unsharded (the same
+/// cells, bit for bit). Errors ([`DesignError::BadShard`]): no parts, another format, parts
+/// of different grids, clearances or part counts, a part missing or given twice, a cell
+/// missing or outside the grid.
+pub fn merge_parts(parts: &[MapPart]) -> Result<ErrorMap, DesignError> {
+    let bad = |why: String| Err(DesignError::BadShard(why));
+    let Some(first) = parts.first() else {
+        return bad("no parts to merge".into());
+    };
+    check_grid(&first.grid)?;
+    let count = first.shard.count;
+    let mut seen = vec![false; count];
+    let total = first.grid.nx * first.grid.ny;
+    let mut cells: Vec<Option<MapCell>> = vec![None; total];
+    for p in parts {
+        if p.format != MAP_PART_FORMAT {
+            return bad(format!("format '{}', expected '{MAP_PART_FORMAT}'", p.format));
+        }
+        if p.grid != first.grid || p.clearance != first.clearance || p.shard.count != count {
+            return bad(format!(
+                "part {}/{} is of another map (grid, clearance set or number of parts differ from part {}/{})",
+                p.shard.index, p.shard.count, first.shard.index, count
+            ));
+        }
+        if p.shard.index >= count || std::mem::replace(&mut seen[p.shard.index], true) {
+            return bad(format!(
+                "part {}/{count} is out of range or given twice",
+                p.shard.index
+            ));
+        }
+        for (c, cell) in &p.cells {
+            if *c >= total || c % count != p.shard.index || cells[*c].is_some() {
+                return bad(format!(
+                    "part {}/{count} holds cell {c}, not one of its own",
+                    p.shard.index
+                ));
+            }
+            cells[*c] = Some(*cell);
+        }
+    }
+    if let Some(k) = seen.iter().position(|s| !s) {
+        return bad(format!("part {k}/{count} is missing"));
+    }
+    let cells: Option<Vec<MapCell>> = cells.into_iter().collect();
+    let Some(cells) = cells else {
+        return bad("a part lacks some of its cells".into());
+    };
+    assemble(first.grid, first.clearance.clone(), cells)
+}
+
+/// The map of `cells` (all of `grid`, row-major): the work-zone check and where the methods
+/// part most.
+fn assemble(
+    grid: MapGrid,
+    clearance: (String, f64, f64),
+    cells: Vec<MapCell>,
+) -> Result<ErrorMap, DesignError> {
+    let total = cells.len();
     if cells.iter().all(|c| c.kind == CellKind::Unreachable) {
         return Err(DesignError::OutsideWorkZone(format!(
             "z {} m, x [{}, {}] m, y [{}, {}] m: the platform reaches none of its {} cells",
@@ -234,8 +386,8 @@ pub fn error_map(
         })
         .max_by(|a, b| a.position_m.total_cmp(&b.position_m));
     Ok(ErrorMap {
-        grid: *grid,
-        clearance: (set.name.to_string(), set.radial, set.axial),
+        grid,
+        clearance,
         cells,
         max_disagreement,
     })
@@ -349,6 +501,34 @@ mod tests {
             rotation: 1e-9,
         });
         assert_eq!((tight.holds_first_order, tight.holds_nonlinear), (0, 0));
+        // Sharded in 2 and 4 parts, written as JSON and read back, merged: the same map.
+        for count in [2, 4] {
+            let parts: Vec<MapPart> = (0..count)
+                .map(|index| {
+                    let part =
+                        error_map_part(&g, &mp, &grid, &set, Shard { index, count }, |_, _| {}).unwrap();
+                    serde_json::from_str(&serde_json::to_string(&part).unwrap()).unwrap()
+                })
+                .collect();
+            assert_eq!(merge_parts(&parts).unwrap(), map);
+            let mut reversed = parts.clone();
+            reversed.reverse();
+            assert_eq!(merge_parts(&reversed).unwrap(), map);
+            assert!(matches!(merge_parts(&parts[1..]), Err(DesignError::BadShard(_))));
+            let twice = [parts.clone(), vec![parts[0].clone()]].concat();
+            assert!(matches!(merge_parts(&twice), Err(DesignError::BadShard(_))));
+        }
+        let other = error_map_part(&g, &mp, &grid, &set, Shard { index: 1, count: 3 }, |_, _| {}).unwrap();
+        let first = error_map_part(&g, &mp, &grid, &set, Shard { index: 0, count: 2 }, |_, _| {}).unwrap();
+        assert!(matches!(
+            merge_parts(&[first, other]),
+            Err(DesignError::BadShard(_))
+        ));
+        assert!(matches!(merge_parts(&[]), Err(DesignError::BadShard(_))));
+        for bad in ["", "3", "2/2", "a/4", "0/0", "-1/3"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+        assert_eq!("3/8".parse::<Shard>().unwrap(), Shard { index: 3, count: 8 });
         let bad = MapGrid { nx: 1, ..grid };
         assert!(matches!(
             error_map(&g, &mp, &bad, &set, |_, _| {}),

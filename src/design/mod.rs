@@ -15,5 +15,5 @@ pub mod region;
 
 pub use allocation::{allocate, Allocation, CostModel, Grouping, RegionDesign};
 pub use allowable::{allowable_along, allowable_uniform, Accuracy, AllowablePoint, CurvePoint, DesignError};
-pub use map::{error_map, CellKind, ErrorMap, MapCell, MapGrid};
+pub use map::{error_map, error_map_part, merge_parts, CellKind, ErrorMap, MapCell, MapGrid, MapPart, Shard};
 pub use region::{Region, RegionPoses};
