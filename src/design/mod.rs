@@ -5,11 +5,13 @@
 //! |---|---|
 //! | `allowable.rs` | the largest uniform clearance that meets an accuracy at given poses: first-order estimate ([`crate::contact::play_bound`]) and verification by the nonlinear static equilibria ([`crate::multibody::static_equilibrium`]) |
 //! | `allocation.rs` | clearances per joint and per direction over a region under a cost model (∝ 1/h), first-order optimum verified by the equilibria |
+//! | `calibration.rs` | the bearing dimensions the paper does not give, fitted to its Table 3 on the static envelopes |
 //! | `region.rs` | the region a design holds over: named poses, a path, a box |
 //! | `map.rs` | worst-case error maps over a slice of the work zone, both methods, where they part |
 
 pub mod allocation;
 pub mod allowable;
+pub mod calibration;
 pub mod map;
 pub mod region;
 

@@ -312,6 +312,19 @@ pub fn static_envelope_per_joint(
     clearances: &JointClearances,
     ex: &Excitation,
 ) -> Result<(Ranges, usize), Mr2120Error> {
+    static_envelope_with(g, mp, point, &clearances.designs(), ex)
+}
+
+/// [`static_envelope`] with a bearing design of its own in each universal joint (order of
+/// [`UNIVERSAL_JOINTS`]; `None`: an ideal joint) — other bearing dimensions, materials or
+/// damping than the MR2120's assumed ones.
+pub fn static_envelope_with(
+    g: &Geometry,
+    mp: &MassProperties,
+    point: &Table2Point,
+    designs: &[Option<crate::contact::BearingDesign>; 6],
+    ex: &Excitation,
+) -> Result<(Ranges, usize), Mr2120Error> {
     let m = Vector3::from(point.m);
     let q = inverse(g, m)?;
     let model = clearance_model_per_joint(
@@ -320,7 +333,7 @@ pub fn static_envelope_per_joint(
         &LinkSpec::nominal(g),
         m,
         Some(q.map(MotionLaw::Constant)),
-        &clearances.designs(),
+        designs,
     )?;
     equilibria_envelope(model.mechanism, model.platform, point, "per joint", ex)
 }
