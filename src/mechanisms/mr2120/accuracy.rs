@@ -19,9 +19,7 @@ use super::kinematics::inverse;
 use super::paper::{ClearanceSet, Table2Point, TABLE1, TABLE3};
 use super::trajectory::{clearance_options, pose_errors};
 use crate::contact::play::UniversalPlay;
-use crate::contact::play_bound::{
-    play_pose_error, play_pose_errors, play_pose_errors_per_joint, JointPlay, PlayPoseError,
-};
+use crate::contact::play_bound::{play_pose_error, play_pose_errors_per_joint, JointPlay, PlayPoseError};
 use crate::multibody::forces::{BodyLoad, BodyState, ForceElement};
 use crate::multibody::{static_equilibrium, BodyHandle, MotionLaw, Simulation, StaticsOptions};
 use crate::multibody::{AssemblyOptions, ModelError};
@@ -401,34 +399,16 @@ pub fn linear_envelope(
     set: &ClearanceSet,
     ex: &Excitation,
 ) -> Result<Ranges, Mr2120Error> {
-    // One model for all load cases: the pose and its sensitivity do not depend on the
-    // loads; a shared load element carries each case's load in turn.
-    let m = Vector3::from(point.m);
-    let q = inverse(g, m)?;
-    let mut model = ideal_model(g, mp, m, Some(q.map(MotionLaw::Constant)))?;
-    let cases = static_load_cases(ex);
-    let load = Arc::new(std::sync::Mutex::new((Vector3::zeros(), Vector3::zeros())));
-    model.mechanism.add_force(Box::new(SharedLoad {
-        body: model.platform,
-        load: load.clone(),
-    }));
-    let joints = play_joints(&model.mechanism, set);
-    let errors = play_pose_errors(
-        &model.mechanism,
-        0.0,
-        &joints,
-        model.platform,
-        AssemblyOptions::default(),
-        cases.len(),
-        |k| {
-            if let Ok(mut l) = load.lock() {
-                *l = cases[k];
-            }
-        },
-    )?;
+    // The joints' contributions at the set's clearances, added ([`linear_per_joint`]: one
+    // model, pose and sensitivity for all load cases).
     let mut r = [(f64::INFINITY, f64::NEG_INFINITY); 6];
-    for e in &errors {
-        widen(&mut r, &e.at(set.radial, set.axial));
+    for case in linear_per_joint(g, mp, point, ex)? {
+        let e: [f64; 6] = std::array::from_fn(|c| {
+            case.iter()
+                .map(|j| set.radial * j.radial[c] + set.axial * j.axial[c])
+                .sum()
+        });
+        widen(&mut r, &e);
     }
     Ok(r)
 }
@@ -697,36 +677,40 @@ mod tests {
         }
     }
 
-    /// The joint-by-joint first order adds up to the envelope of the whole set, and the
-    /// equilibria with a set's clearances given joint by joint are those of the set.
+    /// Joint by joint, the first order agrees with the equilibria of a model whose play is in
+    /// that joint alone (the others ideal) at a regular pose: each error range's width within
+    /// 0.8–1.1× (measured 0.85–0.96 for D and Q at M1, L1: contact elasticity is what the
+    /// first order leaves out). And the equilibria
+    /// with a set's clearances given joint by joint are those of the set.
     #[test]
-    fn per_joint_play_adds_up_to_the_set() {
+    fn per_joint_first_order_matches_play_in_one_joint_alone() {
         let (g, mp) = (Geometry::default(), MassProperties::default());
         let ex = Excitation::default();
-        let (point, set) = (&TABLE2[1], &TABLE1[1]);
+        let (point, set) = (&TABLE2[0], &TABLE1[0]);
         let per_joint = linear_per_joint(&g, &mp, point, &ex).unwrap();
         assert_eq!(per_joint.len(), static_load_cases(&ex).len());
-        let mut summed = [(f64::INFINITY, f64::NEG_INFINITY); 6];
-        for case in &per_joint {
-            assert_eq!(case.len(), 6);
-            let e: [f64; 6] = std::array::from_fn(|c| {
-                case.iter()
-                    .map(|j| set.radial * j.radial[c] + set.axial * j.axial[c])
-                    .sum()
-            });
-            widen(&mut summed, &e);
-        }
-        let whole = linear_envelope(&g, &mp, point, set, &ex).unwrap();
-        for c in 0..6 {
-            let scale = whole[c].0.abs().max(whole[c].1.abs());
-            assert!(scale > 0.0);
-            assert!(
-                (summed[c].0 - whole[c].0).abs() <= 1e-9 * scale
-                    && (summed[c].1 - whole[c].1).abs() <= 1e-9 * scale,
-                "component {c}: {:?} vs {:?}",
-                summed[c],
-                whole[c]
-            );
+        for k in [0, 4] {
+            let mut first = [(f64::INFINITY, f64::NEG_INFINITY); 6];
+            for case in &per_joint {
+                assert_eq!(case.len(), 6);
+                let e: [f64; 6] =
+                    std::array::from_fn(|c| set.radial * case[k].radial[c] + set.axial * case[k].axial[c]);
+                widen(&mut first, &e);
+            }
+            let mut designs = [None; 6];
+            designs[k] = Some(bearing_design(set, DEFAULT_DAMPING));
+            let (nonlinear, _) = static_envelope_with(&g, &mp, point, &designs, &ex).unwrap();
+            for c in 0..6 {
+                let (wf, wn) = (first[c].1 - first[c].0, nonlinear[c].1 - nonlinear[c].0);
+                if wn < 1e-3 * set.radial {
+                    continue; // a component this joint's play does not move
+                }
+                assert!(
+                    (0.8..=1.1).contains(&(wf / wn)),
+                    "joint {} component {c}: first order {wf:e}, equilibria {wn:e}",
+                    UNIVERSAL_JOINTS[k]
+                );
+            }
         }
         let (a, _) = static_envelope(&g, &mp, &TABLE2[0], set, &ex).unwrap();
         let (b, _) =
