@@ -255,7 +255,7 @@ fn map_part(
     as_json: bool,
 ) -> Result<Output, CliError> {
     let cells = grid.nx * grid.ny;
-    let mine = (shard.index..cells).step_by(shard.count).count();
+    let mine = shard.cells(grid).len();
     let progress = std::sync::Mutex::new(Progress::new("design map part", mine as f64));
     let part = lash::design::error_map_part(
         &Geometry::default(),

@@ -180,16 +180,46 @@ pub fn worst_position(e: &[f64; 6]) -> f64 {
     e[0].max(e[1]).max(e[2])
 }
 
-/// One of `count` parts of a map: part `index` (0 ≤ index < count) holds the cells whose
-/// row-major number c has c mod count = index, so every part gets a share of each region of
-/// the slice. Written `index/count` (e.g. `3/8`; Slurm's `$SLURM_ARRAY_TASK_ID` with
-/// `--array=0-7`).
+/// One of `count` parts of a map ([`Shard::cells`]): the cells of the nonlinear sub-grid (the
+/// expensive ones) and the others are each dealt out in turn in row-major order, so every
+/// part gets an equal share of both and of each region of the slice. Written `index/count`
+/// (e.g. `3/8`; Slurm's `$SLURM_ARRAY_TASK_ID` with `--array=0-7`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Shard {
     /// This part, from 0.
     pub index: usize,
     /// Number of parts.
     pub count: usize,
+}
+
+impl MapGrid {
+    /// Whether cell (column `i`, row `k`) is one of the nonlinear sub-grid's.
+    pub fn is_nonlinear(&self, i: usize, k: usize) -> bool {
+        let every = self.nonlinear_every;
+        every > 0 && i % every == 0 && k % every == 0
+    }
+}
+
+impl Shard {
+    /// The row-major numbers of this part's cells of `grid`, in increasing order.
+    pub fn cells(&self, grid: &MapGrid) -> Vec<usize> {
+        let nonlinear = |c: usize| grid.is_nonlinear(c % grid.nx, c / grid.nx);
+        let (mut heavy, mut light) = (0usize, 0usize);
+        let mut out = vec![];
+        for c in 0..grid.nx * grid.ny {
+            let k = if nonlinear(c) {
+                heavy += 1;
+                heavy - 1
+            } else {
+                light += 1;
+                light - 1
+            };
+            if k % self.count == self.index {
+                out.push(c);
+            }
+        }
+        out
+    }
 }
 
 impl std::str::FromStr for Shard {
@@ -295,7 +325,7 @@ pub fn error_map_part(
         return Err(DesignError::BadShard(format!("{}/{}", shard.index, shard.count)));
     }
     let started = std::time::Instant::now();
-    let numbers: Vec<usize> = (shard.index..grid.nx * grid.ny).step_by(shard.count).collect();
+    let numbers = shard.cells(grid);
     let cells = cells_of(g, mp, grid, set, numbers.clone(), progress)?;
     Ok(MapPart {
         format: MAP_PART_FORMAT.into(),
@@ -318,9 +348,18 @@ pub fn merge_parts(parts: &[MapPart]) -> Result<ErrorMap, DesignError> {
     };
     check_grid(&first.grid)?;
     let count = first.shard.count;
-    let mut seen = vec![false; count];
     let total = first.grid.nx * first.grid.ny;
+    if count == 0 || count > total {
+        return bad(format!("{count} parts for a map of {total} cells"));
+    }
+    let mut seen = vec![false; count];
     let mut cells: Vec<Option<MapCell>> = vec![None; total];
+    let mut own: Vec<Option<usize>> = vec![None; total];
+    for index in 0..count {
+        for c in (Shard { index, count }).cells(&first.grid) {
+            own[c] = Some(index);
+        }
+    }
     for p in parts {
         if p.format != MAP_PART_FORMAT {
             return bad(format!("format '{}', expected '{MAP_PART_FORMAT}'", p.format));
@@ -338,7 +377,7 @@ pub fn merge_parts(parts: &[MapPart]) -> Result<ErrorMap, DesignError> {
             ));
         }
         for (c, cell) in &p.cells {
-            if *c >= total || c % count != p.shard.index || cells[*c].is_some() {
+            if *c >= total || own[*c] != Some(p.shard.index) || cells[*c].is_some() {
                 return bad(format!(
                     "part {}/{count} holds cell {c}, not one of its own",
                     p.shard.index
@@ -430,8 +469,7 @@ fn evaluate(
         Err(Mr2120Error::Model(_)) => (CellKind::Singular, None),
         Err(e) => return Err(e.into()),
     };
-    let every = grid.nonlinear_every;
-    let nonlinear = if every > 0 && i % every == 0 && k % every == 0 {
+    let nonlinear = if grid.is_nonlinear(i, k) {
         static_envelope(g, mp, &pose, set, ex)
             .ok()
             .map(|(r, _)| worst(&r))
@@ -525,6 +563,32 @@ mod tests {
             Err(DesignError::BadShard(_))
         ));
         assert!(matches!(merge_parts(&[]), Err(DesignError::BadShard(_))));
+        // Every cell in exactly one part; the nonlinear cells spread evenly.
+        let big = MapGrid {
+            nx: 101,
+            ny: 101,
+            nonlinear_every: 10,
+            ..grid
+        };
+        let mut owner = vec![0usize; 101 * 101];
+        let mut heavy = vec![];
+        for index in 0..4 {
+            let cells = Shard { index, count: 4 }.cells(&big);
+            heavy.push(
+                cells
+                    .iter()
+                    .filter(|&&c| big.is_nonlinear(c % 101, c / 101))
+                    .count(),
+            );
+            for c in cells {
+                owner[c] += 1;
+            }
+        }
+        assert!(owner.iter().all(|&o| o == 1));
+        assert!(
+            heavy.iter().max().unwrap() - heavy.iter().min().unwrap() <= 1,
+            "{heavy:?}"
+        );
         for bad in ["", "3", "2/2", "a/4", "0/0", "-1/3"] {
             assert!(bad.parse::<Shard>().is_err(), "{bad}");
         }
