@@ -529,6 +529,20 @@ pub fn columns(
             .unzip()
     };
     let dynamic = dynamics.iter().any(|x| x.is_some());
+    let arm_rate: Vec<Vec<f64>> = (0..model.joints())
+        .map(|j| {
+            (0..n)
+                .map(|i| {
+                    let lag = dynamics
+                        .get(i)
+                        .and_then(|x| x.as_ref())
+                        .and_then(|dy| dy.windup_rate.get(j).copied())
+                        .unwrap_or(0.0);
+                    d.qd[j][i] - lag
+                })
+                .collect()
+        })
+        .collect();
     let sgn_at = |v: f64, v_c: f64| (v / v_c).tanh();
     let first_vc = |j: usize| {
         opts.coulomb_velocities_for(model, j)
@@ -757,7 +771,9 @@ pub fn columns(
                 vec![col]
             }
             (e, Some(j)) => {
-                let qd = &d.qd[j];
+                // Friction acts at the arm's rate: the encoder's less the nominal wind-up
+                // rate where the model carries one.
+                let qd = &arm_rate[j];
                 match e {
                     Effect::Viscous => vec![joint_torque(j, &|i| qd[i])],
                     Effect::AsymmetricViscous => vec![

@@ -49,6 +49,9 @@ pub struct TransmissionDynamics {
     pub compliance: Vec<f64>,
     /// Damping of each transmission's torsion, N·m·s/rad.
     pub damping: Vec<f64>,
+    /// The nominal wind-up rate ẇ of each transmission at this sample, rad/s (the arm moves
+    /// at the encoder's rate less this; zeros where the model carries no wind-up state).
+    pub windup_rate: Vec<f64>,
 }
 
 impl TransmissionDynamics {
@@ -215,6 +218,7 @@ mod tests {
             mass: DMatrix::from_element(1, 1, m),
             compliance: vec![c],
             damping: vec![d],
+            windup_rate: vec![0.0],
         }
     }
 
