@@ -180,6 +180,10 @@ struct Windup {
     m: Option<nalgebra::DMatrix<f64>>,
     /// Quasi-static wind-up at this sample.
     w_qs: nalgebra::DVector<f64>,
+    /// Where a dynamic step left the arms: positions, rates, the encoder's accelerations
+    /// (at which τ_s is evaluated) and the arms' accelerations (None at the quasi-static
+    /// start).
+    arm: Option<[Vec<f64>; 4]>,
     /// Time of the recording's first sample, s.
     start: f64,
     /// Quasi-static samples so far at the start of the recording (the dynamics runs from the
@@ -190,6 +194,10 @@ struct Windup {
 /// Largest joint-position change (rad or m) assembled in one Newton solve; larger jumps
 /// between samples are walked in steps (continuation), so assembly stays on its branch.
 pub const CONTINUATION_STEP: f64 = 0.1;
+
+/// Step of the central differences of the joint-side torques in the arm positions, rad
+/// ([`TransmissionDynamics::load_stiffness`]).
+pub const LOAD_STIFFNESS_STEP: f64 = 1e-6;
 
 /// Full inverse-dynamics passes of the transmission wind-up continue until it changes by
 /// less than this, rad; a last position-only pass then places the joints (see
@@ -541,6 +549,39 @@ impl MechanismModel {
         Some(())
     }
 
+    /// ∂τ_s/∂q_arm at the arms' place of the last dynamic step (central differences over
+    /// [`LOAD_STIFFNESS_STEP`]), N·m/rad: how the joint-side torques change when the arms lag
+    /// their encoders further; the joints are placed back afterwards. None where the last
+    /// sample was not a dynamic step or a difference fails.
+    fn load_stiffness(built: &mut Built) -> Option<nalgebra::DMatrix<f64>> {
+        let [qa, qda, qdd, qdda] = built.dynamic.as_ref()?.arm.clone()?;
+        let n = qa.len();
+        let (q0, last0) = (built.q.clone(), built.last.clone());
+        let mut g = nalgebra::DMatrix::zeros(n, n);
+        let mut ok = true;
+        'columns: for k in 0..n {
+            let mut column = [vec![], vec![]];
+            for (s, sign) in [1.0, -1.0].into_iter().enumerate() {
+                let mut x = qa.clone();
+                x[k] += sign * LOAD_STIFFNESS_STEP;
+                match Self::joint_torques(built, &x, &qda, &qdd) {
+                    Some(t) if t.iter().all(|v| v.is_finite()) => column[s] = t,
+                    _ => {
+                        ok = false;
+                        break 'columns;
+                    }
+                }
+            }
+            for j in 0..n {
+                g[(j, k)] = (column[0][j] - column[1][j]) / (2.0 * LOAD_STIFFNESS_STEP);
+            }
+        }
+        built.q = q0;
+        built.last = last0;
+        Self::place_joints(built, &qa, &qda, &qdda)?;
+        ok.then_some(g)
+    }
+
     /// The transmissions' dampings, N·m·s/rad (0 for an encoder on its joint).
     fn dampings(&self, n: usize) -> Vec<f64> {
         (0..n)
@@ -691,6 +732,7 @@ impl MechanismModel {
                         start: p.start,
                         w: &w + dynamic,
                         w_qs: w.clone(),
+                        arm: None,
                         wd,
                         wdd,
                         tau_s: None,
@@ -704,6 +746,7 @@ impl MechanismModel {
                         start: p.start,
                         w: w.clone(),
                         w_qs: w.clone(),
+                        arm: None,
                         wd,
                         wdd: nalgebra::DVector::zeros(n),
                         tau_s: None,
@@ -718,6 +761,7 @@ impl MechanismModel {
                 start: t,
                 w: w.clone(),
                 w_qs: w.clone(),
+                arm: None,
                 wd: nalgebra::DVector::zeros(n),
                 wdd: nalgebra::DVector::zeros(n),
                 tau_s: None,
@@ -842,6 +886,7 @@ impl MechanismModel {
             tau: tau.clone(),
             m: Some(m),
             w_qs: nalgebra::DVector::zeros(n),
+            arm: Some([qa, qda, qdd[..n].to_vec(), qdda]),
             started: 3,
         });
         Some(tau)
@@ -990,6 +1035,7 @@ impl InverseDynamicsModel for MechanismModel {
             .analysis
             .driver_mass_matrix(&built.model, &mut built.data)
             .ok()?;
+        let load_stiffness = Self::load_stiffness(built);
         let windup_rate = match &built.dynamic {
             Some(w) if w.wd.len() == n && w.wd.iter().all(|v| v.is_finite()) => {
                 w.wd.iter().copied().collect()
@@ -1001,6 +1047,7 @@ impl InverseDynamicsModel for MechanismModel {
             compliance,
             damping: self.dampings(n),
             windup_rate,
+            load_stiffness,
         })
     }
     fn play_sites(&self) -> Vec<String> {
