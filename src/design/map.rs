@@ -201,24 +201,31 @@ impl MapGrid {
 }
 
 impl Shard {
+    /// The part (0 ≤ part < `count`) that holds each cell of `grid`, by row-major number:
+    /// the nonlinear sub-grid's cells and the others are each dealt out in turn.
+    pub fn owners(grid: &MapGrid, count: usize) -> Vec<usize> {
+        let (mut heavy, mut light) = (0usize, 0usize);
+        (0..grid.nx * grid.ny)
+            .map(|c| {
+                let dealt = if grid.is_nonlinear(c % grid.nx, c / grid.nx) {
+                    &mut heavy
+                } else {
+                    &mut light
+                };
+                *dealt += 1;
+                (*dealt - 1) % count.max(1)
+            })
+            .collect()
+    }
+
     /// The row-major numbers of this part's cells of `grid`, in increasing order.
     pub fn cells(&self, grid: &MapGrid) -> Vec<usize> {
-        let nonlinear = |c: usize| grid.is_nonlinear(c % grid.nx, c / grid.nx);
-        let (mut heavy, mut light) = (0usize, 0usize);
-        let mut out = vec![];
-        for c in 0..grid.nx * grid.ny {
-            let k = if nonlinear(c) {
-                heavy += 1;
-                heavy - 1
-            } else {
-                light += 1;
-                light - 1
-            };
-            if k % self.count == self.index {
-                out.push(c);
-            }
-        }
-        out
+        Self::owners(grid, self.count)
+            .into_iter()
+            .enumerate()
+            .filter(|&(_, part)| part == self.index)
+            .map(|(c, _)| c)
+            .collect()
     }
 }
 
@@ -354,12 +361,7 @@ pub fn merge_parts(parts: &[MapPart]) -> Result<ErrorMap, DesignError> {
     }
     let mut seen = vec![false; count];
     let mut cells: Vec<Option<MapCell>> = vec![None; total];
-    let mut own: Vec<Option<usize>> = vec![None; total];
-    for index in 0..count {
-        for c in (Shard { index, count }).cells(&first.grid) {
-            own[c] = Some(index);
-        }
-    }
+    let own = Shard::owners(&first.grid, count);
     for p in parts {
         if p.format != MAP_PART_FORMAT {
             return bad(format!("format '{}', expected '{MAP_PART_FORMAT}'", p.format));
@@ -377,7 +379,7 @@ pub fn merge_parts(parts: &[MapPart]) -> Result<ErrorMap, DesignError> {
             ));
         }
         for (c, cell) in &p.cells {
-            if *c >= total || own[*c] != Some(p.shard.index) || cells[*c].is_some() {
+            if *c >= total || own[*c] != p.shard.index || cells[*c].is_some() {
                 return bad(format!(
                     "part {}/{count} holds cell {c}, not one of its own",
                     p.shard.index

@@ -277,7 +277,8 @@ pub trait InverseDynamicsModel {
     }
     /// The drive transmissions' dynamics at the sample the model last evaluated with
     /// [`evaluate_at`](Self::evaluate_at) (mass matrix in drive coordinates, compliances,
-    /// dampings), for a model that integrates its transmissions' wind-up along a
+    /// dampings, the nominal wind-up rate and the joint torques' stiffness in the arms'
+    /// positions), for a model that integrates its transmissions' wind-up along a
     /// recording: the candidate library then winds the transmissions up dynamically under a
     /// joint-side torque ([`crate::diagnose::transmission`]). Default None: quasi-static
     /// wind-up c·τ.

@@ -53,13 +53,23 @@ pub struct TransmissionDynamics {
     /// The nominal wind-up rate ẇ of each transmission at this sample, rad/s (the arm moves
     /// at the encoder's rate less this; zeros where the model carries no wind-up state).
     pub windup_rate: Vec<f64>,
-    /// ∂τ_s/∂q_arm, N·m/rad: how the joint-side torques change with the arms' positions at
-    /// this sample. A load that winds the transmissions up by δw changes them by −G·δw, so
-    /// the response obeys M·δẅ + D·δẇ + (K + G)·δw = g. None: not known (taken as 0).
+    /// S = ∂τ_s/∂q_arm, N·m/rad: how the joint-side torques change with the arms' positions
+    /// at this sample. A load that winds the transmissions up by δw changes them by −S·δw,
+    /// so the response obeys M·δẅ + D·δẇ + (K + S)·δw = g. None: not known (taken as 0).
     pub load_stiffness: Option<DMatrix<f64>>,
 }
 
 impl TransmissionDynamics {
+    /// K + S, the stiffness the response to a joint-side load sees (S, the load stiffness,
+    /// left out where not known or of the wrong shape), N·m/rad.
+    pub fn response_stiffness(&self) -> DMatrix<f64> {
+        let k = DMatrix::from_diagonal(&self.stiffness());
+        match &self.load_stiffness {
+            Some(s) if s.shape() == k.shape() => k + s,
+            _ => k,
+        }
+    }
+
     /// Stiffness of each transmission, N·m/rad (a rigid one: 1e12, far above any other, so
     /// it keeps w ≈ 0 and still reports the torque it transmits).
     pub fn stiffness(&self) -> DVector<f64> {
@@ -170,10 +180,8 @@ pub fn joint_torque_response(
         load[j] = g(i);
         load[j].is_finite().then(|| Sample {
             mass: dy.mass.clone(),
-            stiffness: match &dy.load_stiffness {
-                Some(g) if g.shape() == dy.mass.shape() => DMatrix::from_diagonal(&dy.stiffness()) + g,
-                _ => DMatrix::from_diagonal(&dy.stiffness()),
-            },
+            stiffness: dy.response_stiffness(),
+
             load,
             damping: DVector::from_column_slice(&dy.damping),
         })
@@ -260,7 +268,7 @@ mod tests {
         let c = 1e-4;
         let mut dy = one_drive(0.04, c, 0.0);
         dy.load_stiffness = Some(DMatrix::from_element(1, 1, 0.25 / c));
-        let g = |i: usize| 1.0 + 0.0 * t[i];
+        let g = |_: usize| 1.0;
         let r = joint_torque_response(&t, &vec![Some(dy.clone()); t.len()], 0, &g);
         let (w, _) = r[1000].as_ref().unwrap();
         assert!((w[0] - 0.8 * c).abs() < 1e-9 * c, "{}", w[0]);
