@@ -2,13 +2,17 @@
 //! (gravity, force elements — contact in clearance joints included) balance the constraint
 //! reactions with the drivers held at time t, found without integrating any motion.
 //!
-//! The equilibrium is the steady state of the GGL equations of motion ([`MultibodyDae`]) with
-//! all time derivatives zero, solved by pseudo-transient continuation
-//! ([`crate::dae::steady_state`]): backward-Euler steps of growing length on the mechanism's own
-//! mass matrix, Newton's method in the limit. A body that floats inside a clearance (no load
-//! pushes it against either side) keeps a regularising inertia term and stays where the
-//! iteration leaves it, as a real body would stay where it came to rest; any configuration
-//! the loads do push converges to the tolerance of [`StaticsOptions::steady`].
+//! The unknowns are positions and constraint forces only — per body its position r and its
+//! rotation θ from the starting orientation, and the multipliers λ — and the equations are
+//! the momentum rows of the equations of motion ([`MultibodyDae`]) at rest with the position
+//! constraints: 6 unknowns per body and one per constraint, where the DAE has 14 and 2 (its
+//! velocities, stabilisation and normalisation multipliers all vanish at rest). They are
+//! solved by pseudo-transient continuation ([`crate::dae::steady_state`]) on an overdamped
+//! pseudo-motion ζ·M·ẋ = (net load): backward-Euler steps of growing length, Newton's method
+//! in the limit. A body that floats inside a clearance (no load pushes it against either
+//! side) keeps a regularising term ζ·M/τ and stays where the iteration leaves it, as a real
+//! body would stay where it came to rest; any configuration the loads do push converges to
+//! the tolerance of [`StaticsOptions::steady`].
 //!
 //! Drivers are evaluated at the given time: for an equilibrium their laws must be at rest
 //! there (constant laws, or a time at which the prescribed motion is stationary).
@@ -18,12 +22,13 @@ use super::data::MechanismData;
 use super::error::ModelError;
 use super::formulation::{FormulationOptions, MultibodyDae};
 use super::model::Mechanism;
+use super::rotation::{l_matrix, skew};
 use super::simulation::Sample;
 use crate::dae::{
     steady_state, AbsTol, DaeSystem, EvalError, JacobianSource, SteadyOptions, SteadyStats, VarKind,
 };
 use crate::sparse::CscPattern;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Matrix4x3, Vector3, Vector4};
 use std::sync::Arc;
 
 /// Every tunable of [`static_equilibrium`].
@@ -31,17 +36,21 @@ use std::sync::Arc;
 pub struct StaticsOptions {
     /// The pseudo-transient continuation. Defaults: [`SteadyOptions::default`] with
     /// rtol 1e-8 and atol 1e-11 (m, rad: a hundredth of a micrometre), τ_0 = 10 ms, settling
-    /// time 1000 s, at most 500 pseudo-steps.
+    /// time 1000 s, at most 500 pseudo-steps. A scalar atol gives the rotation unknowns
+    /// (which start at zero) rtol + atol, as unit Euler parameters would be weighed; a
+    /// vector atol has one entry per unknown of the equilibrium equations (per body x, y, z,
+    /// θx', θy', θz', then the multipliers).
     pub steady: SteadyOptions,
     /// Position assembly of the starting configuration.
     pub assembly: AssemblyOptions,
     /// The equations of motion (analytic Jacobian by default).
     pub formulation: FormulationOptions,
-    /// Rate ζ of the mass-proportional damping of the pseudo-motion, 1/s: each body feels
-    /// −ζ·m·v and −ζ·J'·ω' while the iteration moves it. It vanishes at rest, so it does not
-    /// change the equilibrium; it keeps the pseudo-motion from bouncing between contacts in
-    /// large clearances. Default 20 (measured on the MR2120's static Table 3: fewer pseudo-steps
-    /// than 200, and robust where 0 or 2000 fail; `lash bench statics`).
+    /// Rate ζ of the pseudo-motion, 1/s: each body moves as ζ·m·ṙ = f and ζ·J'·θ̇' = n' under
+    /// its net load (f, n') while the iteration moves it — overdamped, so it does not bounce
+    /// between contacts. It vanishes at rest and does not change the equilibrium; with τ it
+    /// sets how far a first step moves a body that nothing holds yet (ζ·m/τ is the
+    /// regularising stiffness). Default 20 (measured on the MR2120's static Table 3, all 117
+    /// equilibria: 1 736 pseudo-steps; 2 → 1 903, 200 → 1 814; `lash bench statics`).
     pub relaxation_rate: f64,
 }
 
@@ -104,137 +113,378 @@ pub fn static_equilibrium(
         }
         None => analysis.assemble(model, &mut data, t, &model.initial_guess().0)?,
     };
-    if !(opts.relaxation_rate >= 0.0 && opts.relaxation_rate.is_finite()) {
+    if !(opts.relaxation_rate > 0.0 && opts.relaxation_rate.is_finite()) {
         return Err(ModelError::Statics(crate::dae::DaeError::InvalidInput(format!(
-            "relaxation_rate must be ≥ 0 and finite, got {}",
+            "relaxation_rate must be > 0 and finite (it regularises bodies nothing holds), got {}",
             opts.relaxation_rate
         ))));
     }
-    let mut dae = Relaxed::new(
+    let mut dae = Balance::new(
         MultibodyDae::with_options(model.clone(), opts.formulation)?,
         model,
         opts.relaxation_rate,
+        &q0,
     );
-    let mut y = vec![0.0; lay.dim()];
-    y[lay.y_q()].copy_from_slice(&q0);
-    let stats = steady_state(&mut dae, t, &mut y, &[], &opts.steady).map_err(ModelError::Statics)?;
-    let q = y[lay.y_q()].to_vec();
+    let mut x = dae.start(&q0);
+    let mut steady = opts.steady.clone();
+    if let AbsTol::Scalar(a) = steady.atol {
+        // Rotations from the start are near zero: weigh them as the DAE weighs unit Euler
+        // parameters (rtol·1 + atol), not by atol alone.
+        let nb = lay.bodies();
+        steady.atol = AbsTol::Vector(
+            (0..x.len())
+                .map(|i| {
+                    if i < 6 * nb && i % 6 >= 3 {
+                        steady.rtol + a
+                    } else {
+                        a
+                    }
+                })
+                .collect(),
+        );
+    }
+    let stats = steady_state(&mut dae, t, &mut x, &[], &steady).map_err(ModelError::Statics)?;
+    let q = dae.positions(&x);
     let singularity = analysis.singularity_in(&mut data.ev, t, &q);
     Ok(Equilibrium {
         sample: Sample {
             t,
             q,
-            w: y[lay.y_w()].to_vec(),
-            lambda: y[lay.y_lambda()].to_vec(),
+            w: vec![0.0; lay.w_len()],
+            lambda: x[6 * lay.bodies()..].to_vec(),
             singularity,
         },
         stats,
     })
 }
 
-/// The equations of motion with mass-proportional damping ζ·m·v, ζ·J'·ω' added to each
-/// body's momentum rows: the pseudo-motion of [`static_equilibrium`].
-struct Relaxed {
+/// The equilibrium equations in positions and multipliers only, with a first-order
+/// pseudo-motion ζ·M·ẋ + R(x) = 0: the unknowns x of [`static_equilibrium`].
+///
+/// x = (r_b, θ_b per body, λ): θ_b is body b's rotation (rad, body frame) from its starting
+/// orientation p_b⁰, p_b = p_b⁰ ⊗ exp(θ_b/2), so there is no normalisation constraint. The
+/// rows are the momentum rows of [`MultibodyDae`] at rest (−f − m·g + Φ_rᵀλ, −n' + Φ_π'ᵀλ)
+/// and the position constraints Φ(q, t): the DAE's own residual and analytic Jacobian
+/// evaluated at zero velocities, its position columns carried to θ by ∂p/∂θ = ½·L(p)ᵀ·J_r(θ)
+/// (J_r the right Jacobian of the rotation group). Velocities, the stabilisation
+/// multipliers μ and the normalisation multipliers ν are zero at rest and drop out: the
+/// system has 6 unknowns per body and one per constraint, against 14 and 2 of the DAE.
+struct Balance {
     inner: MultibodyDae,
     rate: f64,
-    /// Per body: first momentum row (= first velocity unknown in y), mass, and the
-    /// body-frame inertia restricted to the entries the Jacobian pattern holds.
-    bodies: Vec<(usize, f64, Matrix3<f64>)>,
-    /// Per body: the slots of the damping entries (3 translational, 3 × 3 rotational) in the
-    /// Jacobian's values, `None` where the pattern has no entry (that inertia entry is then
-    /// left out of the damping, so residual and Jacobian agree).
-    slots: Vec<[Option<usize>; 12]>,
+    /// Per body: mass and body-frame inertia (the pseudo-motion's metric).
+    bodies: Vec<(f64, Matrix3<f64>)>,
+    /// Per body: the starting orientation p⁰.
+    p_ref: Vec<Vector4<f64>>,
+    /// Constraint equations.
+    m: usize,
+    /// The reduced pattern.
+    pattern: CscPattern,
+    /// Per entry of the DAE's pattern that the reduced system keeps: its slot there and
+    /// where it goes.
+    entries: Vec<(usize, Target)>,
+    /// Per body: the slots of the pseudo-motion's metric (3 translational, 3 × 3 rotational).
+    metric: Vec<[usize; 12]>,
+    /// Work vectors of the DAE's size: unknowns, zero derivatives, residual, Jacobian values.
+    y: Vec<f64>,
+    zero: Vec<f64>,
+    r: Vec<f64>,
+    values: Vec<f64>,
 }
 
-impl Relaxed {
-    fn new(inner: MultibodyDae, model: &Mechanism, rate: f64) -> Self {
+/// Where an entry of the DAE's Jacobian goes in the reduced one.
+#[derive(Debug, Clone, Copy)]
+enum Target {
+    /// Unchanged, to this slot.
+    Direct(usize),
+    /// A derivative by Euler parameter `c` of body `body`: times ∂p_c/∂θ_k to slot k.
+    Rotation {
+        body: usize,
+        c: usize,
+        slots: [usize; 3],
+    },
+}
+
+/// p ⊗ q (Hamilton product): A(p ⊗ q) = A(p)·A(q).
+fn compose(p: &Vector4<f64>, q: &Vector4<f64>) -> Vector4<f64> {
+    let (a0, a) = (p[0], Vector3::new(p[1], p[2], p[3]));
+    let (b0, b) = (q[0], Vector3::new(q[1], q[2], q[3]));
+    let v = a0 * b + b0 * a + a.cross(&b);
+    Vector4::new(a0 * b0 - a.dot(&b), v.x, v.y, v.z)
+}
+
+/// Euler parameters of the rotation vector θ (rad): exp(θ/2).
+fn exp_rotation(th: &Vector3<f64>) -> Vector4<f64> {
+    let phi = th.norm();
+    let (c, s) = if phi < 1e-4 {
+        (1.0 - phi * phi / 8.0, 0.5 - phi * phi / 48.0)
+    } else {
+        ((0.5 * phi).cos(), (0.5 * phi).sin() / phi)
+    };
+    Vector4::new(c, s * th.x, s * th.y, s * th.z)
+}
+
+/// The right Jacobian of the rotation group at θ: the body angular velocity of
+/// p⁰ ⊗ exp(θ/2) is J_r(θ)·θ̇.
+fn right_jacobian(th: &Vector3<f64>) -> Matrix3<f64> {
+    let phi = th.norm();
+    let (a, b) = if phi < 1e-4 {
+        (0.5 - phi * phi / 24.0, 1.0 / 6.0 - phi * phi / 120.0)
+    } else {
+        (
+            (1.0 - phi.cos()) / (phi * phi),
+            (phi - phi.sin()) / (phi * phi * phi),
+        )
+    };
+    let k = skew(th);
+    Matrix3::identity() - a * k + b * k * k
+}
+
+impl Balance {
+    fn new(inner: MultibodyDae, model: &Mechanism, rate: f64, q0: &[f64]) -> Self {
         let lay = model.layout();
-        let pattern = inner.jacobian_pattern();
-        let mut bodies = vec![];
-        let mut slots = vec![];
-        for (h, b) in model.bodies().iter() {
-            let wo = lay.w(h.index());
-            let mut s = [None; 12];
-            for k in 0..3 {
-                s[k] = pattern.find(wo + k, wo + k);
+        let nb = lay.bodies();
+        let m = lay.constraints();
+        let full = inner.jacobian_pattern();
+        let n = 6 * nb + m;
+        // Reduced row and column of each of the DAE's rows and columns.
+        let mut row = vec![None; full.nrows()];
+        for b in 0..nb {
+            for k in 0..6 {
+                row[lay.w(b) + k] = Some(6 * b + k);
             }
-            let mut j = b.inertia;
-            for r in 0..3 {
-                for c in 0..3 {
-                    s[3 + 3 * r + c] = pattern.find(wo + 3 + r, wo + 3 + c);
-                    if s[3 + 3 * r + c].is_none() {
-                        j[(r, c)] = 0.0;
+        }
+        for k in 0..m {
+            row[lay.lambda() + k] = Some(6 * nb + k);
+        }
+        enum Col {
+            Direct(usize),
+            Euler(usize, usize),
+        }
+        let mut col: Vec<Option<Col>> = (0..full.ncols()).map(|_| None).collect();
+        for b in 0..nb {
+            for k in 0..3 {
+                col[lay.q(b) + k] = Some(Col::Direct(6 * b + k));
+            }
+            for c in 0..4 {
+                col[lay.q(b) + 3 + c] = Some(Col::Euler(b, c));
+            }
+        }
+        for k in 0..m {
+            col[lay.lambda() + k] = Some(Col::Direct(6 * nb + k));
+        }
+        let mut e = vec![];
+        for c in 0..full.ncols() {
+            for &r in full.col_rows(c) {
+                match (row[r], &col[c]) {
+                    (Some(i), Some(Col::Direct(j))) => e.push((i, *j)),
+                    (Some(i), Some(Col::Euler(b, _))) => e.extend((0..3).map(|k| (i, 6 * b + 3 + k))),
+                    _ => {}
+                }
+            }
+        }
+        for b in 0..nb {
+            for i in 0..6 {
+                for j in 0..6 {
+                    if (i < 3 && i == j) || (i >= 3 && j >= 3) {
+                        e.push((6 * b + i, 6 * b + j));
                     }
                 }
             }
-            let m = if s[..3].iter().all(Option::is_some) {
-                b.mass
-            } else {
-                0.0
-            };
-            bodies.push((wo, m, j));
-            slots.push(s);
         }
+        // Keep the diagonal (structurally zero for multipliers).
+        e.extend((0..m).map(|k| (6 * nb + k, 6 * nb + k)));
+        let pattern = CscPattern::from_entries(n, n, e).expect("reduced pattern indices are in range");
+        let slot = |r: usize, c: usize| pattern.find(r, c).expect("entry declared above");
+        let mut entries = vec![];
+        for c in 0..full.ncols() {
+            for k in full.col_range(c) {
+                let r = full.row_idx()[k];
+                match (row[r], &col[c]) {
+                    (Some(i), Some(Col::Direct(j))) => entries.push((k, Target::Direct(slot(i, *j)))),
+                    (Some(i), Some(Col::Euler(b, cc))) => entries.push((
+                        k,
+                        Target::Rotation {
+                            body: *b,
+                            c: *cc,
+                            slots: [0, 1, 2].map(|kk| slot(i, 6 * b + 3 + kk)),
+                        },
+                    )),
+                    _ => {}
+                }
+            }
+        }
+        let metric = (0..nb)
+            .map(|b| {
+                let mut s = [0; 12];
+                for k in 0..3 {
+                    s[k] = slot(6 * b + k, 6 * b + k);
+                }
+                for r in 0..3 {
+                    for c in 0..3 {
+                        s[3 + 3 * r + c] = slot(6 * b + 3 + r, 6 * b + 3 + c);
+                    }
+                }
+                s
+            })
+            .collect();
+        let bodies = model.bodies().iter().map(|(_, b)| (b.mass, b.inertia)).collect();
+        let p_ref = (0..nb)
+            .map(|b| {
+                let o = lay.q(b) + 3;
+                Vector4::new(q0[o], q0[o + 1], q0[o + 2], q0[o + 3]).normalize()
+            })
+            .collect();
+        let dim = inner.dim();
+        let nnz = full.nnz();
         Self {
             inner,
             rate,
             bodies,
-            slots,
+            p_ref,
+            m,
+            pattern,
+            entries,
+            metric,
+            y: vec![0.0; dim],
+            zero: vec![0.0; dim],
+            r: vec![0.0; dim],
+            values: vec![0.0; nnz],
         }
+    }
+
+    /// The starting unknowns: positions `q0` (θ = 0), multipliers zero.
+    fn start(&self, q0: &[f64]) -> Vec<f64> {
+        let nb = self.bodies.len();
+        let mut x = vec![0.0; 6 * nb + self.m];
+        for b in 0..nb {
+            x[6 * b..6 * b + 3].copy_from_slice(&q0[7 * b..7 * b + 3]);
+        }
+        x
+    }
+
+    /// Body b's Euler parameters at x.
+    fn orientation(&self, x: &[f64], b: usize) -> Vector4<f64> {
+        let th = Vector3::new(x[6 * b + 3], x[6 * b + 4], x[6 * b + 5]);
+        compose(&self.p_ref[b], &exp_rotation(&th))
+    }
+
+    /// Positions (per body r, p) at x.
+    fn positions(&self, x: &[f64]) -> Vec<f64> {
+        let nb = self.bodies.len();
+        let mut q = vec![0.0; 7 * nb];
+        for b in 0..nb {
+            q[7 * b..7 * b + 3].copy_from_slice(&x[6 * b..6 * b + 3]);
+            q[7 * b + 3..7 * b + 7].copy_from_slice(self.orientation(x, b).as_slice());
+        }
+        q
+    }
+
+    /// Fills the DAE's unknowns from x: positions, λ; velocities, μ and ν zero.
+    fn expand(&mut self, x: &[f64]) {
+        let lay = self.inner.layout();
+        let nb = self.bodies.len();
+        self.y.iter_mut().for_each(|v| *v = 0.0);
+        let q = self.positions(x);
+        self.y[..7 * nb].copy_from_slice(&q);
+        self.y[lay.y_lambda()].copy_from_slice(&x[6 * nb..]);
     }
 }
 
-impl DaeSystem for Relaxed {
+impl DaeSystem for Balance {
     fn dim(&self) -> usize {
-        self.inner.dim()
+        6 * self.bodies.len() + self.m
     }
-    fn residual(&mut self, t: f64, y: &[f64], yp: &[f64], p: &[f64], r: &mut [f64]) -> Result<(), EvalError> {
-        self.inner.residual(t, y, yp, p, r)?;
-        for &(wo, m, j) in &self.bodies {
-            let om = Vector3::new(y[wo + 3], y[wo + 4], y[wo + 5]);
-            let jw = j * om;
+    fn residual(&mut self, t: f64, x: &[f64], xp: &[f64], p: &[f64], r: &mut [f64]) -> Result<(), EvalError> {
+        self.expand(x);
+        self.inner.residual(t, &self.y, &self.zero, p, &mut self.r)?;
+        let lay = self.inner.layout();
+        let nb = self.bodies.len();
+        for (b, &(mass, j)) in self.bodies.iter().enumerate() {
+            let o = 6 * b;
+            let jw = j * Vector3::new(xp[o + 3], xp[o + 4], xp[o + 5]);
             for k in 0..3 {
-                r[wo + k] += self.rate * m * y[wo + k];
-                r[wo + 3 + k] += self.rate * jw[k];
+                r[o + k] = self.r[lay.w(b) + k] + self.rate * mass * xp[o + k];
+                r[o + 3 + k] = self.r[lay.w(b) + 3 + k] + self.rate * jw[k];
             }
         }
+        r[6 * nb..].copy_from_slice(&self.r[lay.lambda()..lay.lambda() + self.m]);
         Ok(())
     }
     fn jacobian_pattern(&self) -> CscPattern {
-        self.inner.jacobian_pattern()
+        self.pattern.clone()
     }
     fn jacobian_source(&self) -> JacobianSource {
-        self.inner.jacobian_source()
+        JacobianSource::Analytic
     }
     fn jacobian(
         &mut self,
         t: f64,
-        y: &[f64],
-        yp: &[f64],
+        x: &[f64],
+        _xp: &[f64],
         p: &[f64],
         alpha: f64,
         values: &mut [f64],
     ) -> Result<(), EvalError> {
-        self.inner.jacobian(t, y, yp, p, alpha, values)?;
-        for (&(_, m, j), s) in self.bodies.iter().zip(&self.slots) {
-            for slot in s[..3].iter().flatten() {
-                values[*slot] += self.rate * m;
+        self.expand(x);
+        self.inner
+            .jacobian(t, &self.y, &self.zero, p, 0.0, &mut self.values)?;
+        // ∂p/∂θ = ½·L(p)ᵀ·J_r(θ) per body.
+        let dp: Vec<Matrix4x3<f64>> = (0..self.bodies.len())
+            .map(|b| {
+                let th = Vector3::new(x[6 * b + 3], x[6 * b + 4], x[6 * b + 5]);
+                0.5 * l_matrix(&self.orientation(x, b)).transpose() * right_jacobian(&th)
+            })
+            .collect();
+        values.iter_mut().for_each(|v| *v = 0.0);
+        for &(k, target) in &self.entries {
+            let v = self.values[k];
+            if v == 0.0 {
+                continue;
+            }
+            match target {
+                Target::Direct(s) => values[s] += v,
+                Target::Rotation { body, c, slots } => {
+                    for (kk, s) in slots.into_iter().enumerate() {
+                        values[s] += v * dp[body][(c, kk)];
+                    }
+                }
+            }
+        }
+        for (&(mass, j), s) in self.bodies.iter().zip(&self.metric) {
+            for slot in &s[..3] {
+                values[*slot] += alpha * self.rate * mass;
             }
             for r in 0..3 {
                 for c in 0..3 {
-                    if let Some(slot) = s[3 + 3 * r + c] {
-                        values[slot] += self.rate * j[(r, c)];
-                    }
+                    values[s[3 + 3 * r + c]] += alpha * self.rate * j[(r, c)];
                 }
             }
         }
         Ok(())
     }
     fn var_kinds(&self) -> Vec<VarKind> {
-        self.inner.var_kinds()
+        (0..self.dim())
+            .map(|i| {
+                if i < 6 * self.bodies.len() {
+                    VarKind::Differential
+                } else {
+                    VarKind::Algebraic
+                }
+            })
+            .collect()
     }
     fn component_name(&self, i: usize) -> String {
-        self.inner.component_name(i)
+        let nb = self.bodies.len();
+        let lay = self.inner.layout();
+        if i < 6 * nb {
+            let (b, k) = (i / 6, i % 6);
+            let name = self.inner.component_name(lay.q(b));
+            let body = name.rsplit_once(' ').map_or(name.as_str(), |(h, _)| h);
+            format!("{body} {}", ["x", "y", "z", "θx'", "θy'", "θz'"][k])
+        } else {
+            self.inner.component_name(lay.lambda() + i - 6 * nb)
+        }
     }
 }
 
@@ -243,6 +493,42 @@ mod tests {
     use super::*;
     use crate::multibody::{Attach, RigidBody, SpringDamper, STANDARD_GRAVITY};
     use nalgebra::{Matrix3, Vector3};
+
+    /// The rotation unknowns: p⁰ ⊗ exp(θ/2) composes rotation matrices in body-frame order,
+    /// and ∂p/∂θ = ½·L(p)ᵀ·J_r(θ) matches central differences at a finite θ.
+    #[test]
+    fn rotation_unknowns_compose_and_differentiate() {
+        use crate::multibody::rotation::{from_axis_angle, rotation};
+        let p0 = from_axis_angle(&Vector3::new(0.3, -1.0, 0.4), 0.7);
+        let th = Vector3::new(0.2, -0.1, 0.35);
+        let p = compose(&p0, &exp_rotation(&th));
+        let expected = rotation(&p0) * rotation(&exp_rotation(&th));
+        assert!((rotation(&p) - expected).norm() < 1e-14);
+        let dp = 0.5 * l_matrix(&p).transpose() * right_jacobian(&th);
+        let h = 1e-6;
+        for k in 0..3 {
+            let mut e = Vector3::zeros();
+            e[k] = h;
+            let fd =
+                (compose(&p0, &exp_rotation(&(th + e))) - compose(&p0, &exp_rotation(&(th - e)))) / (2.0 * h);
+            assert!(
+                (fd - dp.column(k)).norm() < 1e-9,
+                "column {k}: {fd} vs {}",
+                dp.column(k)
+            );
+        }
+        // The small-angle series agree with the closed forms at the switch.
+        let small = Vector3::new(6e-5, -5e-5, 4e-5);
+        let series = (exp_rotation(&small), right_jacobian(&small));
+        let phi = small.norm();
+        let closed = Vector4::new((0.5 * phi).cos(), 0.0, 0.0, 0.0)
+            + Vector4::new(0.0, small.x, small.y, small.z) * ((0.5 * phi).sin() / phi);
+        assert!((series.0 - closed).norm() < 1e-15);
+        let k = skew(&small);
+        let jr = Matrix3::identity() - (1.0 - phi.cos()) / (phi * phi) * k
+            + (phi - phi.sin()) / (phi * phi * phi) * k * k;
+        assert!((series.1 - jr).norm() < 1e-8);
+    }
 
     /// A bob on a spring hung from the ground, started 2 cm to the side and unstretched:
     /// it comes to rest under the anchor with the spring stretched by m·g/k.
