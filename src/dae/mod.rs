@@ -47,4 +47,4 @@ pub use integrator::{Integrator, IntegratorError, WorkStats};
 pub use linear_solver::{DenseLu, LinearSolver, LinearSolverKind};
 pub use options::{AbsTol, BdfOptions, PhaseTimes, Statistics};
 pub use problem::{DaeSystem, EvalError, JacobianSource, VarKind};
-pub use steady::{steady_state, SteadyOptions, SteadyStats};
+pub use steady::{steady_state, SteadyOptions, SteadySolver, SteadyStats};

@@ -109,7 +109,8 @@ pub struct SteadyStats {
 }
 
 /// Finds y with F(t, y, 0, p) = 0 starting from `y` (overwritten with the steady state) by
-/// pseudo-transient continuation (see the [module docs](self)).
+/// pseudo-transient continuation (see the [module docs](self)): [`SteadySolver::new`] and one
+/// [`SteadySolver::solve`].
 ///
 /// Errors: [`DaeError::InvalidInput`] for bad options or dimensions, [`DaeError::SteadyState`]
 /// when the iteration does not converge within the iteration budget (naming the components
@@ -121,13 +122,72 @@ pub fn steady_state<P: DaeSystem>(
     p: &[f64],
     opts: &SteadyOptions,
 ) -> Result<SteadyStats, DaeError> {
-    let n = sys.dim();
-    validate(opts, n, y.len())?;
-    let atol = opts.atol.expand(n, |i| sys.component_name(i))?;
-    let pattern = sys.jacobian_pattern();
-    let mut mat = IterationMatrix::new(pattern, sys.jacobian_source(), opts.linear_solver)
-        .map_err(|e| DaeError::InvalidInput(format!("Jacobian pattern: {e}")))?;
-    let kinds = sys.var_kinds();
+    SteadySolver::new(sys, opts)?.solve(sys, t, y, p)
+}
+
+/// A steady-state solver set up once for a system and used for many solves (other times,
+/// parameters, starts, or loads the system takes between solves): the Jacobian pattern's
+/// symbolic analysis and the work vectors are kept, as IDA keeps its memory between
+/// `IDAReInit` calls. The system must keep its dimension and Jacobian pattern.
+#[derive(Debug)]
+pub struct SteadySolver {
+    opts: SteadyOptions,
+    atol: Vec<f64>,
+    kinds: Vec<VarKind>,
+    mat: IterationMatrix,
+}
+
+impl SteadySolver {
+    /// Sets up the solver for `sys`: validates `opts`, expands the tolerances and analyses
+    /// the Jacobian pattern. Errors: [`DaeError::InvalidInput`].
+    pub fn new<P: DaeSystem>(sys: &P, opts: &SteadyOptions) -> Result<Self, DaeError> {
+        let n = sys.dim();
+        validate(opts, n, n)?;
+        let atol = opts.atol.expand(n, |i| sys.component_name(i))?;
+        let mat = IterationMatrix::new(sys.jacobian_pattern(), sys.jacobian_source(), opts.linear_solver)
+            .map_err(|e| DaeError::InvalidInput(format!("Jacobian pattern: {e}")))?;
+        Ok(Self {
+            opts: opts.clone(),
+            atol,
+            kinds: sys.var_kinds(),
+            mat,
+        })
+    }
+
+    /// Finds y with F(t, y, 0, p) = 0 starting from `y` (overwritten with the steady state).
+    /// Errors as [`steady_state`]; a `sys` or `y` of another dimension than the one the
+    /// solver was set up for is [`DaeError::InvalidInput`].
+    pub fn solve<P: DaeSystem>(
+        &mut self,
+        sys: &mut P,
+        t: f64,
+        y: &mut [f64],
+        p: &[f64],
+    ) -> Result<SteadyStats, DaeError> {
+        let n = self.atol.len();
+        if sys.dim() != n {
+            return Err(DaeError::InvalidInput(format!(
+                "steady state: the solver was set up for {n} unknowns, the system has {}",
+                sys.dim()
+            )));
+        }
+        validate(&self.opts, n, y.len())?;
+        solve(sys, t, y, p, &self.opts, &self.atol, &self.kinds, &mut self.mat)
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn solve<P: DaeSystem>(
+    sys: &mut P,
+    t: f64,
+    y: &mut [f64],
+    p: &[f64],
+    opts: &SteadyOptions,
+    atol: &[f64],
+    kinds: &[VarKind],
+    mat: &mut IterationMatrix,
+) -> Result<SteadyStats, DaeError> {
+    let n = atol.len();
     let zero = vec![0.0; n];
     let mut r = vec![0.0; n];
     let mut r_new = vec![0.0; n];
@@ -156,7 +216,7 @@ pub fn steady_state<P: DaeSystem>(
     let mut iterations = 0;
     while iterations < opts.max_iterations {
         iterations += 1;
-        for ((w, yi), a) in ewt.iter_mut().zip(y.iter()).zip(&atol) {
+        for ((w, yi), a) in ewt.iter_mut().zip(y.iter()).zip(atol) {
             *w = 1.0 / (opts.rtol * yi.abs() + a);
         }
         // The iteration matrix dF/dy + (1/τ)·dF/dy' at (y_k, 0), factorised.
@@ -203,7 +263,7 @@ pub fn steady_state<P: DaeSystem>(
             }
             continue;
         }
-        let unorm = update_norm(&dy, &ewt, &kinds, opts.suppress_algebraic);
+        let unorm = update_norm(&dy, &ewt, kinds, opts.suppress_algebraic);
         last_norm = unorm;
         last_dy.copy_from_slice(&dy);
         accepted = true;

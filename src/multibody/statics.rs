@@ -25,7 +25,7 @@ use super::model::Mechanism;
 use super::rotation::{l_matrix, skew};
 use super::simulation::Sample;
 use crate::dae::{
-    steady_state, AbsTol, DaeSystem, EvalError, JacobianSource, SteadyOptions, SteadyStats, VarKind,
+    AbsTol, DaeSystem, EvalError, JacobianSource, SteadyOptions, SteadySolver, SteadyStats, VarKind,
 };
 use crate::sparse::CscPattern;
 use nalgebra::{Matrix3, Matrix4x3, Vector3, Vector4};
@@ -85,6 +85,8 @@ pub struct Equilibrium {
 /// The static equilibrium of `model` at time `t` (drivers evaluated there), starting from
 /// `start` (positions per body, as in [`Sample::q`]; a previous equilibrium is a good warm
 /// start) or, when `None`, from the model's initial poses assembled onto the constraints.
+/// One solve of a [`Statics`] set up for the model; set one up and keep it to solve many
+/// load cases of one model.
 ///
 /// Errors: [`ModelError::Statics`] naming the components (bodies' coordinates) still moving
 /// when the iteration budget is spent; [`ModelError::AssemblyFailed`] when the starting
@@ -96,66 +98,105 @@ pub fn static_equilibrium(
     start: Option<&[f64]>,
     opts: &StaticsOptions,
 ) -> Result<Equilibrium, ModelError> {
-    let lay = model.layout();
-    let analysis = Analysis::with_options(model, opts.assembly)?;
-    let mut data = MechanismData::new(model);
-    let q0 = match start {
-        Some(q) if q.len() == lay.y_q().len() => q.to_vec(),
-        Some(q) => {
-            return Err(ModelError::BadBody {
-                body: "(start configuration)".into(),
-                reason: format!(
-                    "{} position coordinates given, the model has {}",
-                    q.len(),
-                    lay.y_q().len()
-                ),
-            })
+    Statics::new(model, opts)?.solve(t, start)
+}
+
+/// The static-equilibrium solver of one model, set up once (its equations, their Jacobian
+/// pattern and its symbolic factorisation, the assembly analysis) and used for many solves:
+/// other times, other starts, or other values of loads the model reads between solves (a
+/// force element whose load the caller sets, as the load cases of a pose share one model).
+/// The model itself is constant: a solver of another model is set up anew.
+#[derive(Debug)]
+pub struct Statics {
+    model: Arc<Mechanism>,
+    analysis: Analysis,
+    data: MechanismData,
+    equations: Balance,
+    solver: SteadySolver,
+}
+
+impl Statics {
+    /// Sets up the solver for `model`. Errors: [`ModelError::BadElement`]/
+    /// [`ModelError::BadBody`] for an invalid model, [`ModelError::Statics`] for bad options.
+    pub fn new(model: &Arc<Mechanism>, opts: &StaticsOptions) -> Result<Self, ModelError> {
+        if !(opts.relaxation_rate > 0.0 && opts.relaxation_rate.is_finite()) {
+            return Err(ModelError::Statics(crate::dae::DaeError::InvalidInput(format!(
+                "relaxation_rate must be > 0 and finite (it regularises bodies nothing holds), got {}",
+                opts.relaxation_rate
+            ))));
         }
-        None => analysis.assemble(model, &mut data, t, &model.initial_guess().0)?,
-    };
-    if !(opts.relaxation_rate > 0.0 && opts.relaxation_rate.is_finite()) {
-        return Err(ModelError::Statics(crate::dae::DaeError::InvalidInput(format!(
-            "relaxation_rate must be > 0 and finite (it regularises bodies nothing holds), got {}",
-            opts.relaxation_rate
-        ))));
-    }
-    let mut dae = Balance::new(
-        MultibodyDae::with_options(model.clone(), opts.formulation)?,
-        model,
-        opts.relaxation_rate,
-        &q0,
-    );
-    let mut x = dae.start(&q0);
-    let mut steady = opts.steady.clone();
-    if let AbsTol::Scalar(a) = steady.atol {
-        // Rotations from the start are near zero: weigh them as the DAE weighs unit Euler
-        // parameters (rtol·1 + atol), not by atol alone.
-        let nb = lay.bodies();
-        steady.atol = AbsTol::Vector(
-            (0..x.len())
-                .map(|i| {
-                    if i < 6 * nb && i % 6 >= 3 {
-                        steady.rtol + a
-                    } else {
-                        a
-                    }
-                })
-                .collect(),
+        let lay = model.layout();
+        let analysis = Analysis::with_options(model, opts.assembly)?;
+        let data = MechanismData::new(model);
+        let equations = Balance::new(
+            MultibodyDae::with_options(model.clone(), opts.formulation)?,
+            model,
+            opts.relaxation_rate,
         );
+        let mut steady = opts.steady.clone();
+        if let AbsTol::Scalar(a) = steady.atol {
+            // Rotations from the start are near zero: weigh them as the DAE weighs unit Euler
+            // parameters (rtol·1 + atol), not by atol alone.
+            let nb = lay.bodies();
+            steady.atol = AbsTol::Vector(
+                (0..equations.dim())
+                    .map(|i| {
+                        if i < 6 * nb && i % 6 >= 3 {
+                            steady.rtol + a
+                        } else {
+                            a
+                        }
+                    })
+                    .collect(),
+            );
+        }
+        let solver = SteadySolver::new(&equations, &steady).map_err(ModelError::Statics)?;
+        Ok(Self {
+            model: model.clone(),
+            analysis,
+            data,
+            equations,
+            solver,
+        })
     }
-    let stats = steady_state(&mut dae, t, &mut x, &[], &steady).map_err(ModelError::Statics)?;
-    let q = dae.positions(&x);
-    let singularity = analysis.singularity_in(&mut data.ev, t, &q);
-    Ok(Equilibrium {
-        sample: Sample {
-            t,
-            q,
-            w: vec![0.0; lay.w_len()],
-            lambda: x[6 * lay.bodies()..].to_vec(),
-            singularity,
-        },
-        stats,
-    })
+
+    /// The equilibrium at time `t` from `start` (as [`static_equilibrium`]).
+    pub fn solve(&mut self, t: f64, start: Option<&[f64]>) -> Result<Equilibrium, ModelError> {
+        let lay = self.model.layout();
+        let q0 = match start {
+            Some(q) if q.len() == lay.q_len() => q.to_vec(),
+            Some(q) => {
+                return Err(ModelError::BadBody {
+                    body: "(start configuration)".into(),
+                    reason: format!(
+                        "{} position coordinates given, the model has {}",
+                        q.len(),
+                        lay.q_len()
+                    ),
+                })
+            }
+            None => self
+                .analysis
+                .assemble(&self.model, &mut self.data, t, &self.model.initial_guess().0)?,
+        };
+        let mut x = self.equations.start(&q0);
+        let stats = self
+            .solver
+            .solve(&mut self.equations, t, &mut x, &[])
+            .map_err(ModelError::Statics)?;
+        let q = self.equations.positions(&x);
+        let singularity = self.analysis.singularity_in(&mut self.data.ev, t, &q);
+        Ok(Equilibrium {
+            sample: Sample {
+                t,
+                q,
+                w: vec![0.0; lay.w_len()],
+                lambda: x[6 * lay.bodies()..].to_vec(),
+                singularity,
+            },
+            stats,
+        })
+    }
 }
 
 /// The equilibrium equations in positions and multipliers only, with a first-order
@@ -169,6 +210,7 @@ pub fn static_equilibrium(
 /// (J_r the right Jacobian of the rotation group). Velocities, the stabilisation
 /// multipliers μ and the normalisation multipliers ν are zero at rest and drop out: the
 /// system has 6 unknowns per body and one per constraint, against 14 and 2 of the DAE.
+#[derive(Debug)]
 struct Balance {
     inner: MultibodyDae,
     rate: f64,
@@ -241,7 +283,7 @@ fn right_jacobian(th: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 impl Balance {
-    fn new(inner: MultibodyDae, model: &Mechanism, rate: f64, q0: &[f64]) -> Self {
+    fn new(inner: MultibodyDae, model: &Mechanism, rate: f64) -> Self {
         let lay = model.layout();
         let nb = lay.bodies();
         let m = lay.constraints();
@@ -329,12 +371,7 @@ impl Balance {
             })
             .collect();
         let bodies = model.bodies().iter().map(|(_, b)| (b.mass, b.inertia)).collect();
-        let p_ref = (0..nb)
-            .map(|b| {
-                let o = lay.q(b) + 3;
-                Vector4::new(q0[o], q0[o + 1], q0[o + 2], q0[o + 3]).normalize()
-            })
-            .collect();
+        let p_ref = vec![Vector4::new(1.0, 0.0, 0.0, 0.0); nb];
         let dim = inner.dim();
         let nnz = full.nnz();
         Self {
@@ -353,12 +390,15 @@ impl Balance {
         }
     }
 
-    /// The starting unknowns: positions `q0` (θ = 0), multipliers zero.
-    fn start(&self, q0: &[f64]) -> Vec<f64> {
+    /// The starting unknowns: positions `q0` (θ = 0: the orientations of `q0` become the
+    /// reference p⁰), multipliers zero.
+    fn start(&mut self, q0: &[f64]) -> Vec<f64> {
         let nb = self.bodies.len();
         let mut x = vec![0.0; 6 * nb + self.m];
         for b in 0..nb {
             x[6 * b..6 * b + 3].copy_from_slice(&q0[7 * b..7 * b + 3]);
+            let o = 7 * b + 3;
+            self.p_ref[b] = Vector4::new(q0[o], q0[o + 1], q0[o + 2], q0[o + 3]).normalize();
         }
         x
     }
@@ -491,7 +531,9 @@ impl DaeSystem for Balance {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::multibody::{Attach, RigidBody, SpringDamper, STANDARD_GRAVITY};
+    use crate::multibody::{
+        Attach, BodyHandle, BodyLoad, BodyState, ForceElement, RigidBody, SpringDamper, STANDARD_GRAVITY,
+    };
     use nalgebra::{Matrix3, Vector3};
 
     /// The rotation unknowns: p⁰ ⊗ exp(θ/2) composes rotation matrices in body-frame order,
@@ -564,5 +606,65 @@ mod tests {
         );
         // A start of the wrong length is an error, not a panic.
         assert!(static_equilibrium(&model, 0.0, Some(&[0.0; 3]), &StaticsOptions::default()).is_err());
+    }
+
+    /// A vertical pull on a body whose value the caller sets between solves.
+    #[derive(Debug)]
+    struct Pull {
+        body: BodyHandle,
+        force: Arc<std::sync::Mutex<f64>>,
+    }
+
+    impl ForceElement for Pull {
+        fn name(&self) -> &str {
+            "pull"
+        }
+        fn bodies(&self) -> Vec<BodyHandle> {
+            vec![self.body]
+        }
+        fn apply(&self, _t: f64, _states: &[BodyState], loads: &mut [BodyLoad]) {
+            loads[self.body.index()].force.z -= *self.force.lock().unwrap();
+        }
+    }
+
+    /// One solver set up for a model solves its load cases in turn (the load read between
+    /// solves), each equal to a fresh solve: the bob hangs by (m·g + F)/k.
+    #[test]
+    fn one_solver_solves_the_load_cases_of_a_model() {
+        let mut m = Mechanism::new();
+        let (mass, k, l0) = (0.5, 200.0, 0.1);
+        let b = m.add_body(
+            RigidBody::new("bob", mass, Matrix3::identity() * 1e-4).at(Vector3::new(0.0, 0.0, -l0)),
+        );
+        m.add_force(Box::new(SpringDamper {
+            name: "spring".into(),
+            i: (Attach::Ground, Vector3::zeros()),
+            j: (Attach::Body(b), Vector3::zeros()),
+            stiffness: k,
+            damping: 0.0,
+            free_length: l0,
+        }));
+        let force = Arc::new(std::sync::Mutex::new(0.0));
+        m.add_force(Box::new(Pull {
+            body: b,
+            force: force.clone(),
+        }));
+        let model = Arc::new(m);
+        let opts = StaticsOptions::default();
+        let mut statics = Statics::new(&model, &opts).unwrap();
+        for pull in [0.0, 3.0, -1.0, 3.0] {
+            *force.lock().unwrap() = pull;
+            let eq = statics.solve(0.0, None).unwrap();
+            let z = -l0 - (mass * STANDARD_GRAVITY + pull) / k;
+            assert!((eq.sample.body_position(b).z - z).abs() < 1e-9, "pull {pull}");
+            let fresh = static_equilibrium(&model, 0.0, None, &opts).unwrap();
+            assert!((fresh.sample.body_position(b).z - z).abs() < 1e-9);
+        }
+        // Options the solver cannot run with are an error at set-up.
+        let bad = StaticsOptions {
+            relaxation_rate: 0.0,
+            ..StaticsOptions::default()
+        };
+        assert!(Statics::new(&model, &bad).is_err());
     }
 }

@@ -21,8 +21,8 @@ use super::trajectory::{clearance_options, pose_errors};
 use crate::contact::play::UniversalPlay;
 use crate::contact::play_bound::{play_pose_error, play_pose_errors_per_joint, JointPlay, PlayPoseError};
 use crate::multibody::forces::{BodyLoad, BodyState, ForceElement};
-use crate::multibody::{static_equilibrium, BodyHandle, MotionLaw, Simulation, StaticsOptions};
 use crate::multibody::{AssemblyOptions, ModelError};
+use crate::multibody::{BodyHandle, MotionLaw, Simulation, Statics, StaticsOptions};
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use std::sync::Arc;
@@ -337,49 +337,47 @@ pub fn static_envelope_with(
 }
 
 /// The envelope of the static equilibria of `mechanism` (drives locked) under the load
-/// cases, the loaded cases warm-started from the unloaded one.
+/// cases: one model whose platform load is set per case, one solver set up for it
+/// ([`Statics`]), the loaded cases warm-started from the unloaded one.
 fn equilibria_envelope(
-    mechanism: crate::multibody::Mechanism,
+    mut mechanism: crate::multibody::Mechanism,
     platform: BodyHandle,
     point: &Table2Point,
     set_name: &str,
     ex: &Excitation,
 ) -> Result<(Ranges, usize), Mr2120Error> {
     let m = Vector3::from(point.m);
-    let mut mech = Arc::new(mechanism);
-    let opts = StaticsOptions::default();
+    let load = Arc::new(std::sync::Mutex::new((Vector3::zeros(), Vector3::zeros())));
+    mechanism.add_force(Box::new(SharedLoad {
+        body: platform,
+        load: load.clone(),
+    }));
+    let mech = Arc::new(mechanism);
+    let fail = |case: usize, force: Vector3<f64>, torque: Vector3<f64>, source| {
+        Mr2120Error::Equilibrium(Box::new(EquilibriumError {
+            point: point.name.into(),
+            set: set_name.into(),
+            case,
+            force: force.into(),
+            torque: torque.into(),
+            source,
+        }))
+    };
+    let mut statics = Statics::new(&mech, &StaticsOptions::default())
+        .map_err(|e| fail(0, Vector3::zeros(), Vector3::zeros(), e))?;
     let mut r = [(f64::INFINITY, f64::NEG_INFINITY); 6];
     let mut steps = 0;
     let mut start: Option<Vec<f64>> = None;
     for (case, (force, torque)) in static_load_cases(ex).into_iter().enumerate() {
-        let loaded = force != Vector3::zeros() || torque != Vector3::zeros();
-        let handle = if loaded {
-            let m = Arc::get_mut(&mut mech).expect("the model is not shared between load cases");
-            Some(m.add_force(Box::new(ConstantLoad {
-                body: platform,
-                force,
-                torque,
-            })))
-        } else {
-            None
-        };
-        let eq = static_equilibrium(&mech, 0.0, start.as_deref(), &opts).map_err(|source| {
-            Mr2120Error::Equilibrium(Box::new(EquilibriumError {
-                point: point.name.into(),
-                set: set_name.into(),
-                case,
-                force: force.into(),
-                torque: torque.into(),
-                source,
-            }))
-        })?;
+        if let Ok(mut l) = load.lock() {
+            *l = (force, torque);
+        }
+        let eq = statics
+            .solve(0.0, start.as_deref())
+            .map_err(|e| fail(case, force, torque, e))?;
         steps += eq.stats.steps;
         widen(&mut r, &pose_errors(&eq.sample, platform, &m));
-        if let Some(h) = handle {
-            Arc::get_mut(&mut mech)
-                .expect("the model is not shared between load cases")
-                .remove_force(h)?;
-        } else {
+        if start.is_none() {
             start = Some(eq.sample.q);
         }
     }
@@ -740,8 +738,13 @@ mod tests {
                 }));
             }
             let platform = model.platform;
-            let eq = static_equilibrium(&Arc::new(model.mechanism), 0.0, None, &StaticsOptions::default())
-                .unwrap();
+            let eq = crate::multibody::static_equilibrium(
+                &Arc::new(model.mechanism),
+                0.0,
+                None,
+                &StaticsOptions::default(),
+            )
+            .unwrap();
             let direct = pose_errors(&eq.sample, platform, &m);
             let (relaxed, _) = relaxation_case(&g, &mp, point, set, force, torque, 0.6).unwrap();
             for k in 0..6 {
