@@ -1,7 +1,7 @@
 //! Force elements for clearance contacts: a ball end in a cylindrical socket (radial and
 //! axial clearance), and a ball in a spherical socket.
 
-use super::dual::{self as ad, DState, D, V3};
+use super::dual::{self as ad, DState, D, FULL, POSITIONS, V3};
 use super::laws::{Friction, NormalLaw};
 use crate::multibody::forces::{BodyLoad, BodyState, ForceElement, LoadDerivative};
 use crate::multibody::{Attach, BodyHandle};
@@ -30,24 +30,25 @@ fn apply_pair(
 
 /// The loads of a contact force `f` (with derivatives) at base-frame point `x` as
 /// [`LoadDerivative`] blocks: +f on the ball side, −f on the socket side.
-fn pair_derivatives(
+fn pair_derivatives<const N: usize>(
     ball: Attach,
     socket: Attach,
-    bs: &DState,
-    ss: &DState,
-    x: &V3,
-    f: &V3,
+    bs: &DState<N>,
+    ss: &DState<N>,
+    x: &V3<N>,
+    f: &V3<N>,
 ) -> Vec<LoadDerivative> {
     let mut out = vec![];
+    let per_body = DState::<N>::PER_BODY;
     for (side, st, sign) in [(ball, bs, 1.0), (socket, ss, -1.0)] {
         let Attach::Body(h) = side else { continue };
-        let fs: V3 = [f[0] * sign, f[1] * sign, f[2] * sign];
+        let fs: V3<N> = [f[0] * sign, f[1] * sign, f[2] * sign];
         let s_local = st.rot_t(&ad::sub(x, &st.r));
         let torque = ad::cross(&s_local, &st.rot_t(&fs));
-        for (wrt_side, offset) in [(ball, 0usize), (socket, 13usize)] {
+        for (wrt_side, offset) in [(ball, 0usize), (socket, per_body)] {
             let Attach::Body(w) = wrt_side else { continue };
             let mut d = nalgebra::SMatrix::<f64, 6, 13>::zeros();
-            for c in 0..13 {
+            for c in 0..per_body {
                 for r in 0..3 {
                     d[(r, c)] = fs[r].g[offset + c];
                     d[(3 + r, c)] = torque[r].g[offset + c];
@@ -59,23 +60,24 @@ fn pair_derivatives(
     out
 }
 
-/// The two sides' states carrying derivatives (ball: variables 0..13, socket: 13..26).
-fn dual_states(states: &[BodyState], ball: Attach, socket: Attach) -> (DState, DState) {
+/// The two sides' states carrying derivatives (ball: variables 0..13, socket: 13..26; at
+/// rest 0..7 and 7..14).
+fn dual_states<const N: usize>(states: &[BodyState], ball: Attach, socket: Attach) -> (DState<N>, DState<N>) {
     let off = |a: Attach, o: usize| matches!(a, Attach::Body(_)).then_some(o);
     (
         DState::new(&state(states, ball), off(ball, 0)),
-        DState::new(&state(states, socket), off(socket, 13)),
+        DState::new(&state(states, socket), off(socket, DState::<N>::PER_BODY)),
     )
 }
 
 /// Velocity of the material point of `st` at base-frame point `x`.
-fn point_velocity(st: &DState, x: &V3) -> V3 {
+fn point_velocity<const N: usize>(st: &DState<N>, x: &V3<N>) -> V3<N> {
     let s_local = st.rot_t(&ad::sub(x, &st.r));
     ad::add(&st.v, &st.rot(&ad::cross(&st.omega, &s_local)))
 }
 
 /// Normal force of `law` along unit `n` (pointing into the contact) with derivatives: −n·F.
-fn normal_force(law: &NormalLaw, delta: D, rate: D, n: &V3) -> V3 {
+fn normal_force<const N: usize>(law: &NormalLaw, delta: D<N>, rate: D<N>, n: &V3<N>) -> V3<N> {
     let (f, f_d, f_r) = law.force_with_derivatives(delta.v, rate.v);
     let mut fd = delta * f_d + rate * f_r;
     fd.v = f;
@@ -221,15 +223,29 @@ impl ForceElement for ClearanceBearing {
         if self.friction.is_some() {
             return None;
         }
-        let (b, s) = dual_states(states, self.ball_body, self.socket_body);
-        let c = ad::add(&b.r, &b.rot(&ad::constant(&self.ball_centre)));
-        let a = s.rot(&ad::constant(&self.socket_axis));
-        let d = ad::sub(&c, &ad::add(&s.r, &s.rot(&ad::constant(&self.socket_centre))));
+        Some(self.derivatives::<FULL>(states))
+    }
+
+    fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
+        if self.friction.is_some() {
+            return None;
+        }
+        Some(self.derivatives::<POSITIONS>(states))
+    }
+}
+
+impl ClearanceBearing {
+    /// The load derivatives with respect to N of the pair's state variables.
+    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> Vec<LoadDerivative> {
+        let (b, s) = dual_states::<N>(states, self.ball_body, self.socket_body);
+        let c = ad::add(&b.r, &b.rot_c(&self.ball_centre));
+        let a = s.rot_c(&self.socket_axis);
+        let d = ad::sub(&c, &ad::add(&s.r, &s.rot_c(&self.socket_centre)));
         let axial = ad::dot(&d, &a);
         let radial = ad::sub(&d, &ad::scale(&a, axial));
         let rho = ad::dot(&radial, &radial).sqrt();
         let v_rel = ad::sub(&point_velocity(&b, &c), &point_velocity(&s, &c));
-        let mut f: V3 = [D::c(0.0); 3];
+        let mut f: V3<N> = [D::c(0.0); 3];
         let delta_r = rho - D::c(self.radial_clearance);
         if delta_r.v > 0.0 && rho.v > 0.0 {
             let n = ad::scale(&radial, rho.recip());
@@ -246,9 +262,9 @@ impl ForceElement for ClearanceBearing {
             );
         }
         if f.iter().all(|x| x.v == 0.0 && x.g.iter().all(|g| *g == 0.0)) {
-            return Some(vec![]);
+            return vec![];
         }
-        Some(pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f))
+        pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f)
     }
 }
 
@@ -302,17 +318,107 @@ impl ForceElement for BallInSocket {
         if self.friction.is_some() {
             return None;
         }
-        let (b, s) = dual_states(states, self.ball_body, self.socket_body);
-        let c = ad::add(&b.r, &b.rot(&ad::constant(&self.ball_centre)));
-        let d = ad::sub(&c, &ad::add(&s.r, &s.rot(&ad::constant(&self.socket_centre))));
+        Some(self.derivatives::<FULL>(states))
+    }
+
+    fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
+        if self.friction.is_some() {
+            return None;
+        }
+        Some(self.derivatives::<POSITIONS>(states))
+    }
+}
+
+impl BallInSocket {
+    /// The load derivatives with respect to N of the pair's state variables.
+    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> Vec<LoadDerivative> {
+        let (b, s) = dual_states::<N>(states, self.ball_body, self.socket_body);
+        let c = ad::add(&b.r, &b.rot_c(&self.ball_centre));
+        let d = ad::sub(&c, &ad::add(&s.r, &s.rot_c(&self.socket_centre)));
         let r = ad::dot(&d, &d).sqrt();
         let delta = r - D::c(self.clearance);
         if !(delta.v > 0.0 && r.v > 0.0) {
-            return Some(vec![]);
+            return vec![];
         }
         let n = ad::scale(&d, r.recip());
         let v_rel = ad::sub(&point_velocity(&b, &c), &point_velocity(&s, &c));
         let f = normal_force(&self.law, delta, ad::dot(&v_rel, &n), &n);
-        Some(pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f))
+        pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::multibody::rotation::{from_axis_angle, rotation};
+    use crate::multibody::BodyHandle;
+    use nalgebra::Vector4;
+
+    fn state(r: Vector3<f64>, p: Vector4<f64>, v: Vector3<f64>, omega: Vector3<f64>) -> BodyState {
+        BodyState {
+            r,
+            p,
+            a: rotation(&p),
+            v,
+            omega,
+        }
+    }
+
+    /// The derivatives at rest are the position columns of the full ones (radial and axial
+    /// contact, moving bodies, damped law), with the velocity columns left zero.
+    #[test]
+    fn derivatives_at_rest_are_the_position_columns() {
+        let law = NormalLaw::HuntCrossley {
+            k: 1e9,
+            n: 1.5,
+            alpha: 0.3,
+        };
+        let bearing = ClearanceBearing {
+            name: "b".into(),
+            ball_body: Attach::Body(BodyHandle(0)),
+            ball_centre: Vector3::new(0.01, 0.0, 0.002),
+            socket_body: Attach::Body(BodyHandle(1)),
+            socket_centre: Vector3::new(0.0, 0.01, 0.0),
+            socket_axis: Vector3::z(),
+            radial_clearance: 1e-5,
+            axial_stop: 1e-5,
+            radial_law: law,
+            axial_law: law,
+            friction: None,
+        };
+        let states = [
+            state(
+                Vector3::new(-0.01 + 3e-5, 0.01, -0.002 + 3e-5),
+                Vector4::new(1.0, 0.0, 0.0, 0.0),
+                Vector3::new(0.01, -0.02, 0.005),
+                Vector3::new(0.1, 0.0, -0.2),
+            ),
+            state(
+                Vector3::zeros(),
+                from_axis_angle(&Vector3::new(0.0, 0.0, 1.0), 1e-4),
+                Vector3::new(0.0, 0.01, 0.0),
+                Vector3::new(0.0, 0.3, 0.0),
+            ),
+        ];
+        let (pen_r, pen_a) = bearing.penetrations(&states);
+        assert!(pen_r > 0.0 && pen_a > 0.0, "{pen_r} {pen_a}");
+        let full = bearing.load_jacobian(0.0, &states).unwrap();
+        let rest = bearing.load_jacobian_at_rest(0.0, &states).unwrap();
+        assert_eq!(full.len(), 4);
+        assert_eq!(full.len(), rest.len());
+        for (f, r) in full.iter().zip(&rest) {
+            assert_eq!((f.loaded, f.wrt), (r.loaded, r.wrt));
+            let scale = f.d.amax();
+            for c in 0..13 {
+                for k in 0..6 {
+                    let expected = if c < 7 { f.d[(k, c)] } else { 0.0 };
+                    assert!((r.d[(k, c)] - expected).abs() <= 1e-12 * scale, "({k}, {c})");
+                }
+            }
+            assert!(
+                f.d.columns(7, 6).amax() > 0.0,
+                "the full derivatives have velocity columns"
+            );
+        }
     }
 }

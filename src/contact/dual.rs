@@ -1,22 +1,25 @@
 //! Forward-mode derivatives for the contact force elements: a number carrying its gradient
-//! with respect to the 26 state variables of a body pair (ball body r, p, v, ω', then socket
-//! body r, p, v, ω'). The contact geometry is evaluated once in these numbers, which gives the
+//! with respect to the state variables of a body pair — all 26 (ball body r, p, v, ω', then
+//! socket body r, p, v, ω': [`FULL`]) or, at rest, the 14 positions (ball r, p, socket r, p:
+//! [`POSITIONS`]). The contact geometry is evaluated once in these numbers, which gives the
 //! exact Jacobian of the loads — no difference increments to straddle contact onset.
 
 use crate::multibody::forces::BodyState;
 use std::ops::{Add, Mul, Neg, Sub};
 
 /// Number of state variables of a body pair.
-pub(crate) const N: usize = 26;
+pub(crate) const FULL: usize = 26;
+/// Number of position variables of a body pair (derivatives at rest).
+pub(crate) const POSITIONS: usize = 14;
 
-/// A value with its gradient.
+/// A value with its gradient with respect to N variables.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct D {
+pub(crate) struct D<const N: usize> {
     pub v: f64,
     pub g: [f64; N],
 }
 
-impl D {
+impl<const N: usize> D<N> {
     pub fn c(v: f64) -> Self {
         D { v, g: [0.0; N] }
     }
@@ -39,9 +42,9 @@ impl D {
     }
 }
 
-impl Add for D {
-    type Output = D;
-    fn add(mut self, o: D) -> D {
+impl<const N: usize> Add for D<N> {
+    type Output = D<N>;
+    fn add(mut self, o: D<N>) -> D<N> {
         self.v += o.v;
         for (a, b) in self.g.iter_mut().zip(o.g) {
             *a += b;
@@ -49,21 +52,21 @@ impl Add for D {
         self
     }
 }
-impl Sub for D {
-    type Output = D;
-    fn sub(self, o: D) -> D {
+impl<const N: usize> Sub for D<N> {
+    type Output = D<N>;
+    fn sub(self, o: D<N>) -> D<N> {
         self + (-o)
     }
 }
-impl Neg for D {
-    type Output = D;
-    fn neg(self) -> D {
+impl<const N: usize> Neg for D<N> {
+    type Output = D<N>;
+    fn neg(self) -> D<N> {
         self.map(-self.v, -1.0)
     }
 }
-impl Mul for D {
-    type Output = D;
-    fn mul(self, o: D) -> D {
+impl<const N: usize> Mul for D<N> {
+    type Output = D<N>;
+    fn mul(self, o: D<N>) -> D<N> {
         let mut g = [0.0; N];
         for i in 0..N {
             g[i] = self.g[i] * o.v + self.v * o.g[i];
@@ -71,56 +74,56 @@ impl Mul for D {
         D { v: self.v * o.v, g }
     }
 }
-impl Mul<f64> for D {
-    type Output = D;
-    fn mul(self, s: f64) -> D {
+impl<const N: usize> Mul<f64> for D<N> {
+    type Output = D<N>;
+    fn mul(self, s: f64) -> D<N> {
         self.map(self.v * s, s)
     }
 }
 
 /// A 3-vector of such numbers.
-pub(crate) type V3 = [D; 3];
+pub(crate) type V3<const N: usize> = [D<N>; 3];
 
-pub fn add(a: &V3, b: &V3) -> V3 {
+pub fn add<const N: usize>(a: &V3<N>, b: &V3<N>) -> V3<N> {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
-pub fn sub(a: &V3, b: &V3) -> V3 {
+pub fn sub<const N: usize>(a: &V3<N>, b: &V3<N>) -> V3<N> {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
-pub fn scale(a: &V3, s: D) -> V3 {
+pub fn scale<const N: usize>(a: &V3<N>, s: D<N>) -> V3<N> {
     [a[0] * s, a[1] * s, a[2] * s]
 }
-pub fn dot(a: &V3, b: &V3) -> D {
+pub fn dot<const N: usize>(a: &V3<N>, b: &V3<N>) -> D<N> {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
-pub fn cross(a: &V3, b: &V3) -> V3 {
+pub fn cross<const N: usize>(a: &V3<N>, b: &V3<N>) -> V3<N> {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     ]
 }
-pub fn constant(v: &nalgebra::Vector3<f64>) -> V3 {
-    [D::c(v[0]), D::c(v[1]), D::c(v[2])]
-}
-
-/// A body's state as numbers carrying derivatives (offset 0: ball side, 13: socket side;
-/// `None`: the ground, constant).
+/// A body's state as numbers carrying derivatives (offset 0: ball side; 13 (all
+/// variables) or 7 (positions only): socket side; `None`: the ground, constant). With
+/// N = [`POSITIONS`] the velocities are constants.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct DState {
-    pub r: V3,
+pub(crate) struct DState<const N: usize> {
+    pub r: V3<N>,
     /// Rotation matrix A(p) by rows (the polynomial form of `multibody::rotation::rotation`,
     /// so derivatives match the formulation's for non-unit p too).
-    pub a: [V3; 3],
-    pub v: V3,
-    pub omega: V3,
+    pub a: [V3<N>; 3],
+    pub v: V3<N>,
+    pub omega: V3<N>,
 }
 
-impl DState {
+impl<const N: usize> DState<N> {
+    /// Variables per body: 13 (r, p, v, ω') when N = [`FULL`], 7 (r, p) otherwise.
+    pub const PER_BODY: usize = if N == FULL { 13 } else { 7 };
+
     pub fn new(s: &BodyState, offset: Option<usize>) -> Self {
         let x = |val: f64, k: usize| match offset {
-            Some(o) => D::var(val, o + k),
-            None => D::c(val),
+            Some(o) if k < Self::PER_BODY => D::var(val, o + k),
+            _ => D::c(val),
         };
         let r = [x(s.r[0], 0), x(s.r[1], 1), x(s.r[2], 2)];
         let p = [x(s.p[0], 3), x(s.p[1], 4), x(s.p[2], 5), x(s.p[3], 6)];
@@ -148,11 +151,16 @@ impl DState {
         Self { r, a, v, omega }
     }
     /// A·s.
-    pub fn rot(&self, s: &V3) -> V3 {
+    pub fn rot(&self, s: &V3<N>) -> V3<N> {
         [dot(&self.a[0], s), dot(&self.a[1], s), dot(&self.a[2], s)]
     }
+    /// A·s for a constant s (cheaper than [`rot`](Self::rot) of a constant).
+    pub fn rot_c(&self, s: &nalgebra::Vector3<f64>) -> V3<N> {
+        let row = |i: usize| self.a[i][0] * s[0] + self.a[i][1] * s[1] + self.a[i][2] * s[2];
+        [row(0), row(1), row(2)]
+    }
     /// Aᵀ·f.
-    pub fn rot_t(&self, f: &V3) -> V3 {
+    pub fn rot_t(&self, f: &V3<N>) -> V3<N> {
         let col = |j: usize| [self.a[0][j], self.a[1][j], self.a[2][j]];
         [dot(&col(0), f), dot(&col(1), f), dot(&col(2), f)]
     }

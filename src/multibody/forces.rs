@@ -77,6 +77,14 @@ pub trait ForceElement: std::any::Any + Debug + Send + Sync {
     fn load_jacobian(&self, _t: f64, _states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
         None
     }
+
+    /// [`load_jacobian`](Self::load_jacobian) for a system at rest (static equilibria): only
+    /// the derivatives with respect to positions (the first 7 columns of each block) are
+    /// read; an element may leave the velocity columns zero and skip their work. Default:
+    /// `load_jacobian`.
+    fn load_jacobian_at_rest(&self, t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
+        self.load_jacobian(t, states)
+    }
 }
 
 /// ∂(force, body-frame torque) on body `loaded` with respect to the state (r, p, v, ω') of

@@ -67,6 +67,11 @@ pub struct MultibodyDae {
     slots: Option<SlotIndex>,
     /// Tunables.
     pub options: FormulationOptions,
+    /// Jacobians at rest only (static equilibria): the Jacobian fills just the momentum
+    /// rows' position and multiplier columns and the position-constraint rows; the other
+    /// entries (kinematic, velocity-constraint, stabilisation and normalisation rows,
+    /// velocity columns) are left zero.
+    pub(crate) at_rest: bool,
 }
 
 /// ∂(L(p)·d)/∂p for a fixed 4-vector d: [d_v | −d_0·I + d̃_v] (3 × 4).
@@ -111,6 +116,7 @@ impl MultibodyDae {
             pattern: None,
             slots: None,
             options,
+            at_rest: false,
         };
         s.pattern = Some(s.build_pattern());
         s.slots = s.pattern.as_ref().map(SlotIndex::new);
@@ -395,8 +401,9 @@ impl MultibodyDae {
                 }
             }
         };
+        let rest = self.at_rest;
         // Per body: kinematics, inertia, normalisation.
-        for b in 0..nb {
+        for b in (0..nb).filter(|_| !rest) {
             let (qo, wo) = (lay.q(b), lay.w(b));
             let st = self.ev.states[b];
             let body = &self.model.bodies().bodies[b];
@@ -477,8 +484,22 @@ impl MultibodyDae {
                 for c in 0..14 {
                     if let Some(gc) = col[c] {
                         add(lay.lambda() + k, gc, g[c]);
-                        add(gc, lay.mu() + k, g[c]);
+                        if !rest {
+                            add(gc, lay.mu() + k, g[c]);
+                        }
                     }
+                }
+                if rest {
+                    // The momentum rows' λ columns only.
+                    for (side, off, dp) in [(si, 0usize, row.d_pi), (sj, 7usize, row.d_pj)] {
+                        let Some(b) = side else { continue };
+                        let br = 0.5 * l_matrix(&self.ev.states[b].p) * dp;
+                        for c in 0..3 {
+                            add(lay.w(b) + c, lay.lambda() + k, g[off + c]);
+                            add(lay.w(b) + 3 + c, lay.lambda() + k, br[c]);
+                        }
+                    }
+                    continue;
                 }
                 // Velocity constraint row: d/dw and d/dq.
                 let hq = hs[e] * nalgebra::SVector::<f64, 14>::from_row_slice(&qdot);
@@ -507,7 +528,7 @@ impl MultibodyDae {
                 }
             }
             // Stabilisation rows: ∂(Φ_qᵀμ)/∂q = Σ μ_e ∇²Φ_e.
-            for r in 0..14 {
+            for r in (0..14).filter(|_| !rest) {
                 let Some(gr) = col[r] else { continue };
                 for c in 0..14 {
                     if let Some(gc) = col[c] {
@@ -549,7 +570,14 @@ impl MultibodyDae {
         let mut loads_p = vec![BodyLoad::default(); nb];
         let mut loads_m = vec![BodyLoad::default(); nb];
         for (_, f) in model.forces() {
-            if let Some(blocks) = f.load_jacobian(t, &self.ev.states) {
+            let exact = if rest {
+                f.load_jacobian_at_rest(t, &self.ev.states)
+            } else {
+                f.load_jacobian(t, &self.ev.states)
+            };
+            // Columns differentiated: positions and velocities, or positions only at rest.
+            let columns = if rest { 7 } else { 13 };
+            if let Some(blocks) = exact {
                 let declared = f.bodies();
                 for blk in &blocks {
                     if let Some(h) = [blk.loaded, blk.wrt].into_iter().find(|h| !declared.contains(h)) {
@@ -565,7 +593,7 @@ impl MultibodyDae {
                 }
                 for blk in blocks {
                     let (br, bc) = (blk.loaded.0, blk.wrt.0);
-                    for c in 0..13 {
+                    for c in 0..columns {
                         let gc = if c < 7 { lay.q(bc) + c } else { lay.w(bc) + c - 7 };
                         for r in 0..3 {
                             add(lay.w(br) + r, gc, -blk.d[(r, c)]);
@@ -578,7 +606,7 @@ impl MultibodyDae {
             let bodies = f.bodies();
             for &bc in &bodies {
                 let saved = states[bc.0];
-                for c in 0..13 {
+                for c in 0..columns {
                     // Increments far below contact penetrations (~1e-8..1e-6 m): a larger one
                     // would straddle contact onset and corrupt the derivative.
                     let h = self.options.force_fd_step

@@ -283,7 +283,8 @@ fn right_jacobian(th: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 impl Balance {
-    fn new(inner: MultibodyDae, model: &Mechanism, rate: f64) -> Self {
+    fn new(mut inner: MultibodyDae, model: &Mechanism, rate: f64) -> Self {
+        inner.at_rest = true;
         let lay = model.layout();
         let nb = lay.bodies();
         let m = lay.constraints();
@@ -666,5 +667,64 @@ mod tests {
             ..StaticsOptions::default()
         };
         assert!(Statics::new(&model, &bad).is_err());
+    }
+
+    /// The at-rest Jacobian of the equilibrium equations (constraint Hessians, λ columns,
+    /// force elements, the rotation unknowns' chain rule) equals central differences of
+    /// their residual, away from equilibrium and with arbitrary multipliers.
+    #[test]
+    fn the_equilibrium_jacobian_matches_differences_of_its_residual() {
+        let mut m = Mechanism::new();
+        let b = m.add_body(
+            RigidBody::new(
+                "arm",
+                0.7,
+                Matrix3::new(2e-3, 1e-4, 0.0, 1e-4, 3e-3, 0.0, 0.0, 0.0, 1e-3),
+            )
+            .at(Vector3::new(0.1, 0.0, 0.0)),
+        );
+        m.revolute_at("hinge", Attach::Ground, b, Vector3::zeros(), Vector3::y());
+        m.add_force(Box::new(SpringDamper {
+            name: "spring".into(),
+            i: (Attach::Ground, Vector3::new(0.1, 0.02, 0.1)),
+            j: (Attach::Body(b), Vector3::new(0.05, 0.01, 0.0)),
+            stiffness: 300.0,
+            damping: 2.0,
+            free_length: 0.05,
+        }));
+        let model = Arc::new(m);
+        let mut eq = Balance::new(MultibodyDae::new(model.clone()).unwrap(), &model, 20.0);
+        let q0 = model.initial_guess().0;
+        let mut x = eq.start(&q0);
+        let n = eq.dim();
+        x[0] += 1e-3;
+        x[2] -= 2e-3;
+        x[3..6].copy_from_slice(&[0.01, -0.02, 0.03]);
+        for (k, v) in x[6..].iter_mut().enumerate() {
+            *v = 3.0 - 1.3 * k as f64;
+        }
+        let pattern = eq.jacobian_pattern();
+        let mut values = vec![0.0; pattern.nnz()];
+        let zero = vec![0.0; n];
+        eq.jacobian(0.0, &x, &zero, &[], 0.0, &mut values).unwrap();
+        let (mut rp, mut rm) = (vec![0.0; n], vec![0.0; n]);
+        for c in 0..n {
+            let h = 1e-7;
+            let mut xp = x.clone();
+            xp[c] += h;
+            eq.residual(0.0, &xp, &zero, &[], &mut rp).unwrap();
+            xp[c] -= 2.0 * h;
+            eq.residual(0.0, &xp, &zero, &[], &mut rm).unwrap();
+            for r in 0..n {
+                let fd = (rp[r] - rm[r]) / (2.0 * h);
+                let an = pattern.find(r, c).map_or(0.0, |k| values[k]);
+                assert!(
+                    (fd - an).abs() <= 1e-5 * (1.0 + fd.abs()),
+                    "({}, {}): differences {fd}, analytic {an}",
+                    eq.component_name(r),
+                    eq.component_name(c)
+                );
+            }
+        }
     }
 }
