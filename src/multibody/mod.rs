@@ -49,4 +49,4 @@ pub use formulation::{FormulationOptions, Layout, MultibodyDae};
 pub use joints::{Joint, JointFrame, JointHandle, JointKind};
 pub use model::{Driver, DriverHandle, ForceHandle, Marker, MarkerHandle, Mechanism, STANDARD_GRAVITY};
 pub use simulation::{RunEnd, Sample, Simulation, SimulationOptions, SingularityEvent, Trajectory};
-pub use statics::{static_equilibrium, Equilibrium, Statics, StaticsOptions};
+pub use statics::{static_equilibrium, Equilibrium, Statics, StaticsOptions, STATICS_REJECT_FACTOR};

@@ -31,12 +31,20 @@ use crate::sparse::CscPattern;
 use nalgebra::{Matrix3, Matrix4x3, Vector3, Vector4};
 use std::sync::Arc;
 
+/// [`SteadyOptions::reject_factor`] of [`StaticsOptions::default`]: a pseudo-step may raise
+/// the residual up to 10⁴ times the smallest so far. A body crossing its clearance meets
+/// the far wall with a large penetration that the next steps resolve; rejecting such steps
+/// (the generic default, 100) throws away their factorisations. Measured on the static
+/// Table 3 (117 equilibria): accepted pseudo-steps 1 736 → 1 492, CPU time −18 %; 10⁵ is
+/// slower again.
+pub const STATICS_REJECT_FACTOR: f64 = 1e4;
+
 /// Every tunable of [`static_equilibrium`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct StaticsOptions {
     /// The pseudo-transient continuation. Defaults: [`SteadyOptions::default`] with
     /// rtol 1e-8 and atol 1e-11 (m, rad: a hundredth of a micrometre), τ_0 = 10 ms, settling
-    /// time 1000 s, at most 500 pseudo-steps. A scalar atol gives the rotation unknowns
+    /// time 1000 s, at most 500 pseudo-steps, reject factor [`STATICS_REJECT_FACTOR`]. A scalar atol gives the rotation unknowns
     /// (which start at zero) rtol + atol, as unit Euler parameters would be weighed; a
     /// vector atol has one entry per unknown of the equilibrium equations (per body x, y, z,
     /// θx', θy', θz', then the multipliers).
@@ -63,6 +71,7 @@ impl Default for StaticsOptions {
                 tau0: 1e-2,
                 settle_time: 1e3,
                 max_iterations: 500,
+                reject_factor: STATICS_REJECT_FACTOR,
                 ..SteadyOptions::default()
             },
             assembly: AssemblyOptions::default(),
