@@ -1,7 +1,7 @@
 //! Force elements for clearance contacts: a ball end in a cylindrical socket (radial and
 //! axial clearance), and a ball in a spherical socket.
 
-use super::dual::{self as ad, DState, D, FULL, POSITIONS, V3};
+use super::dual::{self as ad, DState, D, POSITIONS, V3};
 use super::laws::{Friction, NormalLaw};
 use crate::multibody::forces::{BodyLoad, BodyState, ForceElement, LoadDerivative};
 use crate::multibody::{Attach, BodyHandle};
@@ -76,12 +76,81 @@ fn point_velocity<const N: usize>(st: &DState<N>, x: &V3<N>) -> V3<N> {
     ad::add(&st.v, &st.rot(&ad::cross(&st.omega, &s_local)))
 }
 
-/// Normal force of `law` along unit `n` (pointing into the contact) with derivatives: −n·F.
-fn normal_force<const N: usize>(law: &NormalLaw, delta: D<N>, rate: D<N>, n: &V3<N>) -> V3<N> {
+/// Normal force of `law` along unit `n` (pointing into the contact) with derivatives: −n·F;
+/// and the term's dependence on the contact rate δ̇ = v_rel·n.
+fn normal_force<const N: usize>(law: &NormalLaw, delta: D<N>, rate: D<N>, n: &V3<N>) -> (V3<N>, RateTerm) {
     let (f, f_d, f_r) = law.force_with_derivatives(delta.v, rate.v);
     let mut fd = delta * f_d + rate * f_r;
     fd.v = f;
-    ad::scale(n, -fd)
+    let term = RateTerm {
+        direction: Vector3::new(n[0].v, n[1].v, n[2].v),
+        force_rate: f_r,
+        point: Vector3::zeros(),
+    };
+    (ad::scale(n, -fd), term)
+}
+
+/// A normal contact term −u·F(δ, δ̇) whose rate δ̇ = u·v_rel is the relative velocity of
+/// the two sides' material points at `point` (base frame) along the unit `direction` u;
+/// `force_rate` = ∂F/∂δ̇ (N·s/m). The loads depend on the velocities only through such terms.
+#[derive(Debug, Clone, Copy)]
+struct RateTerm {
+    direction: Vector3<f64>,
+    force_rate: f64,
+    point: Vector3<f64>,
+}
+
+/// `blocks` (derivatives with respect to positions: velocity columns zero) with their
+/// velocity columns filled in from the contact terms' rates: ∂f/∂(v, ω') of the ball side is
+/// −u·F_δ̇·[uᵀ, (s'×Aᵀu)ᵀ] (s' the contact point in the body's frame), of the socket side
+/// the same with the socket's s', A and the opposite sign; each loaded body's torque is
+/// s'×(Aᵀ·∂f).
+fn with_velocity_columns(
+    mut blocks: Vec<LoadDerivative>,
+    rates: &[RateTerm],
+    states: &[BodyState],
+    ball: Attach,
+    socket: Attach,
+) -> Vec<LoadDerivative> {
+    let side_sign = |a: Attach| -> Option<f64> {
+        match a {
+            Attach::Body(h) if Attach::Body(h) == ball => Some(1.0),
+            Attach::Body(h) if Attach::Body(h) == socket => Some(-1.0),
+            _ => None,
+        }
+    };
+    for blk in &mut blocks {
+        let (Some(sign_loaded), Some(sign_wrt)) = (
+            side_sign(Attach::Body(blk.loaded)),
+            side_sign(Attach::Body(blk.wrt)),
+        ) else {
+            continue;
+        };
+        let (sl, sw) = (&states[blk.loaded.index()], &states[blk.wrt.index()]);
+        // ∂(force on the ball side)/∂(v, ω') of the wrt body, 3 × 6.
+        let mut df = nalgebra::SMatrix::<f64, 3, 6>::zeros();
+        for t in rates {
+            let u = t.direction;
+            let s_w = sw.a.transpose() * (t.point - sw.r);
+            let w_row = s_w.cross(&(sw.a.transpose() * u));
+            for r in 0..3 {
+                for c in 0..3 {
+                    df[(r, c)] -= u[r] * t.force_rate * sign_wrt * u[c];
+                    df[(r, 3 + c)] -= u[r] * t.force_rate * sign_wrt * w_row[c];
+                }
+            }
+        }
+        let df = df * sign_loaded;
+        let s_l = sl.a.transpose() * (rates.first().map_or(sl.r, |t| t.point) - sl.r);
+        let dn = crate::multibody::rotation::skew(&s_l) * sl.a.transpose() * df;
+        for c in 0..6 {
+            for r in 0..3 {
+                blk.d[(r, 7 + c)] = df[(r, c)];
+                blk.d[(3 + r, 7 + c)] = dn[(r, c)];
+            }
+        }
+    }
+    blocks
 }
 
 /// Relative velocity of the ball-side material point at `x` with respect to the socket-side
@@ -223,20 +292,28 @@ impl ForceElement for ClearanceBearing {
         if self.friction.is_some() {
             return None;
         }
-        Some(self.derivatives::<FULL>(states))
+        let (blocks, rates) = self.derivatives::<POSITIONS>(states);
+        Some(with_velocity_columns(
+            blocks,
+            &rates,
+            states,
+            self.ball_body,
+            self.socket_body,
+        ))
     }
 
     fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
         if self.friction.is_some() {
             return None;
         }
-        Some(self.derivatives::<POSITIONS>(states))
+        Some(self.derivatives::<POSITIONS>(states).0)
     }
 }
 
 impl ClearanceBearing {
-    /// The load derivatives with respect to N of the pair's state variables.
-    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> Vec<LoadDerivative> {
+    /// The load derivatives with respect to N of the pair's state variables, and the
+    /// contact terms' rates (for the velocity columns, [`with_velocity_columns`]).
+    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Vec<RateTerm>) {
         let (b, s) = dual_states::<N>(states, self.ball_body, self.socket_body);
         let c = ad::add(&b.r, &b.rot_c(&self.ball_centre));
         let a = s.rot_c(&self.socket_axis);
@@ -246,25 +323,29 @@ impl ClearanceBearing {
         let rho = ad::dot(&radial, &radial).sqrt();
         let v_rel = ad::sub(&point_velocity(&b, &c), &point_velocity(&s, &c));
         let mut f: V3<N> = [D::c(0.0); 3];
+        let mut rates = vec![];
         let delta_r = rho - D::c(self.radial_clearance);
         if delta_r.v > 0.0 && rho.v > 0.0 {
             let n = ad::scale(&radial, rho.recip());
-            f = ad::add(
-                &f,
-                &normal_force(&self.radial_law, delta_r, ad::dot(&v_rel, &n), &n),
-            );
+            let (fr, term) = normal_force(&self.radial_law, delta_r, ad::dot(&v_rel, &n), &n);
+            f = ad::add(&f, &fr);
+            rates.push(term);
         }
         let delta_a = axial - D::c(self.axial_stop);
         if delta_a.v > 0.0 {
-            f = ad::add(
-                &f,
-                &normal_force(&self.axial_law, delta_a, ad::dot(&v_rel, &a), &a),
-            );
+            let (fa, term) = normal_force(&self.axial_law, delta_a, ad::dot(&v_rel, &a), &a);
+            f = ad::add(&f, &fa);
+            rates.push(term);
         }
         if f.iter().all(|x| x.v == 0.0 && x.g.iter().all(|g| *g == 0.0)) {
-            return vec![];
+            return (vec![], vec![]);
         }
-        pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f)
+        let point = Vector3::new(c[0].v, c[1].v, c[2].v);
+        let rates = rates.into_iter().map(|t| RateTerm { point, ..t }).collect();
+        (
+            pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f),
+            rates,
+        )
     }
 }
 
@@ -318,32 +399,44 @@ impl ForceElement for BallInSocket {
         if self.friction.is_some() {
             return None;
         }
-        Some(self.derivatives::<FULL>(states))
+        let (blocks, rates) = self.derivatives::<POSITIONS>(states);
+        Some(with_velocity_columns(
+            blocks,
+            &rates,
+            states,
+            self.ball_body,
+            self.socket_body,
+        ))
     }
 
     fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
         if self.friction.is_some() {
             return None;
         }
-        Some(self.derivatives::<POSITIONS>(states))
+        Some(self.derivatives::<POSITIONS>(states).0)
     }
 }
 
 impl BallInSocket {
-    /// The load derivatives with respect to N of the pair's state variables.
-    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> Vec<LoadDerivative> {
+    /// The load derivatives with respect to N of the pair's state variables, and the
+    /// contact term's rate (for the velocity columns, [`with_velocity_columns`]).
+    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Vec<RateTerm>) {
         let (b, s) = dual_states::<N>(states, self.ball_body, self.socket_body);
         let c = ad::add(&b.r, &b.rot_c(&self.ball_centre));
         let d = ad::sub(&c, &ad::add(&s.r, &s.rot_c(&self.socket_centre)));
         let r = ad::dot(&d, &d).sqrt();
         let delta = r - D::c(self.clearance);
         if !(delta.v > 0.0 && r.v > 0.0) {
-            return vec![];
+            return (vec![], vec![]);
         }
         let n = ad::scale(&d, r.recip());
         let v_rel = ad::sub(&point_velocity(&b, &c), &point_velocity(&s, &c));
-        let f = normal_force(&self.law, delta, ad::dot(&v_rel, &n), &n);
-        pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f)
+        let (f, term) = normal_force(&self.law, delta, ad::dot(&v_rel, &n), &n);
+        let point = Vector3::new(c[0].v, c[1].v, c[2].v);
+        (
+            pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f),
+            vec![RateTerm { point, ..term }],
+        )
     }
 }
 
