@@ -68,9 +68,11 @@ fn mr2120_bench_measures_both_integrators_against_one_reference() {
     assert_eq!(se.steps, 40_000);
     assert_eq!(se.setting(), "h 5e-7");
     // The explicit run is an independent formulation and integrator: it agrees with the
-    // BDF reference far below the 1 µm target.
+    // BDF reference far below the 1 µm target. (Measured against a tighter, rtol 1e-8
+    // reference: this rtol 1e-7 reference is itself 7.3–7.5e-8 m off and Dormand–Prince
+    // 2.6e-8 m, so their difference sits at 1.0e-7 m; 2e-7 leaves room for rounding.)
     let dp = b.points.iter().find(|p| p.solver.starts_with("Dormand")).unwrap();
-    assert!(dp.error < 1e-7, "Dormand-Prince vs reference {}", dp.error);
+    assert!(dp.error < 2e-7, "Dormand-Prince vs reference {}", dp.error);
     assert_eq!(b.comparison.len(), 4);
     // The Dormand-Prince run of the sweep measured the horizon, and the output says so.
     assert_eq!(b.horizon_s, Some(0.02));

@@ -90,6 +90,33 @@ fn normal_force<const N: usize>(law: &NormalLaw, delta: D<N>, rate: D<N>, n: &V3
     (ad::scale(n, -fd), term)
 }
 
+/// A contact between a ball body and a socket body whose load derivatives come from dual
+/// numbers: the one place that turns them into the exact Jacobians of a force element.
+trait PairContact {
+    /// Ball side, socket side, and whether the contact is frictionless (exact derivatives
+    /// are given only then; with friction the formulation differences the loads).
+    fn sides(&self) -> (Attach, Attach, bool);
+    /// The load derivatives with respect to N of the pair's state variables, and the
+    /// contact terms' rates (for the velocity columns, [`with_velocity_columns`]).
+    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Vec<RateTerm>);
+}
+
+/// [`ForceElement::load_jacobian`] of a pair contact: positions by dual numbers, velocities in
+/// closed form.
+fn full_jacobian<C: PairContact>(c: &C, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
+    let (ball, socket, frictionless) = c.sides();
+    if !frictionless {
+        return None;
+    }
+    let (blocks, rates) = c.derivatives::<POSITIONS>(states);
+    Some(with_velocity_columns(blocks, &rates, states, ball, socket))
+}
+
+/// [`ForceElement::load_jacobian_at_rest`] of a pair contact: positions only.
+fn rest_jacobian<C: PairContact>(c: &C, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
+    c.sides().2.then(|| c.derivatives::<POSITIONS>(states).0)
+}
+
 /// A normal contact term −u·F(δ, δ̇) whose rate δ̇ = u·v_rel is the relative velocity of
 /// the two sides' material points at `point` (base frame) along the unit `direction` u;
 /// `force_rate` = ∂F/∂δ̇ (N·s/m). The loads depend on the velocities only through such terms.
@@ -289,30 +316,18 @@ impl ForceElement for ClearanceBearing {
     }
 
     fn load_jacobian(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        if self.friction.is_some() {
-            return None;
-        }
-        let (blocks, rates) = self.derivatives::<POSITIONS>(states);
-        Some(with_velocity_columns(
-            blocks,
-            &rates,
-            states,
-            self.ball_body,
-            self.socket_body,
-        ))
+        full_jacobian(self, states)
     }
 
     fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        if self.friction.is_some() {
-            return None;
-        }
-        Some(self.derivatives::<POSITIONS>(states).0)
+        rest_jacobian(self, states)
     }
 }
 
-impl ClearanceBearing {
-    /// The load derivatives with respect to N of the pair's state variables, and the
-    /// contact terms' rates (for the velocity columns, [`with_velocity_columns`]).
+impl PairContact for ClearanceBearing {
+    fn sides(&self) -> (Attach, Attach, bool) {
+        (self.ball_body, self.socket_body, self.friction.is_none())
+    }
     fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Vec<RateTerm>) {
         let (b, s) = dual_states::<N>(states, self.ball_body, self.socket_body);
         let c = ad::add(&b.r, &b.rot_c(&self.ball_centre));
@@ -396,30 +411,18 @@ impl ForceElement for BallInSocket {
     }
 
     fn load_jacobian(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        if self.friction.is_some() {
-            return None;
-        }
-        let (blocks, rates) = self.derivatives::<POSITIONS>(states);
-        Some(with_velocity_columns(
-            blocks,
-            &rates,
-            states,
-            self.ball_body,
-            self.socket_body,
-        ))
+        full_jacobian(self, states)
     }
 
     fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        if self.friction.is_some() {
-            return None;
-        }
-        Some(self.derivatives::<POSITIONS>(states).0)
+        rest_jacobian(self, states)
     }
 }
 
-impl BallInSocket {
-    /// The load derivatives with respect to N of the pair's state variables, and the
-    /// contact term's rate (for the velocity columns, [`with_velocity_columns`]).
+impl PairContact for BallInSocket {
+    fn sides(&self) -> (Attach, Attach, bool) {
+        (self.ball_body, self.socket_body, self.friction.is_none())
+    }
     fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Vec<RateTerm>) {
         let (b, s) = dual_states::<N>(states, self.ball_body, self.socket_body);
         let c = ad::add(&b.r, &b.rot_c(&self.ball_centre));

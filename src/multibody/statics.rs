@@ -582,15 +582,13 @@ mod tests {
         assert!((series.1 - jr).norm() < 1e-8);
     }
 
-    /// A bob on a spring hung from the ground, started 2 cm to the side and unstretched:
-    /// it comes to rest under the anchor with the spring stretched by m·g/k.
-    #[test]
-    fn a_bob_on_a_spring_hangs_below_its_anchor_stretched_by_mg_over_k() {
+    /// A 0.5 kg bob on a 200 N/m spring of free length 0.1 m hung from the ground, started
+    /// `x0` (m) to the side and unstretched; returns the model, the bob, (mass, k, l0).
+    fn bob_on_a_spring(x0: f64) -> (Mechanism, BodyHandle, (f64, f64, f64)) {
         let mut m = Mechanism::new();
         let (mass, k, l0) = (0.5, 200.0, 0.1);
-        let b = m.add_body(
-            RigidBody::new("bob", mass, Matrix3::identity() * 1e-4).at(Vector3::new(0.02, 0.0, -l0)),
-        );
+        let b = m
+            .add_body(RigidBody::new("bob", mass, Matrix3::identity() * 1e-4).at(Vector3::new(x0, 0.0, -l0)));
         m.add_force(Box::new(SpringDamper {
             name: "spring".into(),
             i: (Attach::Ground, Vector3::zeros()),
@@ -599,6 +597,14 @@ mod tests {
             damping: 0.0,
             free_length: l0,
         }));
+        (m, b, (mass, k, l0))
+    }
+
+    /// A bob on a spring hung from the ground, started 2 cm to the side and unstretched:
+    /// it comes to rest under the anchor with the spring stretched by m·g/k.
+    #[test]
+    fn a_bob_on_a_spring_hangs_below_its_anchor_stretched_by_mg_over_k() {
+        let (m, b, (mass, k, l0)) = bob_on_a_spring(0.02);
         let model = Arc::new(m);
         let eq = static_equilibrium(&model, 0.0, None, &StaticsOptions::default()).unwrap();
         let r = eq.sample.body_position(b);
@@ -641,19 +647,7 @@ mod tests {
     /// solves), each equal to a fresh solve: the bob hangs by (m·g + F)/k.
     #[test]
     fn one_solver_solves_the_load_cases_of_a_model() {
-        let mut m = Mechanism::new();
-        let (mass, k, l0) = (0.5, 200.0, 0.1);
-        let b = m.add_body(
-            RigidBody::new("bob", mass, Matrix3::identity() * 1e-4).at(Vector3::new(0.0, 0.0, -l0)),
-        );
-        m.add_force(Box::new(SpringDamper {
-            name: "spring".into(),
-            i: (Attach::Ground, Vector3::zeros()),
-            j: (Attach::Body(b), Vector3::zeros()),
-            stiffness: k,
-            damping: 0.0,
-            free_length: l0,
-        }));
+        let (mut m, b, (mass, k, l0)) = bob_on_a_spring(0.0);
         let force = Arc::new(std::sync::Mutex::new(0.0));
         m.add_force(Box::new(Pull {
             body: b,
