@@ -112,6 +112,9 @@ pub(super) fn verdict(
         s.push_str(&found.join("; "));
         s.push_str(". ");
     }
+    if let Some(t) = play_dynamics(set, cands, adequacy, &stable) {
+        s.push_str(&t);
+    }
     if !unstable.is_empty() {
         s.push_str("Unstable (soaks up model error; not found physics): ");
         s.push_str(&unstable.join("; "));
@@ -150,4 +153,137 @@ pub(super) fn verdict(
         ));
     }
     s.trim_end().to_string()
+}
+
+/// A residual left several times larger at load reversals after a joint's play was found
+/// says what the quasi-static play candidates leave out: the joint crossing its clearance when
+/// its load reverses — an impact, then rattle — which they cannot express (they place the
+/// joint against the side its load pushes it to, as if it got there at once). The channels
+/// whose unexplained residual concentrates at load reversals (> 3× larger there) are named.
+fn play_dynamics(
+    set: &[usize],
+    cands: &[Candidate],
+    adequacy: &Adequacy,
+    stable: &dyn Fn(usize) -> bool,
+) -> Option<String> {
+    use super::candidates::Effect;
+    let play: Vec<&str> = set
+        .iter()
+        .copied()
+        .filter(|&c| {
+            stable(c)
+                && matches!(
+                    cands[c].effect,
+                    Effect::Play { .. } | Effect::Clearance { .. } | Effect::Backlash
+                )
+        })
+        .map(|c| cands[c].name.as_str())
+        .collect();
+    let at_reversals: Vec<String> = adequacy
+        .channels
+        .iter()
+        .filter(|c| c.unexplained)
+        .filter_map(|c| {
+            let e = c.strongest_state.as_ref()?;
+            (e.tag.starts_with("load reversal") && e.ratio > 3.0)
+                .then(|| format!("{} ({:.1}× at {})", c.channel, e.ratio, e.tag))
+        })
+        .collect();
+    if play.is_empty() || at_reversals.is_empty() {
+        return None;
+    }
+    Some(format!(
+        "What the found play does not explain comes at load reversals — {}: the joint crossing its clearance when its load reverses (an impact, then rattle), which the quasi-static play of {} leaves out. ",
+        at_reversals.join(", "),
+        play.join(" and ")
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::adequacy::{ChannelAdequacy, StateExcess};
+    use crate::diagnose::candidates::{Effect, PlayDirection};
+
+    fn candidate(name: &str, effect: Effect) -> Candidate {
+        Candidate {
+            name: name.into(),
+            effect,
+            joint: None,
+            parameters: vec!["h [m]".into()],
+            grid_parameters: 0,
+            bounds: vec![(0.0, 1.0)],
+        }
+    }
+
+    fn adequacy(tag: &str, ratio: f64, unexplained: bool) -> Adequacy {
+        Adequacy {
+            basis: "held-out".into(),
+            unexplained_noise_ratio: 1.2,
+            whiteness_lags: 20,
+            whiteness_alpha: 1e-3,
+            far_from_white_lag1: 0.3,
+            window: (0.5, 3.0),
+            channels: vec![ChannelAdequacy {
+                channel: "drive A torque".into(),
+                unit: "N m".into(),
+                noise_floor: 0.02,
+                rms_before: 0.19,
+                rms_after: 0.13,
+                noise_ratio_before: 9.3,
+                noise_ratio_after: 6.7,
+                explained_fraction: 0.49,
+                autocorrelation: vec![0.89],
+                ljung_box: 1e4,
+                whiteness_p: 0.0,
+                far_from_white: true,
+                windows: 20,
+                significant_windows: 3,
+                worst_window: None,
+                strongest_state: Some(StateExcess {
+                    tag: tag.into(),
+                    ratio,
+                    windows: 5,
+                }),
+                unexplained,
+            }],
+            explained_fraction: 0.7,
+            unexplained,
+            unstable: vec![],
+        }
+    }
+
+    /// After a joint's play is found, a residual concentrated at load reversals is named as
+    /// the play's dynamics; not after friction, not when the residual is elsewhere or at
+    /// noise, not when the play's estimate is unstable.
+    #[test]
+    fn the_play_dynamics_are_named_only_when_the_residual_sits_at_load_reversals() {
+        let cands = vec![
+            candidate(
+                "radial clearance in joint F",
+                Effect::Play {
+                    site: 2,
+                    direction: PlayDirection::Radial,
+                    load_scale: 5.0,
+                },
+            ),
+            candidate("Coulomb friction in drive A", Effect::Coulomb { v_c: 0.01 }),
+        ];
+        let yes = |_: usize| true;
+        let at_reversal = adequacy("load reversal in drive A", 9.2, true);
+        let t = play_dynamics(&[0], &cands, &at_reversal, &yes).expect("a sentence");
+        assert!(
+            t.contains("drive A torque (9.2× at load reversal in drive A)"),
+            "{t}"
+        );
+        assert!(t.contains("radial clearance in joint F"), "{t}");
+        assert!(play_dynamics(&[1], &cands, &at_reversal, &yes).is_none());
+        assert!(play_dynamics(&[0], &cands, &at_reversal, &|_| false).is_none());
+        let elsewhere = adequacy("acceleration peak of drive A", 9.2, true);
+        assert!(play_dynamics(&[0], &cands, &elsewhere, &yes).is_none());
+        let weak = adequacy("load reversal in drive A", 2.0, true);
+        assert!(play_dynamics(&[0], &cands, &weak, &yes).is_none());
+        let at_noise = adequacy("load reversal in drive A", 9.2, false);
+        assert!(play_dynamics(&[0], &cands, &at_noise, &yes).is_none());
+    }
 }
