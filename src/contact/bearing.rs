@@ -85,7 +85,6 @@ fn normal_force<const N: usize>(law: &NormalLaw, delta: D<N>, rate: D<N>, n: &V3
     let term = RateTerm {
         direction: Vector3::new(n[0].v, n[1].v, n[2].v),
         force_rate: f_r,
-        point: Vector3::zeros(),
     };
     (ad::scale(n, -fd), term)
 }
@@ -98,7 +97,7 @@ trait PairContact {
     fn sides(&self) -> (Attach, Attach, bool);
     /// The load derivatives with respect to N of the pair's state variables, and the
     /// contact terms' rates (for the velocity columns, [`with_velocity_columns`]).
-    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Vec<RateTerm>);
+    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Rates);
 }
 
 /// [`ForceElement::load_jacobian`] of a pair contact: positions by dual numbers, velocities in
@@ -124,7 +123,13 @@ fn rest_jacobian<C: PairContact>(c: &C, states: &[BodyState]) -> Option<Vec<Load
 struct RateTerm {
     direction: Vector3<f64>,
     force_rate: f64,
+}
+
+/// The contact terms of one element and the point (base frame) where they all act.
+#[derive(Debug, Clone, Default)]
+struct Rates {
     point: Vector3<f64>,
+    terms: Vec<RateTerm>,
 }
 
 /// `blocks` (derivatives with respect to positions: velocity columns zero) with their
@@ -134,16 +139,18 @@ struct RateTerm {
 /// s'×(Aᵀ·∂f).
 fn with_velocity_columns(
     mut blocks: Vec<LoadDerivative>,
-    rates: &[RateTerm],
+    rates: &Rates,
     states: &[BodyState],
     ball: Attach,
     socket: Attach,
 ) -> Vec<LoadDerivative> {
     let side_sign = |a: Attach| -> Option<f64> {
-        match a {
-            Attach::Body(h) if Attach::Body(h) == ball => Some(1.0),
-            Attach::Body(h) if Attach::Body(h) == socket => Some(-1.0),
-            _ => None,
+        if a == ball {
+            Some(1.0)
+        } else if a == socket {
+            Some(-1.0)
+        } else {
+            None
         }
     };
     for blk in &mut blocks {
@@ -156,9 +163,9 @@ fn with_velocity_columns(
         let (sl, sw) = (&states[blk.loaded.index()], &states[blk.wrt.index()]);
         // ∂(force on the ball side)/∂(v, ω') of the wrt body, 3 × 6.
         let mut df = nalgebra::SMatrix::<f64, 3, 6>::zeros();
-        for t in rates {
+        for t in &rates.terms {
             let u = t.direction;
-            let s_w = sw.a.transpose() * (t.point - sw.r);
+            let s_w = sw.a.transpose() * (rates.point - sw.r);
             let w_row = s_w.cross(&(sw.a.transpose() * u));
             for r in 0..3 {
                 for c in 0..3 {
@@ -168,7 +175,7 @@ fn with_velocity_columns(
             }
         }
         let df = df * sign_loaded;
-        let s_l = sl.a.transpose() * (rates.first().map_or(sl.r, |t| t.point) - sl.r);
+        let s_l = sl.a.transpose() * (rates.point - sl.r);
         let dn = crate::multibody::rotation::skew(&s_l) * sl.a.transpose() * df;
         for c in 0..6 {
             for r in 0..3 {
@@ -328,7 +335,7 @@ impl PairContact for ClearanceBearing {
     fn sides(&self) -> (Attach, Attach, bool) {
         (self.ball_body, self.socket_body, self.friction.is_none())
     }
-    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Vec<RateTerm>) {
+    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Rates) {
         let (b, s) = dual_states::<N>(states, self.ball_body, self.socket_body);
         let c = ad::add(&b.r, &b.rot_c(&self.ball_centre));
         let a = s.rot_c(&self.socket_axis);
@@ -353,10 +360,12 @@ impl PairContact for ClearanceBearing {
             rates.push(term);
         }
         if f.iter().all(|x| x.v == 0.0 && x.g.iter().all(|g| *g == 0.0)) {
-            return (vec![], vec![]);
+            return (vec![], Rates::default());
         }
-        let point = Vector3::new(c[0].v, c[1].v, c[2].v);
-        let rates = rates.into_iter().map(|t| RateTerm { point, ..t }).collect();
+        let rates = Rates {
+            point: Vector3::new(c[0].v, c[1].v, c[2].v),
+            terms: rates,
+        };
         (
             pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f),
             rates,
@@ -423,22 +432,25 @@ impl PairContact for BallInSocket {
     fn sides(&self) -> (Attach, Attach, bool) {
         (self.ball_body, self.socket_body, self.friction.is_none())
     }
-    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Vec<RateTerm>) {
+    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Rates) {
         let (b, s) = dual_states::<N>(states, self.ball_body, self.socket_body);
         let c = ad::add(&b.r, &b.rot_c(&self.ball_centre));
         let d = ad::sub(&c, &ad::add(&s.r, &s.rot_c(&self.socket_centre)));
         let r = ad::dot(&d, &d).sqrt();
         let delta = r - D::c(self.clearance);
         if !(delta.v > 0.0 && r.v > 0.0) {
-            return (vec![], vec![]);
+            return (vec![], Rates::default());
         }
         let n = ad::scale(&d, r.recip());
         let v_rel = ad::sub(&point_velocity(&b, &c), &point_velocity(&s, &c));
         let (f, term) = normal_force(&self.law, delta, ad::dot(&v_rel, &n), &n);
-        let point = Vector3::new(c[0].v, c[1].v, c[2].v);
+        let rates = Rates {
+            point: Vector3::new(c[0].v, c[1].v, c[2].v),
+            terms: vec![term],
+        };
         (
             pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f),
-            vec![RateTerm { point, ..term }],
+            rates,
         )
     }
 }
