@@ -161,7 +161,7 @@ pub fn clearance_model_per_joint(
     designs: &[Option<BearingDesign>; 6],
 ) -> Result<JointPlayModel, Mr2120Error> {
     let mut mech = Mechanism::new();
-    let l = add_links(&mut mech, g, mp, spec, m_build, laws)?;
+    let l = add_links(&mut mech, g, mp, spec, m_build, laws, [false; 6])?;
     let (crosses, ideal_joints) = add_universal_joints(&mut mech, &l, mp, designs)?;
     Ok(JointPlayModel {
         mechanism: mech,

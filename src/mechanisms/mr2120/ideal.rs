@@ -113,6 +113,40 @@ fn frame(x: Vector3<f64>, z: Vector3<f64>) -> Matrix3<f64> {
     Matrix3::from_columns(&[x, z.cross(&x), z])
 }
 
+/// A slender rod of mass `mass` (kg) from `a` to `b` (m, base frame), body z across it
+/// along `z`, less a point mass `carved` (kg) at its end `b`: the part of the link that
+/// remains when a joint's cross at `b` becomes a body of its own. Mass, first and second
+/// moments of the rest plus the point mass equal the whole rod's (the point's own
+/// rotational inertia is not carved out).
+fn rod_between(
+    name: String,
+    mass: f64,
+    a: Vector3<f64>,
+    b: Vector3<f64>,
+    z: Vector3<f64>,
+    carved: f64,
+) -> RigidBody {
+    let whole = RigidBody::rod(name, mass, (b - a).norm());
+    let orient = frame(b - a, z);
+    let centre = (a + b) / 2.0;
+    if carved == 0.0 {
+        return whole.at(centre).oriented(&orient);
+    }
+    // Along the rod's axis from its centre: the point at l/2, the rest's centre at x.
+    let half = (b - a).norm() / 2.0;
+    let rest = mass - carved;
+    let x = -carved * half / rest;
+    let across = whole.inertia[(1, 1)] + mass * x * x - carved * (half - x) * (half - x);
+    let axial = whole.inertia[(0, 0)];
+    RigidBody::new(
+        whole.name,
+        rest,
+        Matrix3::from_diagonal(&Vector3::new(axial, across, across)),
+    )
+    .at(centre + (b - a).normalize() * x)
+    .oriented(&orient)
+}
+
 /// The links of the MR2120 (arms, forearms, platform) and the driven revolute pairs, in the
 /// configuration with platform centre `m_build`; the elbow and platform joints are left to
 /// the caller. Returns, per branch, the elbow point D, the platform point P and the cross
@@ -136,6 +170,7 @@ pub(crate) fn add_links(
     spec: &LinkSpec,
     m_build: Vector3<f64>,
     laws: Option<[MotionLaw; 3]>,
+    carved: [bool; 6],
 ) -> Result<Links, Mr2120Error> {
     // Each branch assembled with its own lengths (their drive angles differ slightly).
     let mut q = [0.0; 3];
@@ -174,20 +209,22 @@ pub(crate) fn add_links(
         let p = m_build + b.platform_joint;
         let f = p - d;
         let cross_axis = b.axis.cross(&f).normalize();
-        let arm = mech.add_body(
-            RigidBody::rod(format!("arm {}", DRIVE_JOINTS[i]), mp.arm, gi.arm_length)
-                .at((b.arm_centre + d) / 2.0)
-                .oriented(&frame(d - b.arm_centre, b.axis)),
-        );
-        let forearm = mech.add_body(
-            RigidBody::rod(
-                format!("forearm {}{}", ELBOW_JOINTS[i], PLATFORM_JOINTS[i]),
-                mp.forearm,
-                gi.forearm_length,
-            )
-            .at((d + p) / 2.0)
-            .oriented(&frame(f, cross_axis)),
-        );
+        let arm = mech.add_body(rod_between(
+            format!("arm {}", DRIVE_JOINTS[i]),
+            mp.arm,
+            b.arm_centre,
+            d,
+            b.axis,
+            if carved[i] { mp.cross } else { 0.0 },
+        ));
+        let forearm = mech.add_body(rod_between(
+            format!("forearm {}{}", ELBOW_JOINTS[i], PLATFORM_JOINTS[i]),
+            mp.forearm,
+            d,
+            p,
+            cross_axis,
+            if carved[3 + i] { mp.cross } else { 0.0 },
+        ));
         // Positive q raises the arm: a rotation about −n.
         let rev = mech.revolute_at(DRIVE_JOINTS[i], Attach::Ground, arm, b.arm_centre, -b.axis);
         if let Some(it) = laws.as_mut() {
@@ -227,7 +264,7 @@ pub fn ideal_model_with(
     laws: Option<[MotionLaw; 3]>,
 ) -> Result<IdealModel, Mr2120Error> {
     let mut mech = Mechanism::new();
-    let l = add_links(&mut mech, g, mp, spec, m_build, laws)?;
+    let l = add_links(&mut mech, g, mp, spec, m_build, laws, [false; 6])?;
     for i in 0..3 {
         mech.universal_at(
             ELBOW_JOINTS[i],
@@ -260,6 +297,33 @@ pub fn ideal_model_with(
 mod tests {
     use super::*;
     use crate::multibody::{Analysis, MechanismData};
+
+    /// The rest of a rod less a point mass at its end, plus that point mass, has the whole
+    /// rod's mass, centre of mass and inertia (about that centre, in the base frame).
+    #[test]
+    fn a_carved_rod_and_its_point_mass_make_the_whole_rod() {
+        let (a, b, z) = (
+            Vector3::new(0.1, -0.2, 0.3),
+            Vector3::new(0.4, 0.1, 0.2),
+            Vector3::new(0.0, 0.3, 1.0),
+        );
+        let inertia = |r: &RigidBody| {
+            let rot = crate::multibody::rotation::rotation(&r.orientation.normalize());
+            rot * r.inertia * rot.transpose()
+        };
+        let steiner =
+            |m: f64, d: Vector3<f64>| m * (Matrix3::identity() * d.norm_squared() - d * d.transpose());
+        let whole = rod_between("w".into(), 1.0, a, b, z, 0.0);
+        let rest = rod_between("r".into(), 1.0, a, b, z, 0.05);
+        assert!((rest.mass - 0.95).abs() < 1e-15);
+        let c = (rest.position * rest.mass + b * 0.05) / (rest.mass + 0.05);
+        assert!((c - whole.position).norm() < 1e-15);
+        let together = inertia(&rest)
+            + steiner(rest.mass, rest.position - whole.position)
+            + steiner(0.05, b - whole.position);
+        assert!((together - inertia(&whole)).norm() < 1e-15 * inertia(&whole).norm().max(1.0));
+        assert!((rest.orientation - whole.orientation).norm() < 1e-15);
+    }
 
     #[test]
     fn ideal_model_has_3_dof_assembles_and_matches_kinematics() {

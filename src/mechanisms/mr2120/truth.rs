@@ -9,7 +9,12 @@
 //!   [`LinkSpec`].
 //! * **Universal joints** D, E, F, P, Q, R: each ideal or a trunnion bearing with its own
 //!   radial and axial clearance and Hertz ball contacts
-//!   ([`clearance_model_per_joint`](super::clearance::clearance_model_per_joint)).
+//!   ([`clearance_model_per_joint`](super::clearance::clearance_model_per_joint)). A joint
+//!   with a bearing has its cross ([`MassProperties::cross`](super::geometry::MassProperties))
+//!   as a body of its own, and that mass comes out of the link the cross belongs to with an
+//!   ideal joint (the arm at an elbow D, E, F; the forearm at a platform joint P, Q, R; mass,
+//!   centre of mass and inertia of link and cross together unchanged): the machine weighs the
+//!   same whichever joints have play, so a case hides the play, not 50 g more at a joint.
 //! * **Compliant transmissions as bodies**, per drive A, B, C: a rotor on a revolute joint to
 //!   the ground, coaxial with the arm's revolute pair, follows the commanded motor angle
 //!   exactly (a driver); the arm's revolute pair is *not* driven: the arm is coupled to the
@@ -507,6 +512,18 @@ impl TruthSpec {
             if let Some(d) = d {
                 d.validate()
                     .map_err(|e| TruthError::Invalid(format!("joint {}: {e}", JOINT_NAMES[k])))?;
+                // The cross comes out of the arm (elbows) or the forearm (platform joints).
+                let (link, m) = if k < 3 {
+                    ("arm", self.mass.arm)
+                } else {
+                    ("forearm", self.mass.forearm)
+                };
+                if !(pos(self.mass.cross) && self.mass.cross < m) {
+                    return inv(format!(
+                        "joint {}: cross mass {} kg must be > 0 and below the {link}'s {m} kg",
+                        JOINT_NAMES[k], self.mass.cross
+                    ));
+                }
             }
         }
         let s = &self.sensors;
@@ -719,7 +736,19 @@ pub fn truth_model(
 ) -> Result<TruthModel, TruthError> {
     spec.validate()?;
     let mut mech = Mechanism::new();
-    let l = add_links(&mut mech, &spec.geometry, &spec.mass, &spec.links, m_build, None)?;
+    // A joint with a bearing has its cross as a body of its own; its mass comes out of the
+    // link it belongs to in the ideal joint (the arm at an elbow, the forearm at the
+    // platform), so the machine weighs the same whichever joints have play.
+    let carved = spec.joints.map(|j| j.is_some());
+    let l = add_links(
+        &mut mech,
+        &spec.geometry,
+        &spec.mass,
+        &spec.links,
+        m_build,
+        None,
+        carved,
+    )?;
     add_universal_joints(&mut mech, &l, &spec.mass, &spec.joints)?;
     let branches = spec.geometry.branches();
     let mut rotors = [l.platform; 3];
