@@ -71,7 +71,8 @@ pub struct BdfOptions {
     /// directions turn).
     pub jacobian_refresh_rate: f64,
     /// Times the iteration matrix may be rebuilt at the current iterate within one nonlinear
-    /// solve when the iteration converges slower than `jacobian_refresh_rate` (0: IDA's
+    /// solve when the iteration converges slower than `jacobian_refresh_rate` and, at that
+    /// rate, would not pass the convergence test in the iterations left (0: IDA's
     /// modified Newton, the matrix only changes between attempts). Stiff contact forces that
     /// switch on within a step make modified Newton crawl at rate 0.7–0.9; a rebuilt matrix
     /// converges in a few iterations, cheaper than failing the step.

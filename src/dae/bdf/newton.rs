@@ -9,9 +9,12 @@
 //!   are turning, and a stale matrix would soon diverge;
 //! * `max_steps_between_jacobians` steps have passed;
 //! * within the iteration, when it converges slower than `jacobian_refresh_rate` (at most
-//!   `max_jacobian_refreshes_in_solve` times per solve; IDA never does): the matrix is rebuilt
-//!   at the current iterate, a full Newton step, because stiff forces that switch on within
-//!   the step (contact) otherwise make the iteration crawl and the step fail.
+//!   `max_jacobian_refreshes_in_solve` times per solve; IDA never does) and, at the rate
+//!   measured, would not pass the convergence test in the iterations left: the matrix is
+//!   rebuilt at the current iterate, a full Newton step, because stiff forces that switch on
+//!   within the step (contact) otherwise make the iteration crawl and the step fail. A slow
+//!   iteration that will still converge in time is left to do so (cheaper than a
+//!   factorisation).
 
 use super::BdfSolver;
 use crate::dae::error::{Culprit, DaeError};
@@ -250,9 +253,12 @@ impl<P: DaeSystem> BdfSolver<P> {
                 // Slow or diverging with a matrix from the start of the step: a contact or
                 // other stiff force has changed within the step. Rebuild the matrix at the
                 // current iterate (a full Newton step) instead of failing the step.
+                // Only when, at the measured rate, the iterations left would not converge:
+                // a slow iteration that will still make it costs less than a factorisation.
                 if rate > self.opts.jacobian_refresh_rate
                     && refreshes < self.opts.max_jacobian_refreshes_in_solve
                     && m + 1 < maxcor
+                    && !converges_within(rate, delnrm, self.opts.newton_tol, maxcor - m - 1)
                 {
                     refreshes += 1;
                     self.eval_residual()?;
@@ -285,5 +291,31 @@ impl<P: DaeSystem> BdfSolver<P> {
         }
         let c = self.culprits(&self.delta.clone(), &self.ewt_newton.clone(), 3);
         Err(NlsFailure::Recoverable(NlsCause::Convergence(c)))
+    }
+}
+
+/// Whether an iteration contracting at `rate` from a correction of weighted norm `delnrm`
+/// passes the convergence test ss·‖δ‖ ≤ `tol` (ss = rate/(1 − rate)) within `left` more
+/// iterations.
+fn converges_within(rate: f64, delnrm: f64, tol: f64, left: usize) -> bool {
+    if rate.is_nan() || rate >= 1.0 || left == 0 {
+        return false;
+    }
+    let ss = rate / (1.0 - rate);
+    ss * delnrm * rate.powi(left as i32) <= tol
+}
+
+#[cfg(test)]
+mod tests {
+    use super::converges_within;
+
+    #[test]
+    fn a_slow_iteration_is_kept_only_when_it_converges_in_the_iterations_left() {
+        // rate 0.5, ss = 1: 1·0.5² = 0.25 ≤ 0.33 after two more iterations, 0.5 after one.
+        assert!(converges_within(0.5, 1.0, 0.33, 2));
+        assert!(!converges_within(0.5, 1.0, 0.33, 1));
+        assert!(!converges_within(0.95, 1e-3, 0.33, 0));
+        assert!(!converges_within(1.2, 1e-6, 0.33, 5));
+        assert!(!converges_within(f64::NAN, 1e-6, 0.33, 5));
     }
 }
