@@ -384,6 +384,7 @@ pub fn run_case(
     let concealment = Concealment {
         below_noise_fraction: below as f64 / total.max(1) as f64,
         peak_snr: peak,
+        below_noise_by_channel: None,
     };
     let spec = CaseSpec {
         name: &case.name,

@@ -189,6 +189,9 @@ pub struct CaseResult {
     pub below_noise_fraction: f64,
     /// Largest hidden contribution in noise units over all channels.
     pub peak_snr: f64,
+    /// [`below_noise_fraction`](Self::below_noise_fraction) per group of channels (torques,
+    /// tracker), where measured.
+    pub below_noise_by_channel: Option<BelowNoise>,
     /// True effects.
     pub truth: Vec<Truth>,
     /// Selected effects, in order.
@@ -377,6 +380,19 @@ pub struct Concealment {
     pub below_noise_fraction: f64,
     /// Its largest contribution, in noise units.
     pub peak_snr: f64,
+    /// The same fraction per group of channels, to tell which channels give the effect away
+    /// (None where the suite does not measure it per group).
+    pub below_noise_by_channel: Option<BelowNoise>,
+}
+
+/// Fraction of samples at which a hidden effect moves a group of channels by less than its
+/// noise.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BelowNoise {
+    /// Every drive torque (None: torques not recorded).
+    pub torques: Option<f64>,
+    /// Every tracker axis.
+    pub tracker: f64,
 }
 
 /// Fraction of the held-out mismatch power above the known sensor noise that the fit
@@ -510,6 +526,7 @@ pub(crate) fn score(
         concealment: concealment_text.into(),
         below_noise_fraction: concealment.below_noise_fraction,
         peak_snr: concealment.peak_snr,
+        below_noise_by_channel: concealment.below_noise_by_channel,
         truth: truth.to_vec(),
         selected: d.selected.clone(),
         found: d.found.clone(),

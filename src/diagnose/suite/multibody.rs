@@ -18,7 +18,8 @@
 use super::super::mr2120::mr2120_model;
 use super::super::Diagnosis;
 use super::{
-    diagnose_and_score, motion, CaseKind, CaseResult, CaseSpec, Concealment, SuiteError, SuiteOptions, Truth,
+    diagnose_and_score, motion, BelowNoise, CaseKind, CaseResult, CaseSpec, Concealment, SuiteError,
+    SuiteOptions, Truth,
 };
 use crate::contact::BearingDesign;
 use crate::mechanisms::mr2120::clearance::DEFAULT_DAMPING;
@@ -312,21 +313,21 @@ fn nominal_runs() -> &'static Mutex<HashMap<RunKey, TruthRun>> {
 }
 
 /// Largest contribution of a hidden effect, per sample, in noise units over the channels the
-/// diagnosis compares with its model (torques when recorded, tracker): `with` − `without` as
-/// the sensors read them (offsets, scales and delays included), noise-free. An encoder
-/// offset changes no compared channel (it moves the model's input, so it shows only through
-/// the model): its case measures 0.
-fn contribution(with: &Recorded, without: &Recorded, opts: &RecordOptions, torques: bool) -> Vec<f64> {
+/// diagnosis compares with its model, as (torques, tracker) — torques 0 when not recorded:
+/// `with` − `without` as the sensors read them (offsets, scales and delays included),
+/// noise-free. An encoder offset changes no compared channel (it moves the model's input, so
+/// it shows only through the model): its case measures 0.
+fn contribution(with: &Recorded, without: &Recorded, opts: &RecordOptions, torques: bool) -> Vec<(f64, f64)> {
     (0..with.t.len())
         .map(|k| {
-            let mut r = 0.0f64;
+            let (mut tau, mut pose) = (0.0f64, 0.0f64);
             for i in 0..3 {
                 if torques {
-                    r = r.max((with.tau[i][k] - without.tau[i][k]).abs() / opts.noise.torque);
+                    tau = tau.max((with.tau[i][k] - without.tau[i][k]).abs() / opts.noise.torque);
                 }
-                r = r.max((with.pose[i][k] - without.pose[i][k]).abs() / opts.noise.tracker);
+                pose = pose.max((with.pose[i][k] - without.pose[i][k]).abs() / opts.noise.tracker);
             }
-            r
+            (tau, pose)
         })
         .collect()
 }
@@ -360,6 +361,7 @@ pub fn run_case(
     let noise_seed = opts.seed.wrapping_add(case_index as u64 * 7919);
     let (mut fit, mut held) = (vec![], vec![]);
     let (mut below, mut total, mut peak) = (0usize, 0usize, 0.0f64);
+    let (mut below_tau, mut below_pose) = (0usize, 0usize);
     for r in 0..opts.fit_recordings + opts.holdout_recordings {
         let path = super::lumped::excitation(opts.seed, r);
         let key = (
@@ -387,9 +389,12 @@ pub fn run_case(
         };
         let sensed_hidden = hidden_run.sensed(&hidden_spec, &path, &ropts, None);
         let sensed_nominal = nominal.sensed(&TruthSpec::nominal(), &path, &ropts, None);
-        for c in contribution(&sensed_hidden, &sensed_nominal, &ropts, case.torques) {
+        for (tau, pose) in contribution(&sensed_hidden, &sensed_nominal, &ropts, case.torques) {
+            let c = tau.max(pose);
             peak = peak.max(c);
             below += usize::from(c < 1.0);
+            below_tau += usize::from(tau < 1.0);
+            below_pose += usize::from(pose < 1.0);
             total += 1;
         }
         let rec: Recorded = run.sensed(&full, &path, &ropts, Some(noise_seed.wrapping_add(r as u64)));
@@ -408,6 +413,10 @@ pub fn run_case(
     let concealment = Concealment {
         below_noise_fraction: below as f64 / total.max(1) as f64,
         peak_snr: peak,
+        below_noise_by_channel: Some(BelowNoise {
+            torques: case.torques.then(|| below_tau as f64 / total.max(1) as f64),
+            tracker: below_pose as f64 / total.max(1) as f64,
+        }),
     };
     let spec = CaseSpec {
         name: &case.name,
@@ -417,4 +426,42 @@ pub fn run_case(
         rival: case.rival.as_deref(),
     };
     diagnose_and_score(&model, &fit, &held, &spec, concealment, &opts.record.noise)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn recorded(tau: f64, pose: f64) -> Recorded {
+        let v = |x: f64| [vec![x, 0.0], vec![0.0, 0.0], vec![0.0, 0.0]];
+        Recorded {
+            t: vec![0.0, 0.002],
+            q: v(0.0),
+            qd: v(0.0),
+            tau: v(tau),
+            pose: v(pose),
+            contribution: Default::default(),
+            min_direct_measure: 1.0,
+            torque_reversals: [0; 3],
+            tension_reversals: [0; 3],
+            velocity_reversals: [0; 3],
+        }
+    }
+
+    /// Each group of channels is measured in its own noise; torques only when recorded.
+    #[test]
+    fn a_hidden_effect_is_measured_per_group_of_channels() {
+        let opts = RecordOptions::default();
+        let (nt, np) = (opts.noise.torque, opts.noise.tracker);
+        let with = recorded(3.0 * nt, 0.5 * np);
+        let without = recorded(0.0, 0.0);
+        let c = contribution(&with, &without, &opts, true);
+        assert!(
+            (c[0].0 - 3.0).abs() < 1e-12 && (c[0].1 - 0.5).abs() < 1e-12,
+            "{c:?}"
+        );
+        assert_eq!(c[1], (0.0, 0.0));
+        let c = contribution(&with, &without, &opts, false);
+        assert_eq!(c[0].0, 0.0);
+    }
 }
