@@ -469,6 +469,8 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
                 ParameterFamily::Payload => (0.0, p.scale),
                 ParameterFamily::BaseTilt => (-0.2, 0.2),
                 ParameterFamily::DriveCompliance => (-0.9 * p.scale, 10.0 * p.scale),
+                // A joint's contact can only add compliance.
+                ParameterFamily::JointCompliance => (0.0, p.scale),
             }],
         });
     }

@@ -86,6 +86,36 @@ pub type MechanismBuilder = Arc<dyn Fn(&[f64], &[MotionLaw]) -> Result<Mechanism
 /// singularity"), from the joint positions and the outputs.
 pub type ConfigurationTagger = Arc<dyn Fn(&[f64], &[f64]) -> Option<String> + Send + Sync>;
 
+/// How much compliance in drive coordinates, rad/(N·m), one unit of a [`SeriesCompliance`]'s
+/// parameter adds at a configuration: a function of the drive positions and the outputs
+/// (e.g. a tracked platform position).
+pub type SeriesGain = Arc<dyn Fn(&[f64], &[f64]) -> f64 + Send + Sync>;
+
+/// A compliance in series with a drive's transmission whose value in drive coordinates
+/// depends on the configuration: e.g. the contact compliance of a leg's joints, c (m/N), which
+/// a drive sees as c/ℓ'(q)² (ℓ' how fast the drive stretches the leg). The transmission of
+/// `drive` then has compliance θ[its own] + Σ θ[`parameter`]·`gain`(q, y), taken at the
+/// previous sample's configuration along a recording.
+#[derive(Clone)]
+pub struct SeriesCompliance {
+    /// Torque channel (driver order) of the drive it acts on; its encoder must sit on the
+    /// motor side.
+    pub drive: usize,
+    /// Index of the compliance among the model's parameters (nominal 0: rigid).
+    pub parameter: usize,
+    /// Drive-coordinate compliance per unit of the parameter at a configuration.
+    pub gain: SeriesGain,
+}
+
+impl std::fmt::Debug for SeriesCompliance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SeriesCompliance")
+            .field("drive", &self.drive)
+            .field("parameter", &self.parameter)
+            .finish_non_exhaustive()
+    }
+}
+
 /// Where a joint's position sensor sits.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum EncoderPlacement {
@@ -241,6 +271,7 @@ pub struct MechanismModel {
     sensors: Sensors,
     play: Vec<PlaySite>,
     tagger: Option<ConfigurationTagger>,
+    series: Vec<SeriesCompliance>,
     windows: Option<Vec<usize>>,
     columns: ColumnDefaults,
     /// Whether each channel's joint turns or slides (from the nominal mechanism's drivers).
@@ -284,6 +315,7 @@ impl MechanismModel {
             sensors: Sensors::default(),
             play: vec![],
             tagger: None,
+            series: vec![],
             windows: None,
             columns: ColumnDefaults::RoleNames,
             motions: vec![],
@@ -436,6 +468,33 @@ impl MechanismModel {
         self.play = sites;
         *self.built.borrow_mut() = None;
         self.ensure(&self.nominal()).map_err(|m| self.error(m))?;
+        Ok(self)
+    }
+
+    /// Declares compliances in series with the drives' transmissions
+    /// ([`SeriesCompliance`]). Fails ([`DiagnoseError::Model`]) for a drive that is not a
+    /// torque channel or whose encoder is not on the motor side, or a parameter the model
+    /// does not have.
+    pub fn with_series_compliance(mut self, series: Vec<SeriesCompliance>) -> Result<Self, DiagnoseError> {
+        for s in &series {
+            if !matches!(
+                self.sensors.encoders.get(s.drive),
+                Some(EncoderPlacement::MotorSide { .. })
+            ) {
+                return Err(self.error(format!(
+                    "a series compliance acts on drive {}, which has no motor-side encoder (declare the sensors first)",
+                    s.drive
+                )));
+            }
+            if s.parameter >= self.parameters.len() {
+                return Err(self.error(format!(
+                    "a series compliance names parameter {}, but the model has {} parameters",
+                    s.parameter,
+                    self.parameters.len()
+                )));
+            }
+        }
+        self.series = series;
         Ok(self)
     }
 
@@ -592,11 +651,37 @@ impl MechanismModel {
             .collect()
     }
 
+    /// The transmission's own compliance (a parameter), rad/(N·m).
     fn compliance(&self, theta: &[f64], j: usize) -> f64 {
         match self.sensors.encoders.get(j) {
             Some(EncoderPlacement::MotorSide { compliance, .. }) => theta[*compliance],
             _ => 0.0,
         }
+    }
+
+    /// Every drive's compliance at the configuration the cache holds (drive positions
+    /// `built.last`, the outputs of its state): the transmission's own plus the series
+    /// compliances'.
+    fn compliances_at(&self, theta: &[f64], built: &Built) -> Vec<f64> {
+        let n = self.joints.len();
+        let mut c: Vec<f64> = (0..n).map(|j| self.compliance(theta, j)).collect();
+        let active: Vec<&SeriesCompliance> = self
+            .series
+            .iter()
+            .filter(|s| theta[s.parameter] != 0.0 && s.drive < n)
+            .collect();
+        if active.is_empty() {
+            return c;
+        }
+        let mut y = vec![0.0; self.sensors.outputs.len()];
+        Self::outputs_of(&self.sensors, built, &mut y);
+        for s in active {
+            let g = (s.gain)(&built.last, &y);
+            if g.is_finite() {
+                c[s.drive] += theta[s.parameter] * g;
+            }
+        }
+        c
     }
 
     /// The joint-side torques at joint positions `qa` (with rates and accelerations): the
@@ -660,9 +745,9 @@ impl MechanismModel {
     fn sample(&self, t: Option<f64>, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64]) -> Option<Vec<f64>> {
         self.ensure(theta).ok()?;
         let n = self.joints.len();
-        let c: Vec<f64> = (0..n).map(|j| self.compliance(theta, j)).collect();
         let mut b = self.built.borrow_mut();
         let built = b.as_mut()?;
+        let c = self.compliances_at(theta, built);
         if let (Some(t), true) = (t, c.iter().any(|&v| v > 0.0)) {
             if let Some(tau) = self.step_windup(built, t, &c, q, qd, qdd) {
                 return Some(tau);
@@ -931,7 +1016,12 @@ impl MechanismModel {
     fn outputs_now(&self, y: &mut [f64]) {
         let b = self.built.borrow();
         let Some(built) = b.as_ref() else { return };
-        for (k, (s, &h)) in self.sensors.outputs.iter().zip(&built.sensor_bodies).enumerate() {
+        Self::outputs_of(&self.sensors, built, y);
+    }
+
+    /// The outputs at the state `built` holds.
+    fn outputs_of(sensors: &Sensors, built: &Built, y: &mut [f64]) {
+        for (k, (s, &h)) in sensors.outputs.iter().zip(&built.sensor_bodies).enumerate() {
             let r = built.data.body_position(h) + built.data.body_rotation(h) * s.point;
             y[k] = r[s.axis];
         }
@@ -1021,8 +1111,7 @@ impl InverseDynamicsModel for MechanismModel {
     }
     fn transmission_dynamics(&self, theta: &[f64]) -> Option<TransmissionDynamics> {
         let n = self.joints.len();
-        let compliance: Vec<f64> = (0..n).map(|j| self.compliance(theta, j)).collect();
-        if !compliance.iter().any(|&c| c > 0.0) {
+        if !(0..n).any(|j| self.compliance(theta, j) > 0.0) {
             return None;
         }
         let mut b = self.built.borrow_mut();
@@ -1030,6 +1119,7 @@ impl InverseDynamicsModel for MechanismModel {
         if built.theta != theta {
             return None;
         }
+        let compliance = self.compliances_at(theta, built);
         // The mass matrix where the last sample left the joints.
         let mass = built
             .analysis

@@ -42,6 +42,8 @@ pub enum ParameterFamily {
     BaseTilt,
     /// Compliance of a drive's transmission.
     DriveCompliance,
+    /// Contact compliance of joints in series with a drive (nominal 0: rigid joints).
+    JointCompliance,
 }
 
 /// How the outputs (e.g. a tracked platform position) respond at one sample to play at each

@@ -13,12 +13,16 @@
 //! * the six universal joints D, E, F, P, Q, R may have play (bearing spacing of
 //!   [`BearingDesign::mr2120`]).
 //!
+//! * the joints of each leg (elbow and platform joint) may be compliant (contact in their
+//!   bearings), in series with the leg's drive: a compliance c along the forearm reads as a
+//!   drive compliance c/ℓ'² that changes with the configuration ([`leg_compliance_gain`]).
+//!
 //! Parameters, in this order: arm A, B, C lengths, forearm A, B, C lengths (m), arm and
 //! forearm masses, payload on the platform (kg), base tilt about x and y (rad), drive A, B, C
-//! compliances (rad/(N·m)). The closed-form lumped model
+//! compliances (rad/(N·m)), joint compliances along legs A, B, C (m/N, nominal 0). The closed-form lumped model
 //! ([`Mr2120Model`](super::model::Mr2120Model)) stays as a fast cross-check only.
 
-use super::mechanism::{EncoderPlacement, MechanismModel, PlaySite, PointSensor, Sensors};
+use super::mechanism::{EncoderPlacement, MechanismModel, PlaySite, PointSensor, Sensors, SeriesCompliance};
 use super::model::{ModelParameter, ParameterFamily};
 use super::DiagnoseError;
 use crate::contact::play::UniversalPlay;
@@ -96,7 +100,42 @@ pub fn parameters(g: &Geometry, mp: &MassProperties) -> Vec<ModelParameter> {
             DriveCompliance,
         ));
     }
+    for (i, b) in ["A", "B", "C"].iter().enumerate() {
+        p.push(mk(
+            format!(
+                "joint compliance along leg {b} (joints {}, {})",
+                ELBOW_JOINTS[i], PLATFORM_JOINTS[i]
+            ),
+            "m/N",
+            0.0,
+            JOINT_COMPLIANCE_SCALE,
+            JointCompliance,
+        ));
+    }
     p
+}
+
+/// Scale of the legs' joint compliances, m/N: their largest plausible value. A Hertz ball
+/// contact of [`BearingDesign::mr2120`] deflects ~1 µm under tens of newtons (≈ 1e-8 m/N
+/// linearised); a step of `PARAMETER_STEP` of this scale changes a drive's compliance by
+/// about as much as a step of the drive compliance's own scale does.
+pub const JOINT_COMPLIANCE_SCALE: f64 = 4e-6;
+
+/// First parameter index of the legs' joint compliances (legs A, B, C).
+pub const JOINT_COMPLIANCE: usize = 14;
+
+/// How a compliance c (m/N) of the joints along leg `i` (elbow and platform joint, in series
+/// with the forearm) reads in drive coordinates: c/ℓ'², with ℓ' = ∂D/∂q·u the rate at which
+/// the drive stretches the leg (D the elbow, u the unit vector from D to the platform joint
+/// P; the forearm carries its load along u), at drive position `q` (rad) and platform centre
+/// `y` (m). Infinite at an inverse-kinematics singularity (ℓ' = 0).
+pub fn leg_compliance_gain(g: &Geometry, i: usize, q: f64, y: &[f64]) -> f64 {
+    let b = &g.branches()[i];
+    let d = g.elbow(b, q);
+    let p = Vector3::new(y[0], y[1], y[2]) + b.platform_joint;
+    let u = (p - d).normalize();
+    let rate = g.elbow_rate(b, q).dot(&u);
+    1.0 / (rate * rate)
 }
 
 /// The multibody MR2120 model for the diagnosis (see the module documentation).
@@ -158,8 +197,21 @@ pub fn mr2120_model(g: &Geometry, mp: &MassProperties) -> Result<MechanismModel,
             play,
         })
         .collect();
+    let series = (0..3)
+        .map(|i| SeriesCompliance {
+            drive: i,
+            parameter: JOINT_COMPLIANCE + i,
+            gain: Arc::new(move |q: &[f64], y: &[f64]| {
+                if q.len() < 3 || y.len() < 3 {
+                    return 0.0;
+                }
+                leg_compliance_gain(&g0, i, q[i], y)
+            }),
+        })
+        .collect();
     Ok(model
         .with_sensors(sensors)?
+        .with_series_compliance(series)?
         .with_play(sites)?
         .with_derivative_windows(vec![4, 6, 8, 12, 16])
         .with_tagger(Arc::new(move |q: &[f64], y: &[f64]| {
@@ -170,4 +222,66 @@ pub fn mr2120_model(g: &Geometry, mp: &MassProperties) -> Result<MechanismModel,
             (s.direct_measure < NEAR_DIRECT)
                 .then(|| format!("near the direct-kinematics singularity (measure below {NEAR_DIRECT})"))
         })))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::model::InverseDynamicsModel;
+    use crate::mechanisms::mr2120::kinematics::inverse;
+
+    /// ℓ' is the rate at which the drive stretches its leg: differences of |P − D(q)|.
+    #[test]
+    fn the_leg_gain_is_one_over_the_squared_stretch_rate() {
+        let g = Geometry::default();
+        let m = Vector3::new(0.03, -0.02, 0.48);
+        let q = inverse(&g, m).unwrap();
+        let y = [m.x, m.y, m.z];
+        for (i, b) in g.branches().iter().enumerate() {
+            let p = m + b.platform_joint;
+            let len = |x: f64| (p - g.elbow(b, x)).norm();
+            let h = 1e-6;
+            let rate = (len(q[i] + h) - len(q[i] - h)) / (2.0 * h);
+            let gain = leg_compliance_gain(&g, i, q[i], &y);
+            assert!(
+                (gain * rate * rate - 1.0).abs() < 1e-6,
+                "leg {i}: {gain} vs 1/{rate}²"
+            );
+        }
+    }
+
+    /// A leg's joint compliance acts as that much more compliance of its drive (at a lone
+    /// sample, quasi-static wind-up): the same torques and platform position.
+    #[test]
+    fn a_legs_joint_compliance_reads_as_drive_compliance() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let model = mr2120_model(&g, &mp).unwrap();
+        let m = Vector3::new(0.02, 0.01, 0.5);
+        let q: Vec<f64> = inverse(&g, m).unwrap().to_vec();
+        let (qd, qdd) = (vec![0.1, -0.2, 0.05], vec![1.0, 0.5, -2.0]);
+        let run = |theta: &[f64]| {
+            let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
+            // Twice: the gain is taken where the previous evaluation left the mechanism.
+            model.evaluate(theta, &q, &qd, &qdd, &mut tau, &mut y);
+            model.evaluate(theta, &q, &qd, &qdd, &mut tau, &mut y);
+            (tau, y)
+        };
+        let nominal: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+        let (_, y0) = run(&nominal);
+        let c = 5e-8;
+        let mut joint = nominal.clone();
+        joint[JOINT_COMPLIANCE + 2] = c;
+        let (tau_j, y_j) = run(&joint);
+        let mut drive = nominal.clone();
+        drive[13] += c * leg_compliance_gain(&g, 2, q[2], &y0);
+        let (tau_d, y_d) = run(&drive);
+        for k in 0..3 {
+            assert!(
+                (tau_j[k] - tau_d[k]).abs() < 1e-6,
+                "torque {k}: {tau_j:?} vs {tau_d:?}"
+            );
+            assert!((y_j[k] - y_d[k]).abs() < 1e-9, "output {k}: {y_j:?} vs {y_d:?}");
+        }
+        assert!((y_j[2] - y0[2]).abs() > 1e-8, "the compliance moves the platform");
+    }
 }
