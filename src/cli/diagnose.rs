@@ -287,6 +287,7 @@ fn suite(reduced: bool, truth: &str, only: &str, dir: &Path, as_json: bool) -> R
             .estimates
             .iter()
             .map(|e| match e {
+                Some((_, r)) if r.is_nan() => "named (not sized)".into(),
                 Some((_, r)) => format!("{:.1} %", 100.0 * r),
                 None => "not found".into(),
             })

@@ -51,7 +51,8 @@ pub struct Truth {
     /// The start of the matching candidates' names in the library (e.g. "radial clearance
     /// in joint F" matches every load scale of that candidate).
     pub candidate: String,
-    /// True parameter value (candidate units).
+    /// True parameter value (candidate units); NaN for an effect named but not sized
+    /// ([`Truth::named`]).
     pub value: f64,
     /// Hidden (true) or the larger effect it hides under (false).
     pub hidden: bool,
@@ -65,6 +66,22 @@ impl Truth {
             value,
             hidden,
         }
+    }
+
+    /// A hidden effect the diagnosis must name but whose size is not scored: one with no
+    /// single true value in the candidate's units (the linear compliance that stands for a
+    /// Hertz contact, whose stiffness grows with its load). Its relative error is NaN.
+    pub fn named(candidate: &str) -> Self {
+        Self {
+            candidate: candidate.into(),
+            value: f64::NAN,
+            hidden: true,
+        }
+    }
+
+    /// Whether the effect has a true value to score an estimate against.
+    pub fn sized(&self) -> bool {
+        self.value.is_finite()
     }
 }
 
@@ -468,6 +485,16 @@ pub(crate) fn diagnose_and_score(
     Ok((res, d))
 }
 
+/// Every true effect estimated within [`ESTIMATE_TOLERANCE`] (`estimates[k]`: estimate and
+/// relative error of `truth[k]`, None if not selected); an effect named but not sized
+/// ([`Truth::named`]) counts once it is selected.
+fn estimates_ok(estimates: &[Option<(f64, f64)>], truth: &[Truth]) -> bool {
+    estimates
+        .iter()
+        .zip(truth)
+        .all(|(e, tr)| matches!(e, Some((_, r)) if !tr.sized() || *r <= ESTIMATE_TOLERANCE))
+}
+
 /// Scores one diagnosis against its truth.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn score(
@@ -497,9 +524,7 @@ pub(crate) fn score(
                 .map(|e| (e.value, (e.value - tr.value).abs() / tr.value.abs()))
         })
         .collect();
-    let estimate_ok = estimates
-        .iter()
-        .all(|e| matches!(e, Some((_, r)) if *r <= ESTIMATE_TOLERANCE));
+    let estimate_ok = estimates_ok(&estimates, truth);
     // Held-out ratios against the sensor noise the recordings were made with; explained
     // fraction and the unexplained flag as the diagnosis itself reports them.
     let (_, _, holdout_noise_ratio) = adequacy(d, noise);
@@ -662,4 +687,18 @@ pub fn run_suite(
         board.write(dir)?;
     }
     Ok(board)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_named_effect_counts_once_selected_and_a_sized_one_within_its_tolerance() {
+        let truth = [Truth::new("a", 1.0, true), Truth::named("b")];
+        assert!(estimates_ok(&[Some((1.1, 0.1)), Some((5.0, f64::NAN))], &truth));
+        assert!(!estimates_ok(&[Some((1.1, 0.1)), None], &truth));
+        assert!(!estimates_ok(&[Some((2.0, 1.0)), Some((5.0, f64::NAN))], &truth));
+        assert!(!truth[1].sized() && truth[0].sized());
+    }
 }
