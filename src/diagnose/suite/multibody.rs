@@ -179,16 +179,6 @@ pub fn cases() -> Vec<Case> {
             vec![t("radial clearance in joint F", 6e-6, true)],
         ),
         mk(
-            "hertz-F",
-            "contact compliance of joint F (elbow of leg C): its trunnion bearings without clearance, Hertz ball contacts",
-            Concealed,
-            |s| s.joints[2] = bearing(0.0, 0.0),
-            None,
-            // A Hertz contact stiffens with its load: no single linear compliance is the
-            // true one, so the case scores the name only.
-            vec![Truth::named("error in joint compliance along leg C")],
-        ),
-        mk(
             "axial-D",
             "10 µm axial play in the trunnion bearings of joint D (elbow of leg A)",
             Concealed,
@@ -311,6 +301,17 @@ pub fn cases() -> Vec<Case> {
     pair.rival = Some("radial clearance in joint E".into());
     pair.torques = false;
     out.push(pair);
+    // Appended, so the cases before keep their noise seeds (seeded by position).
+    out.push(mk(
+            "hertz-F",
+            "contact compliance of joint F (elbow of leg C): its trunnion bearings without clearance, Hertz ball contacts",
+            Concealed,
+            |s| s.joints[2] = bearing(0.0, 0.0),
+            None,
+            // A Hertz contact stiffens with its load: no single linear compliance is the
+            // true one, so the case scores the name only.
+            vec![Truth::named("error in joint compliance along leg C")],
+        ));
     out
 }
 
