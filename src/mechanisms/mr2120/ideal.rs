@@ -113,27 +113,30 @@ fn frame(x: Vector3<f64>, z: Vector3<f64>) -> Matrix3<f64> {
     Matrix3::from_columns(&[x, z.cross(&x), z])
 }
 
-/// A slender rod of mass `mass` (kg) from `a` to `b` (m, base frame), body z across it
-/// along `z`, less a point mass `carved` (kg) at its end `b`: the part of the link that
+/// A slender rod of mass `mass` (kg) and length `length` (m) from `a` to `b` (m, base
+/// frame), body z across it along `z`, less a point mass `carved` (kg) at its end `b`: the
+/// part of the link that
 /// remains when a joint's cross at `b` becomes a body of its own. Mass, first and second
 /// moments of the rest plus the point mass equal the whole rod's (the point's own
 /// rotational inertia is not carved out).
 fn rod_between(
     name: String,
     mass: f64,
-    a: Vector3<f64>,
-    b: Vector3<f64>,
+    length: f64,
+    (a, b): (Vector3<f64>, Vector3<f64>),
     z: Vector3<f64>,
     carved: f64,
 ) -> RigidBody {
-    let whole = RigidBody::rod(name, mass, (b - a).norm());
+    // The inertia from the nominal `length` (|b − a| up to round-off), as the model files
+    // build it: the settling rattle of the clearance model amplifies a last-bit difference.
+    let whole = RigidBody::rod(name, mass, length);
     let orient = frame(b - a, z);
     let centre = (a + b) / 2.0;
     if carved == 0.0 {
         return whole.at(centre).oriented(&orient);
     }
     // Along the rod's axis from its centre: the point at l/2, the rest's centre at x.
-    let half = (b - a).norm() / 2.0;
+    let half = length / 2.0;
     let rest = mass - carved;
     let x = -carved * half / rest;
     let across = whole.inertia[(1, 1)] + mass * x * x - carved * (half - x) * (half - x);
@@ -212,16 +215,16 @@ pub(crate) fn add_links(
         let arm = mech.add_body(rod_between(
             format!("arm {}", DRIVE_JOINTS[i]),
             mp.arm,
-            b.arm_centre,
-            d,
+            gi.arm_length,
+            (b.arm_centre, d),
             b.axis,
             if carved[i] { mp.cross } else { 0.0 },
         ));
         let forearm = mech.add_body(rod_between(
             format!("forearm {}{}", ELBOW_JOINTS[i], PLATFORM_JOINTS[i]),
             mp.forearm,
-            d,
-            p,
+            gi.forearm_length,
+            (d, p),
             cross_axis,
             if carved[3 + i] { mp.cross } else { 0.0 },
         ));
@@ -313,8 +316,9 @@ mod tests {
         };
         let steiner =
             |m: f64, d: Vector3<f64>| m * (Matrix3::identity() * d.norm_squared() - d * d.transpose());
-        let whole = rod_between("w".into(), 1.0, a, b, z, 0.0);
-        let rest = rod_between("r".into(), 1.0, a, b, z, 0.05);
+        let l = (b - a).norm();
+        let whole = rod_between("w".into(), 1.0, l, (a, b), z, 0.0);
+        let rest = rod_between("r".into(), 1.0, l, (a, b), z, 0.05);
         assert!((rest.mass - 0.95).abs() < 1e-15);
         let c = (rest.position * rest.mass + b * 0.05) / (rest.mass + 0.05);
         assert!((c - whole.position).norm() < 1e-15);
