@@ -665,18 +665,16 @@ impl MechanismModel {
     fn compliances_at(&self, theta: &[f64], built: &Built) -> Vec<f64> {
         let n = self.joints.len();
         let mut c: Vec<f64> = (0..n).map(|j| self.compliance(theta, j)).collect();
-        let active: Vec<&SeriesCompliance> = self
-            .series
-            .iter()
-            .filter(|s| theta[s.parameter] != 0.0 && s.drive < n)
-            .collect();
-        if active.is_empty() {
-            return c;
-        }
-        let mut y = vec![0.0; self.sensors.outputs.len()];
-        Self::outputs_of(&self.sensors, built, &mut y);
-        for s in active {
-            let g = (s.gain)(&built.last, &y);
+        // The outputs only when a series compliance is not zero (its drive is a torque
+        // channel: `with_series_compliance` checked it).
+        let mut y: Option<Vec<f64>> = None;
+        for s in self.series.iter().filter(|s| theta[s.parameter] != 0.0) {
+            let y = y.get_or_insert_with(|| {
+                let mut y = vec![0.0; self.sensors.outputs.len()];
+                Self::outputs_of(&self.sensors, built, &mut y);
+                y
+            });
+            let g = (s.gain)(&built.last, y);
             if g.is_finite() {
                 c[s.drive] += theta[s.parameter] * g;
             }

@@ -121,6 +121,9 @@ pub fn parameters(g: &Geometry, mp: &MassProperties) -> Vec<ModelParameter> {
 /// about as much as a step of the drive compliance's own scale does.
 pub const JOINT_COMPLIANCE_SCALE: f64 = 4e-6;
 
+/// First parameter index of the drives' transmission compliances (drives A, B, C).
+pub const DRIVE_COMPLIANCE: usize = 11;
+
 /// First parameter index of the legs' joint compliances (legs A, B, C).
 pub const JOINT_COMPLIANCE: usize = 14;
 
@@ -171,7 +174,7 @@ pub fn mr2120_model(g: &Geometry, mp: &MassProperties) -> Result<MechanismModel,
     let sensors = Sensors {
         encoders: (0..3)
             .map(|j| EncoderPlacement::MotorSide {
-                compliance: 11 + j,
+                compliance: DRIVE_COMPLIANCE + j,
                 rotor_inertia: NOMINAL_ROTOR_INERTIA,
                 damping: NOMINAL_TRANSMISSION_DAMPING,
             })
@@ -273,7 +276,7 @@ mod tests {
         joint[JOINT_COMPLIANCE + 2] = c;
         let (tau_j, y_j) = run(&joint);
         let mut drive = nominal.clone();
-        drive[13] += c * leg_compliance_gain(&g, 2, q[2], &y0);
+        drive[DRIVE_COMPLIANCE + 2] += c * leg_compliance_gain(&g, 2, q[2], &y0);
         let (tau_d, y_d) = run(&drive);
         for k in 0..3 {
             assert!(

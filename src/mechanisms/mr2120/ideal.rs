@@ -115,10 +115,9 @@ fn frame(x: Vector3<f64>, z: Vector3<f64>) -> Matrix3<f64> {
 
 /// A slender rod of mass `mass` (kg) and length `length` (m) from `a` to `b` (m, base
 /// frame), body z across it along `z`, less a point mass `carved` (kg) at its end `b`: the
-/// part of the link that
-/// remains when a joint's cross at `b` becomes a body of its own. Mass, first and second
-/// moments of the rest plus the point mass equal the whole rod's (the point's own
-/// rotational inertia is not carved out).
+/// part of the link that remains when a joint's cross at `b` becomes a body of its own.
+/// Mass, first and second moments of the rest plus the point mass equal the whole rod's (the
+/// point's own rotational inertia is not carved out).
 fn rod_between(
     name: String,
     mass: f64,
