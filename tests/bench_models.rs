@@ -30,6 +30,57 @@ fn clearance_chain_has_two_bodies_and_12_dof_per_link_and_its_bearings_engage() 
 }
 
 #[test]
+fn a_step_ceiling_after_newton_failures_stops_the_chain_growing_back_into_them() {
+    use lash::multibody::Simulation;
+    use std::sync::Arc;
+    // The clearance chain's steps are limited by Newton convergence as bearings engage (no
+    // error-test failure decides them): IDA's rule, cut to h/4 and double again, grows
+    // straight back into the failure. The multibody default keeps later steps below half
+    // the failed one, a ceiling rising 1.2× per step. Counts, not timings.
+    let run = |ceiling: f64, rtol: f64| {
+        let mut opts = lash::mechanisms::mr2120::trajectory::clearance_options();
+        opts.singularity_warning = 0.0;
+        opts.bdf.step_ceiling_after_newton_failure = ceiling;
+        opts.bdf.rtol = rtol;
+        let m = clearance_chain(3, &chain_design()).unwrap();
+        let mut sim = Simulation::new(Arc::new(m), 0.0, opts).unwrap();
+        let traj = sim.run(&[0.01], |_| {}).unwrap();
+        (*sim.stats(), traj.samples.last().unwrap().q.clone())
+    };
+    let default = lash::multibody::SimulationOptions::default().bdf;
+    assert_eq!(default.step_ceiling_after_newton_failure, 0.5);
+    let (with, q_with) = run(default.step_ceiling_after_newton_failure, 1e-4);
+    let (without, q_without) = run(f64::INFINITY, 1e-4);
+    assert!(
+        (with.newton_failures as f64) < 0.75 * without.newton_failures as f64,
+        "Newton failures {} with the ceiling, {} without",
+        with.newton_failures,
+        without.newton_failures
+    );
+    assert!(
+        with.lu_factorisations < without.lu_factorisations,
+        "factorisations {} with the ceiling, {} without",
+        with.lu_factorisations,
+        without.lu_factorisations
+    );
+    // As accurate: against a run at rtol 1e-7, the positions (m) and orientation
+    // parameters of the chain's bodies at t = 0.01 s.
+    let (_, q_ref) = run(f64::INFINITY, 1e-7);
+    let err = |q: &[f64]| {
+        q.iter()
+            .zip(&q_ref)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+    };
+    assert!(
+        err(&q_with) <= 2.0 * err(&q_without).max(1e-9),
+        "error {} with the ceiling, {} without",
+        err(&q_with),
+        err(&q_without)
+    );
+}
+
+#[test]
 #[cfg(feature = "peers")]
 fn mr2120_bench_measures_both_integrators_against_one_reference() {
     let opts = Mr2120BenchOptions {

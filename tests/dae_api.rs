@@ -275,6 +275,18 @@ fn bad_tolerances_and_dimensions_are_errors() {
         BdfSolver::new(sys(), 0.0, &[f64::NAN], &[-1.0], &[], tight()),
         Err(DaeError::InvalidInput(_))
     ));
+    for (ceiling, relaxation) in [(0.0, 1.2), (f64::NAN, 1.2), (0.5, 0.9), (0.5, f64::INFINITY)] {
+        let mut o = tight();
+        o.step_ceiling_after_newton_failure = ceiling;
+        o.step_ceiling_relaxation = relaxation;
+        assert!(
+            matches!(
+                BdfSolver::new(sys(), 0.0, &[1.0], &[-1.0], &[], o),
+                Err(DaeError::InvalidInput(_))
+            ),
+            "ceiling {ceiling} relaxation {relaxation}"
+        );
+    }
     let mut o = tight();
     o.max_order = 7;
     assert!(matches!(

@@ -83,6 +83,15 @@ pub struct BdfOptions {
     pub max_newton_fails: usize,
     /// Re-evaluate the Jacobian at least every this many steps.
     pub max_steps_between_jacobians: usize,
+    /// Step ceiling after a nonlinear convergence failure: once the Newton iteration failed
+    /// at step size h, later steps stay below this fraction of h, a ceiling that rises by
+    /// `step_ceiling_relaxation` per accepted step (`f64::INFINITY`: no ceiling, IDA). Where
+    /// the step size is limited by Newton convergence rather than by the error test (stiff
+    /// contact switching on and off), IDA's rule (cut to h/4, then double) grows straight
+    /// back into the failure, and every failure costs its iterations and factorisations.
+    pub step_ceiling_after_newton_failure: f64,
+    /// Factor (≥ 1) by which the step ceiling rises per accepted step.
+    pub step_ceiling_relaxation: f64,
     /// Stop time: the solver never steps past it.
     pub stop_time: Option<f64>,
     /// Filter the local error estimates through the iteration matrix so transients in stiff
@@ -116,6 +125,8 @@ impl Default for BdfOptions {
             max_error_test_fails: 10,
             max_newton_fails: 10,
             max_steps_between_jacobians: 50,
+            step_ceiling_after_newton_failure: f64::INFINITY,
+            step_ceiling_relaxation: 1.2,
             stop_time: None,
             filter_error_estimate: false,
             measure_rate_with_stale_jacobian: true,

@@ -123,6 +123,9 @@ pub struct BdfSolver<P: DaeSystem> {
     /// Current limit on Jacobian reuse (adapted; see `newton.rs`).
     pub(crate) jac_age_limit: usize,
     pub(crate) fresh_streak: usize,
+    /// Ceiling on |h| after Newton convergence failures (see
+    /// `BdfOptions::step_ceiling_after_newton_failure`); infinite when none.
+    pub(crate) h_ceiling: f64,
     // --- output driver state ---
     pub(crate) started: bool,
     pub(crate) tret: f64,
@@ -185,6 +188,18 @@ impl<P: DaeSystem> BdfSolver<P> {
             return Err(DaeError::InvalidInput(format!(
                 "h_max must be positive, got {}",
                 opts.h_max
+            )));
+        }
+        if opts.step_ceiling_after_newton_failure.is_nan() || opts.step_ceiling_after_newton_failure <= 0.0 {
+            return Err(DaeError::InvalidInput(format!(
+                "step_ceiling_after_newton_failure must be positive (infinite for none), got {}",
+                opts.step_ceiling_after_newton_failure
+            )));
+        }
+        if !(opts.step_ceiling_relaxation >= 1.0 && opts.step_ceiling_relaxation.is_finite()) {
+            return Err(DaeError::InvalidInput(format!(
+                "step_ceiling_relaxation must be finite and at least 1, got {}",
+                opts.step_ceiling_relaxation
             )));
         }
         if let Some(h) = opts.h_init {
@@ -282,6 +297,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             steps_since_jac: 0,
             jac_age_limit: opts_max_age,
             fresh_streak: 0,
+            h_ceiling: f64::INFINITY,
             started: false,
             tret: t0,
             yret: y0.to_vec(),

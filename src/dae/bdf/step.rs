@@ -98,6 +98,9 @@ impl<P: DaeSystem> BdfSolver<P> {
                                 specific = Some(cause);
                             }
                             rr = 0.25;
+                            self.h_ceiling = self
+                                .h_ceiling
+                                .min(self.opts.step_ceiling_after_newton_failure * self.hh.abs());
                         }
                     }
                     self.hh *= rr;
@@ -352,6 +355,13 @@ impl<P: DaeSystem> BdfSolver<P> {
                 hnew = hmax.copysign(hnew);
             }
             self.hh = hnew;
+        }
+        // Below the ceiling a Newton failure set; the ceiling rises with every accepted step.
+        if self.h_ceiling.is_finite() {
+            if self.hh.abs() > self.h_ceiling {
+                self.hh = self.h_ceiling.copysign(self.hh);
+            }
+            self.h_ceiling *= self.opts.step_ceiling_relaxation.max(1.0);
         }
         // Save ee for a possible order increase on the next step; update the history.
         let kused = self.kused;
