@@ -179,3 +179,36 @@ fn the_multibody_nominal_model_follows_a_payload_truth_through_the_direct_singul
         "torque RMS per 0.5 s window {rms:?} N m, whole record {total} N m"
     );
 }
+
+#[test]
+fn a_suite_run_keeps_its_recordings_for_a_blind_diagnosis_when_asked() {
+    let dir = std::env::temp_dir().join(format!("lash-keep-{}", std::process::id()));
+    let all = cases();
+    let i = all.iter().position(|c| c.name == "null").unwrap();
+    let opts = SuiteOptions {
+        keep_recordings: Some(dir.clone()),
+        ..SuiteOptions::lumped_reduced()
+    };
+    let kept = run_case(&all[i], &opts, i).unwrap().0;
+    // Keeping the recordings changes nothing of the diagnosis.
+    assert!(kept.no_mismatch && kept.pass, "{kept:?}");
+    let n = opts.fit_recordings + opts.holdout_recordings;
+    let samples = (opts.record.duration * opts.record.rate).round() as usize;
+    for r in 1..=n {
+        let path = dir.join("null").join(format!("recording-{r:02}.csv"));
+        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let mut lines = text.lines();
+        let header = lines.next().unwrap();
+        assert!(
+            header.starts_with("time,q1,") && header.contains("tau1"),
+            "{header}"
+        );
+        let rows = lines.count();
+        assert!(rows.abs_diff(samples) <= 1, "{} rows, {samples} samples", rows);
+    }
+    assert!(!dir
+        .join("null")
+        .join(format!("recording-{:02}.csv", n + 1))
+        .exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -104,13 +104,18 @@ pub struct Args {
     /// cases of the selection only).
     #[arg(long, default_value = "multibody", value_parser = ["multibody", "lumped"])]
     truth: String,
+    /// With --suite: also write each case's recordings (with their noise) to
+    /// DIR/<case>/recording-01.csv, … (fit recordings first, then the held-out ones), to
+    /// diagnose them again with --model mr2120 --fit … --holdout …
+    #[arg(long, value_name = "DIR")]
+    keep_recordings: Option<PathBuf>,
 }
 
 /// Diagnoses the recordings, or runs the suite; the suite's check is its targets.
 pub fn run(a: Args) -> Result<Output, CliError> {
     if a.suite {
         let dir = a.report.unwrap_or_else(|| SUITE_REPORT.into());
-        return suite(a.reduced, &a.truth, &a.only, &dir, a.json);
+        return suite(a.reduced, &a.truth, &a.only, a.keep_recordings, &dir, a.json);
     }
     let dp;
     let mr;
@@ -246,7 +251,14 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     Ok(Output::OK)
 }
 
-fn suite(reduced: bool, truth: &str, only: &str, dir: &Path, as_json: bool) -> Result<Output, CliError> {
+fn suite(
+    reduced: bool,
+    truth: &str,
+    only: &str,
+    keep_recordings: Option<PathBuf>,
+    dir: &Path,
+    as_json: bool,
+) -> Result<Output, CliError> {
     use lash::diagnose::suite::{run_suite, SuiteError, SuiteOptions, SCOREBOARD_FILE};
     let mut opts = match (truth, reduced) {
         ("lumped", true) => SuiteOptions::lumped_reduced(),
@@ -258,6 +270,7 @@ fn suite(reduced: bool, truth: &str, only: &str, dir: &Path, as_json: bool) -> R
     if !chosen.is_empty() {
         opts.only = chosen;
     }
+    opts.keep_recordings = keep_recordings;
     let mut progress = Progress::new("diagnose --suite", 1.0);
     let board = run_suite(&opts, Some(dir), |_, f| progress.update(f));
     progress.finish();

@@ -357,6 +357,7 @@ pub fn run_case(
     for r in 0..n_rec {
         let ex = excitation(seed, r);
         let rec = record(&nominal, &case.effects, &ex, &ropts, seed.wrapping_add(r as u64)).map_err(err)?;
+        super::keep(opts, &case.name, r, &rec)?;
         // Concealment: the hidden part alone, noise-free.
         let hid = record(&nominal, &case.hidden_effects, &ex, &ropts, 0).map_err(err)?;
         let channels: Vec<usize> = if case.torques {

@@ -126,6 +126,10 @@ pub struct SuiteOptions {
     pub seed: u64,
     /// Only the cases whose names contain one of these (all if empty).
     pub only: Vec<String>,
+    /// Keep each case's recordings (with their noise) as `dir/<case>/recording-01.csv`, …
+    /// (fit recordings first, then the held-out ones), in the format `lash diagnose --model
+    /// mr2120 --fit …` reads: to diagnose them again, or with other tools, blind.
+    pub keep_recordings: Option<std::path::PathBuf>,
 }
 
 impl Default for SuiteOptions {
@@ -146,6 +150,7 @@ impl Default for SuiteOptions {
             derivative_window: 8,
             seed: 2026,
             only: vec![],
+            keep_recordings: None,
         }
     }
 }
@@ -289,7 +294,6 @@ pub struct Scoreboard {
 }
 
 /// Errors of the suite.
-/// Errors of the suite.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SuiteError {
     /// A case's report could not be written.
@@ -362,6 +366,24 @@ impl Scoreboard {
             })?;
         Ok(path)
     }
+}
+
+/// Writes recording `r` (from 0) of `case` to `dir/<case>/recording-NN.csv` when `opts`
+/// keep recordings ([`SuiteOptions::keep_recordings`]).
+pub(crate) fn keep(opts: &SuiteOptions, case: &str, r: usize, rec: &Recorded) -> Result<(), SuiteError> {
+    let Some(dir) = &opts.keep_recordings else {
+        return Ok(());
+    };
+    let folder = dir.join(case);
+    std::fs::create_dir_all(&folder).map_err(|e| SuiteError::Write {
+        path: folder.clone(),
+        message: e.to_string(),
+    })?;
+    rec.write(&folder.join(format!("recording-{:02}.csv", r + 1)))
+        .map_err(|source| SuiteError::Record {
+            case: case.into(),
+            source,
+        })
 }
 
 /// A recording as the diagnosis reads it (accelerations by local cubics over ±`window`

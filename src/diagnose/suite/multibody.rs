@@ -419,6 +419,7 @@ pub fn run_case(
             total += 1;
         }
         let rec: Recorded = run.sensed(&full, &path, &ropts, Some(noise_seed.wrapping_add(r as u64)));
+        super::keep(opts, &case.name, r, &rec)?;
         let d = motion(
             &rec,
             format!("{}-{}", case.name, r + 1),
