@@ -330,7 +330,9 @@ fn suite(
         }
     }
     println!(
-        "\nranked first {}/{}  estimates within 30 % {}/{}  held-out ≤ 1.2× noise {}/{}  null case {}  out of library flagged {}/{}  pair case {}",
+        "\nconcealed by measure {}/{}  ranked first {}/{}  estimates within 30 % {}/{}  held-out ≤ 1.2× noise {}/{}  null case {}  out of library flagged {}/{}  pair case {}",
+        board.concealed_by_measure.0,
+        board.concealed_by_measure.1,
         board.ranked_first.0,
         board.ranked_first.1,
         board.estimates_within_30pct.0,

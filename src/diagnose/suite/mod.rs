@@ -28,7 +28,10 @@
 //!   separating experiment named.
 //!
 //! Each case's concealment is measured, not asserted: the fraction of samples at which the
-//! hidden effect (noise-free) moves every channel by less than that channel's noise.
+//! hidden effect (noise-free) moves every channel by less than that channel's noise. A case
+//! declared concealed counts as concealed by measure when that fraction is at least
+//! [`CONCEALED_FRACTION`] ("below the noise over most of the record"); the scoreboard
+//! reports how many are.
 
 pub mod lumped;
 pub mod multibody;
@@ -44,6 +47,9 @@ use serde::Serialize;
 pub const ESTIMATE_TOLERANCE: f64 = 0.30;
 /// Largest held-out residual RMS, in noise units, that counts as explained.
 pub const HOLDOUT_TARGET: f64 = 1.2;
+/// Smallest fraction of samples below the noise at which a declared concealed case is
+/// concealed by measure.
+pub const CONCEALED_FRACTION: f64 = 0.5;
 
 /// One true effect and its value in the candidate's unit.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -272,6 +278,9 @@ pub struct Scoreboard {
     pub truth_source: TruthSource,
     /// Per case.
     pub cases: Vec<CaseResult>,
+    /// Cases declared concealed whose hidden effect is below the noise at ≥
+    /// [`CONCEALED_FRACTION`] of the samples / cases declared concealed.
+    pub concealed_by_measure: (usize, usize),
     /// Concealed cases with the true physics ranked first / concealed cases.
     pub ranked_first: (usize, usize),
     /// Concealed cases with every estimate within 30 %.
@@ -597,6 +606,10 @@ fn scoreboard(opts: &SuiteOptions, results: Vec<CaseResult>) -> Scoreboard {
     let concealed: Vec<&CaseResult> = of(CaseKind::Concealed).collect();
     let n = concealed.len();
     let ranked = concealed.iter().filter(|r| r.ranked_first).count();
+    let by_measure = concealed
+        .iter()
+        .filter(|r| r.below_noise_fraction >= CONCEALED_FRACTION)
+        .count();
     let est = concealed.iter().filter(|r| r.estimate_ok).count();
     let held = concealed.iter().filter(|r| r.holdout_ok).count();
     let null_ok = of(CaseKind::Null).all(|r| r.pass);
@@ -618,6 +631,7 @@ fn scoreboard(opts: &SuiteOptions, results: Vec<CaseResult>) -> Scoreboard {
     Scoreboard {
         truth_source: opts.truth,
         cases: results,
+        concealed_by_measure: (by_measure, n),
         ranked_first: (ranked, n),
         estimates_within_30pct: (est, n),
         holdout_at_noise: (held, n),
@@ -722,5 +736,41 @@ mod tests {
         assert!(!estimates_ok(&[Some((1.1, 0.1)), None], &truth));
         assert!(!estimates_ok(&[Some((2.0, 1.0)), Some((5.0, f64::NAN))], &truth));
         assert!(!truth[1].sized() && truth[0].sized());
+    }
+
+    #[test]
+    fn the_scoreboard_counts_declared_concealed_cases_that_are_concealed_by_measure() {
+        let case = |kind: CaseKind, below: f64| CaseResult {
+            case: "c".into(),
+            kind,
+            concealment: String::new(),
+            below_noise_fraction: below,
+            peak_snr: 1.0,
+            below_noise_by_channel: None,
+            truth: vec![],
+            selected: vec![],
+            found: vec![],
+            ranked_first: true,
+            estimates: vec![],
+            estimate_ok: true,
+            holdout_noise_ratio: 1.0,
+            holdout_ok: true,
+            explained_fraction: 1.0,
+            unexplained: false,
+            no_mismatch: false,
+            confounded: None,
+            pass: true,
+            verdict: String::new(),
+        };
+        let results = vec![
+            case(CaseKind::Concealed, 0.9),
+            case(CaseKind::Concealed, CONCEALED_FRACTION),
+            case(CaseKind::Concealed, 0.1),
+            // Not declared concealed: not counted, however far below the noise.
+            case(CaseKind::Null, 1.0),
+        ];
+        let board = scoreboard(&SuiteOptions::reduced(), results);
+        assert_eq!(board.concealed_by_measure, (2, 3));
+        assert_eq!(board.ranked_first, (3, 3));
     }
 }

@@ -123,11 +123,11 @@ pub fn cases() -> Vec<Case> {
     let mut out = vec![
         mk(
             "payload",
-            "a 20 g body 2 cm above the platform centre",
+            "a 6 g body 2 cm above the platform centre",
             Concealed,
-            |s| s.payload_body = Some(payload(0.02, PayloadMount::Rigid)),
+            |s| s.payload_body = Some(payload(0.006, PayloadMount::Rigid)),
             None,
-            vec![t("error in payload on the platform", 0.02, true)],
+            vec![t("error in payload on the platform", 0.006, true)],
         ),
         mk(
             "forearm-length",
@@ -163,13 +163,13 @@ pub fn cases() -> Vec<Case> {
         ),
         mk(
             "stribeck",
-            "Stribeck friction in drive B (0.03 N m, breakaway 0.05 N m, exponent 1.4: not a library law)",
+            "Stribeck friction in drive B (0.012 N m, breakaway 0.02 N m, exponent 1.4: not a library law)",
             Concealed,
-            |s| s.drives[1].friction.push(stribeck(0.03, 0.05, 0.0)),
+            |s| s.drives[1].friction.push(stribeck(0.012, 0.02, 0.0)),
             None,
             vec![t(
                 "Coulomb friction in drive B|Stribeck friction*in drive B|direction-asymmetric friction in drive B",
-                0.03,
+                0.012,
                 true,
             )],
         ),
@@ -244,11 +244,11 @@ pub fn cases() -> Vec<Case> {
         ),
         mk(
             "tracker-offset",
-            "tracker z reads 8 µm high (below its 5 µm noise at most samples)",
+            "tracker z reads 3 µm high (below its 5 µm noise at every sample)",
             Concealed,
-            |s| s.sensors.tracker_offset[2] = 8e-6,
+            |s| s.sensors.tracker_offset[2] = 3e-6,
             None,
-            vec![t("platform z sensor offset", 8e-6, true)],
+            vec![t("platform z sensor offset", 3e-6, true)],
         ),
         mk("null", "nothing hidden", Null, |_| {}, None, vec![]),
         mk(
