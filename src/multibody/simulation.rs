@@ -42,8 +42,9 @@
 //! size, rising 1.2× per accepted step. Measured side by side (`farm-bench`, 5 alternated
 //! pairs of `lash mr2120 trajectory --clearance L1`): 0.82× the wall time; `lash bench
 //! mr2120` at rtol 1e-4: 6 951 → 4 579 factorisations, 1.81 → 1.25 s for the whole 4 s with
-//! 50 → 46 µm error up to t = 3.5 s (at rtol 1e-6 it was 1.08× slower, 7.6 → 8.2 s); the
-//! scaling chain (100 links): 74 → 37 Newton failures.
+//! 50 → 46 µm error up to t = 3.5 s; the scaling chain (100 links): 74 → 37 Newton failures.
+//! It costs at rtol 1e-5 (whole run 7.5 → 17.7 s: after an impact the step regrows only 1.2×
+//! per step from a small ceiling); rtol 1e-6 and 1e-7 within ±10 %.
 
 use super::analysis::{Analysis, AssemblyOptions, Reaction};
 use super::data::MechanismData;
