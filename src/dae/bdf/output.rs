@@ -339,6 +339,8 @@ impl<P: DaeSystem> BdfSolver<P> {
         self.nst_local = 0;
         self.started = false;
         self.force_setup = true;
+        // No step ceiling carried across the discontinuity either.
+        self.h_ceiling = f64::INFINITY;
         self.events.pending = None;
         Ok(())
     }
