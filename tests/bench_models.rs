@@ -38,8 +38,7 @@ fn a_step_ceiling_after_newton_failures_stops_the_chain_growing_back_into_them()
     // straight back into the failure. The multibody default keeps later steps below half
     // the failed one, a ceiling rising 1.2× per step. Counts, not timings.
     let run = |ceiling: f64, rtol: f64| {
-        let mut opts = lash::mechanisms::mr2120::trajectory::clearance_options();
-        opts.singularity_warning = 0.0;
+        let mut opts = lash::bench::scaling::chain_options();
         opts.bdf.step_ceiling_after_newton_failure = ceiling;
         opts.bdf.rtol = rtol;
         let m = clearance_chain(3, &chain_design()).unwrap();

@@ -96,6 +96,14 @@ pub fn log_slope(points: &[(f64, f64)]) -> f64 {
     sxy / sxx
 }
 
+/// The chain's simulation settings: the MR2120 clearance runs' (`clearance_options`), without
+/// singularity warnings.
+pub fn chain_options() -> crate::multibody::SimulationOptions {
+    let mut opts = crate::mechanisms::mr2120::trajectory::clearance_options();
+    opts.singularity_warning = 0.0;
+    opts
+}
+
 /// Runs each chain length for `t_end` seconds of simulated time. `progress` receives the
 /// chain length about to run.
 pub fn bench_scaling(lengths: &[usize], t_end: f64, mut progress: impl FnMut(usize)) -> Scaling {
@@ -119,12 +127,7 @@ pub fn bench_scaling(lengths: &[usize], t_end: f64, mut progress: impl FnMut(usi
         let start = Instant::now();
         let built = clearance_chain(n, &chain_design())
             .map_err(|e| e.to_string())
-            .and_then(|m| {
-                // The clearance runs' settings, without singularity warnings.
-                let mut opts = crate::mechanisms::mr2120::trajectory::clearance_options();
-                opts.singularity_warning = 0.0;
-                Simulation::new(Arc::new(m), 0.0, opts).map_err(|e| e.to_string())
-            });
+            .and_then(|m| Simulation::new(Arc::new(m), 0.0, chain_options()).map_err(|e| e.to_string()));
         row.setup_s = start.elapsed().as_secs_f64();
         match built {
             Ok(mut sim) => {

@@ -361,7 +361,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             if self.hh.abs() > self.h_ceiling {
                 self.hh = self.h_ceiling.copysign(self.hh);
             }
-            self.h_ceiling *= self.opts.step_ceiling_relaxation.max(1.0);
+            self.h_ceiling *= self.opts.step_ceiling_relaxation;
         }
         // Save ee for a possible order increase on the next step; update the history.
         let kused = self.kused;

@@ -388,7 +388,7 @@ pub(crate) fn keep(opts: &SuiteOptions, case: &str, r: usize, rec: &Recorded) ->
         path: folder.clone(),
         message: e.to_string(),
     })?;
-    rec.write(&folder.join(format!("recording-{:02}.csv", r + 1)))
+    rec.write(&folder.join(crate::mechanisms::mr2120::record::recording_file(r)))
         .map_err(|source| SuiteError::Record {
             case: case.into(),
             source,

@@ -558,6 +558,11 @@ impl Truth {
     }
 }
 
+/// File name of recording `r` (from 0) in a folder of recordings: `recording-01.csv`, …
+pub fn recording_file(r: usize) -> String {
+    format!("recording-{:02}.csv", r + 1)
+}
+
 /// Name of the truth file [`write_recordings`] writes.
 pub const TRUTH_FILE: &str = "truth.json";
 
@@ -583,7 +588,7 @@ pub fn write_recordings(
     let mut recordings = vec![];
     for (r, ex) in excitations.iter().enumerate() {
         let rec = record(nominal, hidden, ex, opts, seed.wrapping_add(r as u64))?;
-        let path = dir.join(format!("recording-{:02}.csv", r + 1));
+        let path = dir.join(recording_file(r));
         rec.write(&path)?;
         recordings.push(WrittenRecording {
             file: path.display().to_string(),
