@@ -35,8 +35,8 @@ fn a_step_ceiling_after_newton_failures_stops_the_chain_growing_back_into_them()
     use std::sync::Arc;
     // The clearance chain's steps are limited by Newton convergence as bearings engage (no
     // error-test failure decides them): IDA's rule, cut to h/4 and double again, grows
-    // straight back into the failure. The multibody default keeps later steps below half
-    // the failed one, a ceiling rising 1.2× per step. Counts, not timings.
+    // straight back into the failure. The multibody default keeps later steps below 0.3 of
+    // a grown step that failed, a ceiling rising 1.2× per step. Counts, not timings.
     let run = |ceiling: f64, rtol: f64| {
         let mut opts = lash::bench::scaling::chain_options();
         opts.bdf.step_ceiling_after_newton_failure = ceiling;
@@ -47,7 +47,7 @@ fn a_step_ceiling_after_newton_failures_stops_the_chain_growing_back_into_them()
         (*sim.stats(), traj.samples.last().unwrap().q.clone())
     };
     let default = lash::multibody::SimulationOptions::default().bdf;
-    assert_eq!(default.step_ceiling_after_newton_failure, 0.5);
+    assert_eq!(default.step_ceiling_after_newton_failure, 0.3);
     let (with, q_with) = run(default.step_ceiling_after_newton_failure, 1e-4);
     let (without, q_without) = run(f64::INFINITY, 1e-4);
     assert!(

@@ -37,6 +37,11 @@ pub struct ScalingRow {
     pub failure: Option<String>,
 }
 
+/// Issue #16's target for the log-log slope of the time per step against N (N ≥ 100).
+pub const TARGET_SLOPE_TIME: f64 = 1.1;
+/// Issue #16's target for the log-log slope of the resident memory against N.
+pub const TARGET_SLOPE_MEMORY: f64 = 1.0;
+
 /// The scaling result.
 #[derive(Debug, Clone, Serialize)]
 pub struct Scaling {

@@ -311,9 +311,15 @@ fn scaling(links: &str, t_end: f64, out: &Path, as_json: bool) -> Result<Output,
                 .unwrap_or_default()
         );
     }
+    let verdict = |x: f64, target: f64| if x <= target { "met" } else { "not met" };
     println!(
-        "log-log slope of time per step against N (N >= 100): {:.2} (target <= 1.2); memory: {:.2}",
-        s.slope, s.memory_slope
+        "log-log slope against N (N >= 100): time per step {:.2} (target <= {}: {}); memory {:.2} (target <= {}: {})",
+        s.slope,
+        lash::bench::scaling::TARGET_SLOPE_TIME,
+        verdict(s.slope, lash::bench::scaling::TARGET_SLOPE_TIME),
+        s.memory_slope,
+        lash::bench::scaling::TARGET_SLOPE_MEMORY,
+        verdict(s.memory_slope, lash::bench::scaling::TARGET_SLOPE_MEMORY),
     );
     println!("{note}");
     Ok(Output::OK)

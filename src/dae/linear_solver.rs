@@ -6,11 +6,14 @@
 //!   numeric refactorisation in place.
 //! * [`DenseLu`] — nalgebra's dense LU with partial pivoting, for tiny systems where the
 //!   sparse machinery costs more than it saves.
+//! * [`BlockSchurLu`] — eliminates the blocks of unknowns the system declares
+//!   ([`DaeSystem::eliminable_blocks`](super::DaeSystem::eliminable_blocks)) before faer's
+//!   sparse LU on what remains.
 //!
 //! Another solver (an iterative one, another sparse LU) plugs in by implementing
 //! [`LinearSolver`] and adding a [`LinearSolverKind`] variant.
 
-use crate::sparse::{CscPattern, LinearSolveError, SparseLu};
+use crate::sparse::{BlockSchurLu, CscPattern, LinearSolveError, SparseLu};
 use nalgebra::{DMatrix, DVector, Dyn, LU};
 
 /// A direct linear solver for matrices with a fixed sparse pattern.
@@ -34,6 +37,15 @@ impl LinearSolver for SparseLu {
     }
 }
 
+impl LinearSolver for BlockSchurLu {
+    fn factor(&mut self, _pattern: &CscPattern, values: &[f64]) -> Result<(), LinearSolveError> {
+        BlockSchurLu::factor(self, values)
+    }
+    fn solve_in_place(&mut self, b: &mut [f64]) -> Result<(), LinearSolveError> {
+        BlockSchurLu::solve_in_place(self, b)
+    }
+}
+
 /// Which linear solver factorises the BDF's iteration matrices.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum LinearSolverKind {
@@ -43,14 +55,26 @@ pub enum LinearSolverKind {
     /// nalgebra's dense LU ([`DenseLu`]); O(n³) per factorisation, for systems of a few
     /// dozen unknowns at most.
     DenseLu,
+    /// Eliminate the system's [`eliminable_blocks`](super::DaeSystem::eliminable_blocks)
+    /// densely, then faer's sparse LU on the Schur complement ([`BlockSchurLu`]): a smaller
+    /// sparse factorisation when many unknowns sit in small blocks coupled to each other only
+    /// weakly (entries between two blocks are left out of the factors). Without blocks it is
+    /// [`SparseLu`](Self::SparseLu).
+    BlockSchurLu,
 }
 
 impl LinearSolverKind {
-    /// Builds the solver for matrices on `pattern` (square).
-    pub fn build(self, pattern: &CscPattern) -> Result<Box<dyn LinearSolver>, LinearSolveError> {
+    /// Builds the solver for matrices on `pattern` (square); `blocks` are the groups of
+    /// unknowns [`BlockSchurLu`](Self::BlockSchurLu) eliminates (the other kinds ignore them).
+    pub fn build(
+        self,
+        pattern: &CscPattern,
+        blocks: &[Vec<usize>],
+    ) -> Result<Box<dyn LinearSolver>, LinearSolveError> {
         Ok(match self {
             LinearSolverKind::SparseLu => Box::new(SparseLu::new(pattern)?),
             LinearSolverKind::DenseLu => Box::new(DenseLu::new(pattern)?),
+            LinearSolverKind::BlockSchurLu => Box::new(BlockSchurLu::new(pattern, blocks)?),
         })
     }
 }
@@ -147,7 +171,7 @@ mod tests {
             .into_iter()
             .zip(x.iter_mut())
         {
-            let mut s = kind.build(&pattern).unwrap();
+            let mut s = kind.build(&pattern, &[]).unwrap();
             s.factor(&pattern, &values).unwrap();
             s.solve_in_place(x).unwrap();
         }

@@ -84,11 +84,14 @@ pub struct BdfOptions {
     /// Re-evaluate the Jacobian at least every this many steps.
     pub max_steps_between_jacobians: usize,
     /// Step ceiling after a nonlinear convergence failure: once the Newton iteration failed
-    /// at step size h, later steps stay below this fraction of h, a ceiling that rises by
-    /// `step_ceiling_relaxation` per accepted step (`f64::INFINITY`: no ceiling, IDA). Where
-    /// the step size is limited by Newton convergence rather than by the error test (stiff
-    /// contact switching on and off), IDA's rule (cut to h/4, then double) grows straight
-    /// back into the failure, and every failure costs its iterations and factorisations.
+    /// at a step size h that had just grown past the last accepted step, later steps stay
+    /// below this fraction of h, a ceiling that rises by `step_ceiling_relaxation` per
+    /// accepted step (`f64::INFINITY`: no ceiling, IDA). Where the step size is limited by
+    /// Newton convergence rather than by the error test (stiff contact switching on and
+    /// off), IDA's rule (cut to h/4, then double) grows straight back into the failure, and
+    /// every failure costs its iterations and factorisations. A failure at an unchanged or
+    /// smaller step (a contact switching within it) sets no ceiling: there the step size
+    /// was not what failed, and a ceiling would only slow the regrowth after it.
     pub step_ceiling_after_newton_failure: f64,
     /// Factor (≥ 1) by which the step ceiling rises per accepted step.
     pub step_ceiling_relaxation: f64,

@@ -89,6 +89,16 @@ pub trait DaeSystem {
         vec![1; self.dim()]
     }
 
+    /// Groups of unknowns that [`LinearSolverKind::BlockSchurLu`](super::LinearSolverKind::BlockSchurLu)
+    /// eliminates before its sparse LU: each group indexes both unknowns and equations (the
+    /// block of those rows and columns must be invertible in the iteration matrix), and
+    /// iteration-matrix entries between two different groups are left out of the
+    /// factorisation, so declare groups whose mutual coupling is absent or vanishes at the
+    /// solution. Default: none.
+    fn eliminable_blocks(&self) -> Vec<Vec<usize>> {
+        Vec::new()
+    }
+
     /// Projects an accepted solution `y` at time `t` onto invariants the formulation does not
     /// enforce by itself (e.g. position and velocity constraints of an index-1 multibody
     /// formulation, which otherwise drift). Returns `true` if `y` was changed. Default: no

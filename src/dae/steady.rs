@@ -144,8 +144,13 @@ impl SteadySolver {
         let n = sys.dim();
         validate(opts, n, n)?;
         let atol = opts.atol.expand(n, |i| sys.component_name(i))?;
-        let mat = IterationMatrix::new(sys.jacobian_pattern(), sys.jacobian_source(), opts.linear_solver)
-            .map_err(|e| DaeError::InvalidInput(format!("Jacobian pattern: {e}")))?;
+        let mat = IterationMatrix::new(
+            sys.jacobian_pattern(),
+            sys.jacobian_source(),
+            opts.linear_solver,
+            &sys.eliminable_blocks(),
+        )
+        .map_err(|e| DaeError::InvalidInput(format!("Jacobian pattern: {e}")))?;
         Ok(Self {
             opts: opts.clone(),
             atol,

@@ -231,6 +231,18 @@ impl DaeSystem for MultibodyDae {
         self.analytic_jacobian_values(t, y, alpha, values)
     }
 
+    /// Per body its positions (r, p) with its normalisation multiplier ν: the kinematic and
+    /// normalisation rows' block (α·I plus ½∂(L(p)ᵀω')/∂p and the normalisation's 2p) is
+    /// invertible for α > 0, and it couples to other bodies only through the stabiliser's
+    /// Hessian Σ μ·∇²Φ, which vanishes with μ on the solution. Eliminating these blocks
+    /// leaves velocities and multipliers: 218 → 114 unknowns for the 63-DOF MR2120.
+    fn eliminable_blocks(&self) -> Vec<Vec<usize>> {
+        let lay = &self.ev.layout;
+        (0..lay.bodies())
+            .map(|b| (lay.q(b)..lay.q(b) + 7).chain([lay.nu() + b]).collect())
+            .collect()
+    }
+
     fn var_kinds(&self) -> Vec<VarKind> {
         let lay = self.ev.layout.clone();
         (0..lay.dim())

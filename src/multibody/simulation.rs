@@ -16,8 +16,9 @@
 //! | `bdf.max_steps` | steps between two output samples | 200 000 | 500 000 |
 //! | `bdf.max_newton_iters` | Newton iterations per step before retrying smaller | 8 | 4 |
 //! | `bdf.max_jacobian_refreshes_in_solve` | matrix rebuilds within one step | 2 | 0 |
-//! | `bdf.step_ceiling_after_newton_failure` | steps stay below this fraction of one whose Newton iteration failed | 0.5 | none (∞) |
+//! | `bdf.step_ceiling_after_newton_failure` | steps stay below this fraction of a grown step whose Newton iteration failed | 0.3 | none (∞) |
 //! | `bdf.step_ceiling_relaxation` | the ceiling's rise per accepted step | 1.2 | 1.2 |
+//! | `bdf.linear_solver` | how iteration matrices are factorised | block elimination of each body's positions and ν, then sparse LU (`BlockSchurLu`) | sparse LU |
 //! | `assembly.max_iterations` | Gauss–Newton iterations of position assembly | 50 | – |
 //! | `assembly.tolerance` | constraint residual accepted by assembly | 1e-12 | – |
 //! | `formulation.analytic_jacobian` | analytic (or finite-difference) iteration matrix | `true` | – |
@@ -38,20 +39,27 @@
 //! iterations without rebuilds.
 //! Where contacts switch, the Newton iteration rather than the error test limits the step:
 //! IDA's rule after a failed iteration (a quarter of the step, then doubling) grows straight
-//! back into the next failure, so a step whose iteration failed sets a ceiling of half its
-//! size, rising 1.2× per accepted step. Measured side by side (`farm-bench`, 5 alternated
-//! pairs of `lash mr2120 trajectory --clearance L1`): 0.82× the wall time; `lash bench
-//! mr2120` at rtol 1e-4: 6 951 → 4 579 factorisations, 1.81 → 1.25 s for the whole 4 s with
-//! 50 → 46 µm error up to t = 3.5 s; the scaling chain (100 links): 74 → 37 Newton failures.
-//! It costs at rtol 1e-5 (whole run 7.5 → 17.7 s: after an impact the step regrows only 1.2×
-//! per step from a small ceiling); rtol 1e-6 and 1e-7 within ±10 %.
+//! back into the next failure, so a step that had just grown and whose iteration failed sets
+//! a ceiling of 0.3 of its size, rising 1.2× per accepted step; a failure at an unchanged or
+//! smaller step sets none. Measured in one sweep (`lash bench mr2120`, whole 4 s L1 run,
+//! reference rtol 1e-6, plain sparse LU): at rtol 1e-4 / 1e-5, 1.17 / 14.7 s with a ceiling
+//! of half after every failure, 1.12 / 7.1 s with this rule (without a ceiling: 2.06 / 7.45 s
+//! in an earlier sweep).
+//! The iteration matrix is factorised after eliminating each body's positions and
+//! normalisation multiplier (their block is α·I plus small terms; `eliminable_blocks` of
+//! [`MultibodyDae`]), so the sparse LU works on velocities and multipliers only (218 → 114
+//! unknowns on the 63-DOF MR2120): measured on one of its matrices, 128 µs per plain sparse
+//! LU; in `lash bench mr2120` at rtol 1e-4 / 1e-5, 1.12 / 7.1 s → 0.99 / 3.0 s for the whole
+//! run. Side by side (`farm-bench`, 5 alternated pairs of `lash mr2120 trajectory --clearance
+//! L1`, both rules together against the half-after-every-failure ceiling on the plain LU):
+//! 0.70× the wall time.
 
 use super::analysis::{Analysis, AssemblyOptions, Reaction};
 use super::data::MechanismData;
 use super::error::ModelError;
 use super::formulation::{FormulationOptions, Layout, MultibodyDae};
 use super::model::Mechanism;
-use crate::dae::{AbsTol, BdfOptions, BdfSolver, Statistics};
+use crate::dae::{AbsTol, BdfOptions, BdfSolver, LinearSolverKind, Statistics};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -77,8 +85,9 @@ impl Default for SimulationOptions {
                 max_steps: 200_000,
                 max_newton_iters: 8,
                 max_jacobian_refreshes_in_solve: 2,
-                step_ceiling_after_newton_failure: 0.5,
+                step_ceiling_after_newton_failure: 0.3,
                 step_ceiling_relaxation: 1.2,
+                linear_solver: LinearSolverKind::BlockSchurLu,
                 ..BdfOptions::with_tolerances(1e-8, 1e-9)
             },
             assembly: AssemblyOptions::default(),

@@ -6,13 +6,17 @@
 //!   Jacobian and its copies never duplicate the index arrays).
 //! * [`SparseLu`] — faer's sparse LU with the symbolic analysis done once per pattern and the
 //!   numeric factorisation redone in place.
+//! * [`BlockSchurLu`] — small diagonal blocks eliminated densely first, the sparse LU on the
+//!   Schur complement of what remains.
 //! * [`column_colouring`] — a greedy colouring of the columns so a finite-difference Jacobian
 //!   needs one residual evaluation per colour rather than per column.
 
 mod colouring;
 mod lu;
 mod pattern;
+mod schur;
 
 pub use colouring::column_colouring;
 pub use lu::{LinearSolveError, SparseLu, SUPERNODAL_THRESHOLD};
 pub use pattern::{CscMatrix, CscPattern, PatternError, SlotIndex};
+pub use schur::{BlockSchurLu, MAX_GROUP};

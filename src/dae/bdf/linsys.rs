@@ -69,8 +69,9 @@ impl IterationMatrix {
         pattern: CscPattern,
         source: JacobianSource,
         solver: LinearSolverKind,
+        blocks: &[Vec<usize>],
     ) -> Result<Self, LinearSolveError> {
-        let solver = solver.build(&pattern)?;
+        let solver = solver.build(&pattern, blocks)?;
         let n = pattern.ncols();
         let groups = if source == JacobianSource::FiniteDifference {
             let (colour, k) = column_colouring(&pattern);

@@ -236,8 +236,8 @@ impl<P: DaeSystem> BdfSolver<P> {
             )));
         }
         let source = sys.jacobian_source();
-        let mat =
-            IterationMatrix::new(pattern, source, opts.linear_solver).map_err(|e| DaeError::LinearSolve {
+        let mat = IterationMatrix::new(pattern, source, opts.linear_solver, &sys.eliminable_blocks())
+            .map_err(|e| DaeError::LinearSolve {
                 t: t0,
                 h: 0.0,
                 source: e,

@@ -6,6 +6,11 @@ use super::BdfSolver;
 use crate::dae::error::DaeError;
 use crate::dae::problem::DaeSystem;
 
+/// A step counts as grown when it exceeds the last accepted step by more than this factor
+/// (round-off in the step-size arithmetic left aside); only a grown step whose Newton
+/// iteration fails sets the step ceiling (`BdfOptions::step_ceiling_after_newton_failure`).
+const GROWN: f64 = 1.01;
+
 /// Outcome of the local error test.
 struct ErrorEstimates {
     err_k: f64,
@@ -98,9 +103,15 @@ impl<P: DaeSystem> BdfSolver<P> {
                                 specific = Some(cause);
                             }
                             rr = 0.25;
-                            self.h_ceiling = self
-                                .h_ceiling
-                                .min(self.opts.step_ceiling_after_newton_failure * self.hh.abs());
+                            // Only a step that had just grown past the last accepted one
+                            // sets a ceiling: there the growth is what failed. A failure at
+                            // an unchanged or smaller step (a contact switching within it)
+                            // says nothing about the step size that converges.
+                            if self.hh.abs() > GROWN * self.hused.abs() {
+                                self.h_ceiling = self
+                                    .h_ceiling
+                                    .min(self.opts.step_ceiling_after_newton_failure * self.hh.abs());
+                            }
                         }
                     }
                     self.hh *= rr;
