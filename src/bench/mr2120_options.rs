@@ -75,7 +75,7 @@ impl Default for Mr2120BenchOptions {
             dt: 0.01,
             target: 1e-6,
             reference_rtol: 1e-8,
-            bdf_rtols: vec![1e-4, 1e-5, 1e-6, 1e-7],
+            bdf_rtols: vec![1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7],
             dopri_rtols: vec![1e-5],
             symplectic_steps: vec![5e-7],
             // Only when the peer is built in: without it, asking for them is an error.
