@@ -29,22 +29,35 @@ fn clearance_chain_has_two_bodies_and_12_dof_per_link_and_its_bearings_engage() 
     assert!((log_slope(&[(10.0, 1.0), (100.0, 10.0), (1000.0, 100.0)]) - 1.0).abs() < 1e-12);
 }
 
+/// The 3-link clearance chain run for 10 ms with the bench's settings as `configure` leaves
+/// them: the integrator's statistics and the positions (m) and Euler parameters at the end.
+fn run_chain(
+    configure: impl FnOnce(&mut lash::multibody::SimulationOptions),
+) -> (lash::dae::Statistics, Vec<f64>) {
+    let mut opts = lash::bench::scaling::chain_options();
+    configure(&mut opts);
+    let m = clearance_chain(3, &chain_design()).unwrap();
+    let mut sim = lash::multibody::Simulation::new(std::sync::Arc::new(m), 0.0, opts).unwrap();
+    let traj = sim.run(&[0.01], |_| {}).unwrap();
+    (*sim.stats(), traj.samples.last().unwrap().q.clone())
+}
+
+/// Largest componentwise distance between two state vectors.
+fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+}
+
 #[test]
 fn a_step_ceiling_after_newton_failures_stops_the_chain_growing_back_into_them() {
-    use lash::multibody::Simulation;
-    use std::sync::Arc;
     // The clearance chain's steps are limited by Newton convergence as bearings engage (no
     // error-test failure decides them): IDA's rule, cut to h/4 and double again, grows
     // straight back into the failure. The multibody default keeps later steps below 0.3 of
     // a grown step that failed, a ceiling rising 1.2× per step. Counts, not timings.
     let run = |ceiling: f64, rtol: f64| {
-        let mut opts = lash::bench::scaling::chain_options();
-        opts.bdf.step_ceiling_after_newton_failure = ceiling;
-        opts.bdf.rtol = rtol;
-        let m = clearance_chain(3, &chain_design()).unwrap();
-        let mut sim = Simulation::new(Arc::new(m), 0.0, opts).unwrap();
-        let traj = sim.run(&[0.01], |_| {}).unwrap();
-        (*sim.stats(), traj.samples.last().unwrap().q.clone())
+        run_chain(|o| {
+            o.bdf.step_ceiling_after_newton_failure = ceiling;
+            o.bdf.rtol = rtol;
+        })
     };
     let default = lash::multibody::SimulationOptions::default().bdf;
     assert_eq!(default.step_ceiling_after_newton_failure, 0.3);
@@ -65,12 +78,7 @@ fn a_step_ceiling_after_newton_failures_stops_the_chain_growing_back_into_them()
     // As accurate: against a run at rtol 1e-7, the positions (m) and orientation
     // parameters of the chain's bodies at t = 0.01 s.
     let (_, q_ref) = run(f64::INFINITY, 1e-7);
-    let err = |q: &[f64]| {
-        q.iter()
-            .zip(&q_ref)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max)
-    };
+    let err = |q: &[f64]| max_diff(q, &q_ref);
     assert!(
         err(&q_with) <= 2.0 * err(&q_without).max(1e-9),
         "error {} with the ceiling, {} without",
@@ -217,8 +225,6 @@ fn exported_mr2120_model_is_complete_and_its_drive_law_matches() {
 #[test]
 fn eliminating_each_bodys_positions_before_the_lu_gives_the_same_motion_as_the_plain_lu() {
     use lash::dae::LinearSolverKind;
-    use lash::multibody::Simulation;
-    use std::sync::Arc;
     // The multibody default factorises after eliminating each body's positions and
     // normalisation multiplier (entries between two bodies' blocks — the stabiliser's
     // Hessian, zero with μ on the solution — left out of the factors). The residual is
@@ -226,24 +232,17 @@ fn eliminating_each_bodys_positions_before_the_lu_gives_the_same_motion_as_the_p
     let default = lash::multibody::SimulationOptions::default().bdf;
     assert_eq!(default.linear_solver, LinearSolverKind::BlockSchurLu);
     let run = |solver: LinearSolverKind| {
-        let mut opts = lash::bench::scaling::chain_options();
-        opts.bdf.linear_solver = solver;
-        opts.bdf.rtol = 1e-8;
-        opts.bdf.atol = lash::dae::AbsTol::Scalar(1e-10);
-        let m = clearance_chain(3, &chain_design()).unwrap();
-        let mut sim = Simulation::new(Arc::new(m), 0.0, opts).unwrap();
-        let traj = sim.run(&[0.01], |_| {}).unwrap();
-        (*sim.stats(), traj.samples.last().unwrap().q.clone())
+        run_chain(|o| {
+            o.bdf.linear_solver = solver;
+            o.bdf.rtol = 1e-8;
+            o.bdf.atol = lash::dae::AbsTol::Scalar(1e-10);
+        })
     };
     let (schur, q_schur) = run(LinearSolverKind::BlockSchurLu);
     let (plain, q_plain) = run(LinearSolverKind::SparseLu);
     // Positions (m) and Euler parameters of the six bodies after 10 ms of falling into the
     // bearings' play (a few µm).
-    let diff = q_schur
-        .iter()
-        .zip(&q_plain)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let diff = max_diff(&q_schur, &q_plain);
     assert!(diff < 1e-7, "largest difference {diff:e}");
     // Both runs converge step by step: comparable work, not a collapse of either.
     let ratio = schur.steps as f64 / plain.steps as f64;

@@ -90,9 +90,28 @@ impl std::fmt::Debug for SparseLu {
 /// 1e-4): 0.18 ms per step supernodal (0.25 or 0) against 0.25 ms simplicial.
 pub const SUPERNODAL_THRESHOLD: f64 = 0.25;
 
+/// Checks matrix `values` on `pattern` before a factorisation: one value per entry, all
+/// finite (the first NaN or infinite one is reported with its row and column).
+pub(crate) fn check_values(pattern: &CscPattern, values: &[f64]) -> Result<(), LinearSolveError> {
+    if values.len() != pattern.nnz() {
+        return Err(LinearSolveError::DimensionMismatch {
+            expected: pattern.nnz(),
+            got: values.len(),
+        });
+    }
+    match first_non_finite(values) {
+        Some(k) => Err(LinearSolveError::NonFiniteEntry {
+            row: pattern.row_idx()[k],
+            col: pattern.col_ptr().partition_point(|&p| p <= k) - 1,
+            value: values[k],
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Position of the first NaN or infinite value. One branch-free pass over the exponent bits
 /// (an integer OR that vectorises) finds whether there is one; only then is it located.
-pub(crate) fn first_non_finite(values: &[f64]) -> Option<usize> {
+fn first_non_finite(values: &[f64]) -> Option<usize> {
     let any = values
         .iter()
         .fold(0u64, |acc, v| acc | ((((v.to_bits() >> 52) & 0x7ff) + 1) >> 11));
@@ -158,20 +177,7 @@ impl SparseLu {
     /// Numeric factorisation of the matrix with `values` on the pattern given to [`new`](Self::new).
     pub fn factor(&mut self, values: &[f64]) -> Result<(), LinearSolveError> {
         self.factored = false;
-        if values.len() != self.pattern.nnz() {
-            return Err(LinearSolveError::DimensionMismatch {
-                expected: self.pattern.nnz(),
-                got: values.len(),
-            });
-        }
-        if let Some(k) = first_non_finite(values) {
-            let col = self.pattern.col_ptr().partition_point(|&p| p <= k) - 1;
-            return Err(LinearSolveError::NonFiniteEntry {
-                row: self.pattern.row_idx()[k],
-                col,
-                value: values[k],
-            });
-        }
+        check_values(&self.pattern, values)?;
         let n = self.dim();
         // Safety of indices was checked when the CscPattern was built.
         let sym =

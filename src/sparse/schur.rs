@@ -225,20 +225,7 @@ impl BlockSchurLu {
     pub fn factor(&mut self, values: &[f64]) -> Result<(), LinearSolveError> {
         self.factored = false;
         self.using_full = false;
-        if values.len() != self.pattern.nnz() {
-            return Err(LinearSolveError::DimensionMismatch {
-                expected: self.pattern.nnz(),
-                got: values.len(),
-            });
-        }
-        if let Some(k) = super::lu::first_non_finite(values) {
-            let col = self.pattern.col_ptr().partition_point(|&p| p <= k) - 1;
-            return Err(LinearSolveError::NonFiniteEntry {
-                row: self.pattern.row_idx()[k],
-                col,
-                value: values[k],
-            });
-        }
+        super::lu::check_values(&self.pattern, values)?;
         self.s_values.iter_mut().for_each(|v| *v = 0.0);
         for &(k, s) in &self.rr {
             self.s_values[s] += values[k];
@@ -422,27 +409,38 @@ mod tests {
             vec![0.0, 2.0, 0.0, 1.0, 0.0, 1.0],
             vec![0.0, 0.0, 1.0, 0.0, 1.0, 2.0],
         ];
+        let (p, vals) = csc(&dense, |r, c| r == 0 && c == 2);
+        (p, vals, dense)
+    }
+
+    /// A dense square matrix as a pattern (its nonzeros, and the entries `keep` names even
+    /// when zero) and values.
+    fn csc(dense: &[Vec<f64>], keep: impl Fn(usize, usize) -> bool) -> (CscPattern, Vec<f64>) {
+        let n = dense.len();
         let mut e = Vec::new();
         for (r, row) in dense.iter().enumerate() {
             for (c, &v) in row.iter().enumerate() {
-                if v != 0.0 || (r == 0 && c == 2) {
+                if v != 0.0 || keep(r, c) {
                     e.push((r, c));
                 }
             }
         }
-        let p = CscPattern::from_entries(6, 6, e).unwrap();
+        let p = CscPattern::from_entries(n, n, e).unwrap();
         let mut vals = vec![0.0; p.nnz()];
-        for c in 0..6 {
+        for c in 0..n {
             for k in p.col_range(c) {
                 vals[k] = dense[p.row_idx()[k]][c];
             }
         }
-        (p, vals, dense)
+        (p, vals)
     }
 
+    /// max_r |(A·x − b)_r|.
     fn residual(dense: &[Vec<f64>], x: &[f64], b: &[f64]) -> f64 {
-        (0..6)
-            .map(|r| ((0..6).map(|c| dense[r][c] * x[c]).sum::<f64>() - b[r]).abs())
+        dense
+            .iter()
+            .zip(b)
+            .map(|(row, b)| (row.iter().zip(x).map(|(a, x)| a * x).sum::<f64>() - b).abs())
             .fold(0.0, f64::max)
     }
 
@@ -540,21 +538,7 @@ mod tests {
                 for (r, row) in dense.iter_mut().enumerate() {
                     row[r] += 2.0 + n as f64;
                 }
-                let mut e = vec![];
-                for (r, row) in dense.iter().enumerate() {
-                    for (c, &v) in row.iter().enumerate() {
-                        if v != 0.0 {
-                            e.push((r, c));
-                        }
-                    }
-                }
-                let p = CscPattern::from_entries(n, n, e).unwrap();
-                let mut vals = vec![0.0; p.nnz()];
-                for c in 0..n {
-                    for k in p.col_range(c) {
-                        vals[k] = dense[p.row_idx()[k]][c];
-                    }
-                }
+                let (p, vals) = csc(&dense, |_, _| false);
                 let mut s = BlockSchurLu::new(&p, &groups).unwrap();
                 assert_eq!(s.reduced_dim(), n - groups.iter().map(Vec::len).sum::<usize>());
                 s.factor(&vals).unwrap();
@@ -562,9 +546,7 @@ mod tests {
                 let b = &rhs[..n];
                 let mut x = b.to_vec();
                 s.solve_in_place(&mut x).unwrap();
-                let res = (0..n)
-                    .map(|r| ((0..n).map(|c| dense[r][c] * x[c]).sum::<f64>() - b[r]).abs())
-                    .fold(0.0, f64::max);
+                let res = residual(&dense, &x, b);
                 proptest::prop_assert!(res < 1e-12, "residual {res:e}, n {n}, groups {groups:?}");
                 Ok(())
             })
