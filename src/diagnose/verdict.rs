@@ -138,22 +138,53 @@ pub(super) fn verdict(
             s.push_str(&t);
         }
     }
-    for c in confounded {
-        let eq = c
-            .equivalent
-            .as_ref()
-            .map(|e| format!(", which reads as {} in its terms", e))
-            .unwrap_or_default();
-        s.push_str(&format!(
-            "The data cannot tell {} from {} (cross-validated fits within {:.1} %{eq}); {}. ",
-            c.selected,
-            c.alternative,
-            100.0 * (c.cv_ratio - 1.0).abs(),
-            c.experiment
-        ));
-    }
+    s.push_str(&confound_sentences(confounded));
     s.trim_end().to_string()
 }
+
+/// The verdict's sentences on effects the data cannot tell apart: per selected effect, the
+/// [`CONFOUNDS_IN_VERDICT`] closest alternatives (by cross-validated error) with the
+/// experiment that would separate them, and a count of the others.
+fn confound_sentences(confounded: &[Confound]) -> String {
+    let mut s = String::new();
+    let mut seen: Vec<&str> = vec![];
+    for c in confounded {
+        if seen.contains(&c.selected.as_str()) {
+            continue;
+        }
+        seen.push(&c.selected);
+        let mut alts: Vec<&Confound> = confounded.iter().filter(|x| x.selected == c.selected).collect();
+        alts.sort_by(|a, b| (a.cv_ratio - 1.0).abs().total_cmp(&(b.cv_ratio - 1.0).abs()));
+        for a in alts.iter().take(CONFOUNDS_IN_VERDICT) {
+            let eq = a
+                .equivalent
+                .as_ref()
+                .map(|e| format!(", which reads as {} in its terms", e))
+                .unwrap_or_default();
+            s.push_str(&format!(
+                "The data cannot tell {} from {} (cross-validated fits within {:.1} %{eq}); {}. ",
+                a.selected,
+                a.alternative,
+                100.0 * (a.cv_ratio - 1.0).abs(),
+                a.experiment
+            ));
+        }
+        if let Some(rest) = alts.get(CONFOUNDS_IN_VERDICT..).filter(|r| !r.is_empty()) {
+            let widest = rest.iter().map(|a| (a.cv_ratio - 1.0).abs()).fold(0.0, f64::max);
+            s.push_str(&format!(
+                "{} more candidates fit as well as {} (within {:.1} %; every pair is listed in the report). ",
+                rest.len(),
+                c.selected,
+                100.0 * widest
+            ));
+        }
+    }
+    s
+}
+
+/// Alternatives the verdict names per selected effect that the data cannot tell from it
+/// (the closest by cross-validated error); the others are counted.
+pub const CONFOUNDS_IN_VERDICT: usize = 3;
 
 /// A residual left several times larger at load reversals after a joint's play was found
 /// says what the quasi-static play candidates leave out: the joint crossing its clearance when
@@ -285,5 +316,35 @@ mod tests {
         assert!(play_dynamics(&[0], &cands, &weak, &yes).is_none());
         let at_noise = adequacy("load reversal in drive A", 9.2, false);
         assert!(play_dynamics(&[0], &cands, &at_noise, &yes).is_none());
+    }
+
+    /// A selected effect that many candidates fit as well gets its three closest named (the
+    /// closest first) and the rest counted, not a sentence each.
+    #[test]
+    fn the_verdict_names_the_closest_confounds_and_counts_the_rest() {
+        let confound = |selected: &str, alternative: &str, cv_ratio: f64| Confound {
+            selected: selected.into(),
+            alternative: alternative.into(),
+            cv_ratio,
+            experiment: "a slower motion would separate them".into(),
+            equivalent: None,
+        };
+        let mut list: Vec<Confound> = (0..10)
+            .map(|k| confound("play in F", &format!("alternative {k}"), 1.0 + 0.001 * (10 - k) as f64))
+            .collect();
+        list.push(confound("compliance of leg C", "drive C compliance", 1.001));
+        let s = confound_sentences(&list);
+        assert_eq!(s.matches("The data cannot tell play in F").count(), CONFOUNDS_IN_VERDICT);
+        // Closest by cross-validated error: alternatives 9, 8, 7 (0.1 %, 0.2 %, 0.3 %).
+        let (a9, a8, a7) = (
+            s.find("alternative 9").unwrap(),
+            s.find("alternative 8").unwrap(),
+            s.find("alternative 7").unwrap(),
+        );
+        assert!(a9 < a8 && a8 < a7, "{s}");
+        assert!(!s.contains("alternative 6"), "{s}");
+        assert!(s.contains("7 more candidates fit as well as play in F (within 1.0 %"), "{s}");
+        assert!(s.contains("The data cannot tell compliance of leg C from drive C compliance"), "{s}");
+        assert!(!s.contains("more candidates fit as well as compliance of leg C"), "{s}");
     }
 }
