@@ -55,17 +55,18 @@ pub struct Mr2120BenchOptions {
     pub explicit_budget_s: f64,
 }
 
-/// Contact damping of the benchmark: Hunt–Crossley α = 300 s/m (lubricated steel joints;
-/// impacts above ~5 mm/s are fully damped). With the studies' near-elastic default
+/// Contact damping of the benchmark: lubricated steel joints
+/// ([`LUBRICATED_DAMPING`](crate::mechanisms::mr2120::clearance::LUBRICATED_DAMPING),
+/// Hunt–Crossley α = 300 s/m; impacts above ~5 mm/s are fully damped). With the studies' near-elastic default
 /// ([`DEFAULT_DAMPING`](crate::mechanisms::mr2120::clearance::DEFAULT_DAMPING), α = 1 s/m) the 63-DOF model rattles inside its clearances for the
 /// whole run and the motion is chaotic: BDF runs at rtol 1e-4, 1e-5 and 1e-6 differ from each
 /// other by 20–40 µm at every time (measured over the first second), so no run is within 1 µm
 /// of any "reference" and equal-accuracy timing has no meaning. With α = 300 s/m runs at
 /// 1e-5 and 1e-6 agree to ~1 µm.
-pub const BENCH_DAMPING: Damping = Damping::HuntCrossley(BENCH_ALPHA);
+pub const BENCH_DAMPING: Damping = crate::mechanisms::mr2120::clearance::LUBRICATED_DAMPING;
 
 /// The Hunt–Crossley factor α of [`BENCH_DAMPING`], s/m.
-pub const BENCH_ALPHA: f64 = 300.0;
+pub const BENCH_ALPHA: f64 = crate::mechanisms::mr2120::clearance::LUBRICATED_ALPHA;
 
 impl Default for Mr2120BenchOptions {
     fn default() -> Self {

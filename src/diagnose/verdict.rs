@@ -330,11 +330,20 @@ mod tests {
             equivalent: None,
         };
         let mut list: Vec<Confound> = (0..10)
-            .map(|k| confound("play in F", &format!("alternative {k}"), 1.0 + 0.001 * (10 - k) as f64))
+            .map(|k| {
+                confound(
+                    "play in F",
+                    &format!("alternative {k}"),
+                    1.0 + 0.001 * (10 - k) as f64,
+                )
+            })
             .collect();
         list.push(confound("compliance of leg C", "drive C compliance", 1.001));
         let s = confound_sentences(&list);
-        assert_eq!(s.matches("The data cannot tell play in F").count(), CONFOUNDS_IN_VERDICT);
+        assert_eq!(
+            s.matches("The data cannot tell play in F").count(),
+            CONFOUNDS_IN_VERDICT
+        );
         // Closest by cross-validated error: alternatives 9, 8, 7 (0.1 %, 0.2 %, 0.3 %).
         let (a9, a8, a7) = (
             s.find("alternative 9").unwrap(),
@@ -343,8 +352,17 @@ mod tests {
         );
         assert!(a9 < a8 && a8 < a7, "{s}");
         assert!(!s.contains("alternative 6"), "{s}");
-        assert!(s.contains("7 more candidates fit as well as play in F (within 1.0 %"), "{s}");
-        assert!(s.contains("The data cannot tell compliance of leg C from drive C compliance"), "{s}");
-        assert!(!s.contains("more candidates fit as well as compliance of leg C"), "{s}");
+        assert!(
+            s.contains("7 more candidates fit as well as play in F (within 1.0 %"),
+            "{s}"
+        );
+        assert!(
+            s.contains("The data cannot tell compliance of leg C from drive C compliance"),
+            "{s}"
+        );
+        assert!(
+            !s.contains("more candidates fit as well as compliance of leg C"),
+            "{s}"
+        );
     }
 }

@@ -22,7 +22,7 @@ use super::{
     SuiteOptions, Truth,
 };
 use crate::contact::BearingDesign;
-use crate::mechanisms::mr2120::clearance::DEFAULT_DAMPING;
+use crate::mechanisms::mr2120::clearance::LUBRICATED_DAMPING;
 use crate::mechanisms::mr2120::lumped::{tilted_gravity, NOMINAL_COMPLIANCE};
 use crate::mechanisms::mr2120::record::{RecordOptions, Recorded};
 use crate::mechanisms::mr2120::truth::{
@@ -87,11 +87,15 @@ fn stribeck(coulomb: f64, stiction: f64, viscous: f64) -> ArmFriction {
     })
 }
 
-/// A bearing with Hertz contact (and the default contact damping) in a joint. Its contact
-/// compliance is part of the hidden physics too: every bearing case also names the joint
-/// compliance of its leg (not sized, [`Truth::named`]).
+/// A bearing with Hertz contact in a joint, damped as lubricated steel joints are
+/// ([`LUBRICATED_DAMPING`], the benchmark's). Its contact compliance is part of the hidden
+/// physics too: every bearing case also names the joint compliance of its leg (not sized,
+/// [`Truth::named`]). With the near-elastic contact of the paper's studies
+/// (`clearance::DEFAULT_DAMPING`, α = 1 s/m) the contacts rattle at every load reversal and
+/// the diagnosis leaves it unexplained (full design, 2026-11-26: hertz-F 1.38× the torque noise
+/// held out against 1.11× here, axial-D 2.17× against 1.87×).
 fn bearing(radial: f64, axial: f64) -> Option<BearingDesign> {
-    Some(BearingDesign::mr2120(radial, axial, DEFAULT_DAMPING))
+    Some(BearingDesign::mr2120(radial, axial, LUBRICATED_DAMPING))
 }
 
 fn payload(mass: f64, mount: PayloadMount) -> PayloadBody {
