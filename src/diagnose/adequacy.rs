@@ -369,9 +369,9 @@ pub(super) fn refresh(d: &mut Diagnosis) {
     d.adequacy.unexplained = d.adequacy.channels.iter().any(|c| c.unexplained);
     d.adequacy.unstable = unstable_names(&d.estimates);
     d.found = found_effects(&d.selected, &d.estimates);
-    d.no_significant_mismatch = d.found.is_empty();
     d.explained_fraction = d.adequacy.explained_fraction;
     d.unexplained = d.adequacy.unexplained;
+    d.no_significant_mismatch = d.found.is_empty() && !d.unexplained;
 }
 
 /// The selected effects whose estimates are all stable, in selection order.

@@ -171,8 +171,9 @@ pub struct Diagnosis {
     pub friction: Vec<super::equivalents::JointFriction>,
     /// Per channel, before/after.
     pub channels: Vec<ChannelFit>,
-    /// True if the diagnosis finds no missing physics: no selected effect with stable
-    /// estimates (`found` empty).
+    /// True if the diagnosis finds no missing physics (no selected effect with stable
+    /// estimates, `found` empty) and nothing unexplained remains (`unexplained` false): a
+    /// mismatch the library cannot name is still a mismatch.
     pub no_significant_mismatch: bool,
     /// Fraction of the mismatch power above the noise (in noise-floor units, summed over the
     /// channels) that the selected physics removes; see the `adequacy` module.

@@ -267,7 +267,12 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
             s.bic
         );
     }
-    if d.steps.is_empty() {
+    if d.steps.is_empty() && d.unexplained {
+        let _ = writeln!(
+            m,
+            "\nNothing joined the model: no library candidate explains the mismatch that remains (see the verdict)."
+        );
+    } else if d.steps.is_empty() {
         let _ = writeln!(m, "\nNothing joined the model: no significant mismatch.");
     }
     let _ = writeln!(

@@ -372,7 +372,7 @@ fn diagnose_once(
         location,
         ranking,
         steps,
-        no_significant_mismatch: found.is_empty(),
+        no_significant_mismatch: found.is_empty() && !adequacy.unexplained,
         found,
         selected,
         estimates,

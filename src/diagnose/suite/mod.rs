@@ -255,10 +255,13 @@ pub struct CaseResult {
 impl CaseResult {
     /// The first three effects found, then the selected effects that were not found
     /// (unstable), e.g. "Coulomb friction in drive B; unstable: error in arm mass"; or
-    /// "nothing (no significant mismatch)".
+    /// "nothing (no significant mismatch)", or "nothing; flagged unexplained" when the
+    /// library names nothing but a mismatch remains.
     pub fn found_text(&self) -> String {
         let unstable: Vec<&String> = self.selected.iter().filter(|s| !self.found.contains(s)).collect();
-        let mut s = if self.found.is_empty() {
+        let mut s = if self.found.is_empty() && self.unexplained {
+            "nothing; flagged unexplained".to_string()
+        } else if self.found.is_empty() {
             "nothing (no significant mismatch)".to_string()
         } else {
             self.found.iter().take(3).cloned().collect::<Vec<_>>().join("; ")
@@ -738,9 +741,9 @@ mod tests {
         assert!(!truth[1].sized() && truth[0].sized());
     }
 
-    #[test]
-    fn the_scoreboard_counts_declared_concealed_cases_that_are_concealed_by_measure() {
-        let case = |kind: CaseKind, below: f64| CaseResult {
+    /// A case result with every flag at its passing value.
+    fn result(kind: CaseKind, below: f64) -> CaseResult {
+        CaseResult {
             case: "c".into(),
             kind,
             concealment: String::new(),
@@ -761,16 +764,34 @@ mod tests {
             confounded: None,
             pass: true,
             verdict: String::new(),
-        };
+        }
+    }
+
+    #[test]
+    fn the_scoreboard_counts_declared_concealed_cases_that_are_concealed_by_measure() {
         let results = vec![
-            case(CaseKind::Concealed, 0.9),
-            case(CaseKind::Concealed, CONCEALED_FRACTION),
-            case(CaseKind::Concealed, 0.1),
+            result(CaseKind::Concealed, 0.9),
+            result(CaseKind::Concealed, CONCEALED_FRACTION),
+            result(CaseKind::Concealed, 0.1),
             // Not declared concealed: not counted, however far below the noise.
-            case(CaseKind::Null, 1.0),
+            result(CaseKind::Null, 1.0),
         ];
         let board = scoreboard(&SuiteOptions::reduced(), results);
         assert_eq!(board.concealed_by_measure, (2, 3));
         assert_eq!(board.ranked_first, (3, 3));
+    }
+
+    /// A case where the library names nothing but a mismatch remains is not reported as
+    /// "no significant mismatch".
+    #[test]
+    fn nothing_found_but_unexplained_is_not_called_no_mismatch() {
+        let mut r = result(CaseKind::OutOfLibrary, 0.2);
+        r.unexplained = true;
+        assert_eq!(r.found_text(), "nothing; flagged unexplained");
+        r.unexplained = false;
+        assert_eq!(r.found_text(), "nothing (no significant mismatch)");
+        r.found = vec!["payload".into()];
+        r.selected = vec!["payload".into(), "arm mass".into()];
+        assert_eq!(r.found_text(), "payload; unstable: arm mass");
     }
 }
