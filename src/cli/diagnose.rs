@@ -244,10 +244,8 @@ pub fn run(a: Args) -> Result<Output, CliError> {
             s.added, s.statistic, s.p_value, s.cv_rms
         );
     }
-    if d.steps.is_empty() && d.unexplained {
-        println!("  none: no library candidate explains the mismatch that remains (see the verdict)");
-    } else if d.steps.is_empty() {
-        println!("  none: no significant mismatch");
+    if let Some(why) = d.nothing_selected() {
+        println!("  none: {why}");
     }
     println!("\nreport: {}", md.display());
     Ok(Output::OK)

@@ -371,7 +371,13 @@ pub(super) fn refresh(d: &mut Diagnosis) {
     d.found = found_effects(&d.selected, &d.estimates);
     d.explained_fraction = d.adequacy.explained_fraction;
     d.unexplained = d.adequacy.unexplained;
-    d.no_significant_mismatch = d.found.is_empty() && !d.unexplained;
+    d.no_significant_mismatch = no_significant_mismatch(&d.found, d.unexplained);
+}
+
+/// Nothing found and nothing left unexplained: a mismatch the library cannot name is still a
+/// mismatch.
+pub(super) fn no_significant_mismatch(found: &[String], unexplained: bool) -> bool {
+    found.is_empty() && !unexplained
 }
 
 /// The selected effects whose estimates are all stable, in selection order.

@@ -195,3 +195,15 @@ pub struct Diagnosis {
     #[serde(skip)]
     pub traces: Vec<ResidualTrace>,
 }
+
+impl Diagnosis {
+    /// What to say when no candidate joined the model (None when one did): no significant
+    /// mismatch, or — when a mismatch stays unexplained — that no library candidate explains it.
+    pub fn nothing_selected(&self) -> Option<&'static str> {
+        match (self.steps.is_empty(), self.unexplained) {
+            (false, _) => None,
+            (true, true) => Some("no library candidate explains the mismatch that remains (see the verdict)"),
+            (true, false) => Some("no significant mismatch"),
+        }
+    }
+}

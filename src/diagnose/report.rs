@@ -267,13 +267,8 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
             s.bic
         );
     }
-    if d.steps.is_empty() && d.unexplained {
-        let _ = writeln!(
-            m,
-            "\nNothing joined the model: no library candidate explains the mismatch that remains (see the verdict)."
-        );
-    } else if d.steps.is_empty() {
-        let _ = writeln!(m, "\nNothing joined the model: no significant mismatch.");
+    if let Some(why) = d.nothing_selected() {
+        let _ = writeln!(m, "\nNothing joined the model: {why}.");
     }
     let _ = writeln!(
         m,

@@ -372,7 +372,7 @@ fn diagnose_once(
         location,
         ranking,
         steps,
-        no_significant_mismatch: found.is_empty() && !adequacy.unexplained,
+        no_significant_mismatch: adequacy::no_significant_mismatch(&found, adequacy.unexplained),
         found,
         selected,
         estimates,
