@@ -67,6 +67,25 @@ impl Scaling {
         }
         v
     }
+
+    /// One line: each fitted slope against issue #16's target ([`TARGET_SLOPE_TIME`],
+    /// [`TARGET_SLOPE_MEMORY`]), or "not measured" where fewer than two chain lengths ran
+    /// (a single length has no slope, and no target is then called met or missed).
+    pub fn slope_line(&self) -> String {
+        let part = |name: &str, x: f64, target: f64| {
+            if x.is_finite() {
+                let verdict = if x <= target { "met" } else { "not met" };
+                format!("{name} {x:.2} (target <= {target}: {verdict})")
+            } else {
+                format!("{name} not measured (needs two or more chain lengths that ran)")
+            }
+        };
+        format!(
+            "log-log slope against N (N >= 100 where two or more ran): {}; {}",
+            part("time per step", self.slope, TARGET_SLOPE_TIME),
+            part("memory", self.memory_slope, TARGET_SLOPE_MEMORY)
+        )
+    }
 }
 
 fn resident_bytes() -> u64 {
@@ -175,5 +194,61 @@ pub fn bench_scaling(lengths: &[usize], t_end: f64, mut progress: impl FnMut(usi
         rows,
         slope,
         memory_slope,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(links: usize, per_step_s: f64, resident_bytes: u64) -> ScalingRow {
+        ScalingRow {
+            links,
+            bodies: 2 * links,
+            unknowns: 28 * links,
+            setup_s: 0.0,
+            wall_s: per_step_s * 100.0,
+            steps: 100,
+            factorisations: 100,
+            residual_evals: 300,
+            per_step_s,
+            lu_per_step: 1.0,
+            resident_bytes,
+            failure: None,
+        }
+    }
+
+    fn scaling(rows: Vec<ScalingRow>) -> Scaling {
+        let pts =
+            |f: &dyn Fn(&ScalingRow) -> f64| rows.iter().map(|r| (r.links as f64, f(r))).collect::<Vec<_>>();
+        Scaling {
+            t_end: 0.01,
+            slope: log_slope(&pts(&|r| r.per_step_s)),
+            memory_slope: log_slope(&pts(&|r| r.resident_bytes as f64)),
+            rows,
+        }
+    }
+
+    /// A run of one chain length fits no slope: the line says so instead of "NaN (not met)".
+    #[test]
+    fn one_length_reports_no_slope_and_no_verdict() {
+        let line = scaling(vec![row(1000, 0.02, 100_000_000)]).slope_line();
+        assert!(line.contains("time per step not measured"), "{line}");
+        assert!(line.contains("memory not measured"), "{line}");
+        assert!(!line.contains("NaN") && !line.contains("met)"), "{line}");
+    }
+
+    /// Two lengths: the slopes and their verdicts against the targets.
+    #[test]
+    fn two_lengths_report_slopes_against_the_targets() {
+        // Time 12× for 10× the links (slope 1.08), memory 9× (0.95).
+        let line = scaling(vec![row(100, 1e-3, 10_000_000), row(1000, 1.2e-2, 90_000_000)]).slope_line();
+        assert!(line.contains("time per step 1.08 (target <= 1.1: met)"), "{line}");
+        assert!(line.contains("memory 0.95 (target <= 1: met)"), "{line}");
+        let slow = scaling(vec![row(100, 1e-3, 10_000_000), row(1000, 1.5e-2, 100_000_000)]).slope_line();
+        assert!(
+            slow.contains("time per step 1.18 (target <= 1.1: not met)"),
+            "{slow}"
+        );
     }
 }

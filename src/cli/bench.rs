@@ -311,16 +311,7 @@ fn scaling(links: &str, t_end: f64, out: &Path, as_json: bool) -> Result<Output,
                 .unwrap_or_default()
         );
     }
-    let verdict = |x: f64, target: f64| if x <= target { "met" } else { "not met" };
-    println!(
-        "log-log slope against N (N >= 100): time per step {:.2} (target <= {}: {}); memory {:.2} (target <= {}: {})",
-        s.slope,
-        lash::bench::scaling::TARGET_SLOPE_TIME,
-        verdict(s.slope, lash::bench::scaling::TARGET_SLOPE_TIME),
-        s.memory_slope,
-        lash::bench::scaling::TARGET_SLOPE_MEMORY,
-        verdict(s.memory_slope, lash::bench::scaling::TARGET_SLOPE_MEMORY),
-    );
+    println!("{}", s.slope_line());
     println!("{note}");
     Ok(Output::OK)
 }

@@ -185,7 +185,73 @@ impl InverseDynamicsModel for Shifted<'_> {
     fn drive_compliance(&self, theta: &[f64], j: usize) -> f64 {
         self.inner.drive_compliance(theta, j)
     }
+    fn transmission_dynamics(&self, theta: &[f64]) -> Option<super::transmission::TransmissionDynamics> {
+        self.inner.transmission_dynamics(theta)
+    }
+    fn column_defaults(&self) -> super::model::ColumnDefaults {
+        self.inner.column_defaults()
+    }
     fn configuration_tag(&self, theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
         self.inner.configuration_tag(theta, &self.q(q), y)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::model::ColumnDefaults;
+    use crate::diagnose::transmission::TransmissionDynamics;
+    use nalgebra::DMatrix;
+
+    /// A one-joint model that carries transmission dynamics and its own column mapping.
+    struct Driven;
+
+    impl InverseDynamicsModel for Driven {
+        fn name(&self) -> String {
+            "driven".into()
+        }
+        fn joints(&self) -> usize {
+            1
+        }
+        fn joint_name(&self, _j: usize) -> String {
+            "joint 1".into()
+        }
+        fn parameters(&self) -> Vec<ModelParameter> {
+            vec![]
+        }
+        fn torques(&self, _theta: &[f64], _q: &[f64], _qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
+            tau[0] = 0.1 * qdd[0];
+        }
+        fn column_defaults(&self) -> ColumnDefaults {
+            ColumnDefaults::Fixed("q1=a".into())
+        }
+        fn transmission_dynamics(&self, _theta: &[f64]) -> Option<TransmissionDynamics> {
+            Some(TransmissionDynamics {
+                mass: DMatrix::from_element(1, 1, 0.1),
+                compliance: vec![1e-4],
+                damping: vec![2.0],
+                windup_rate: vec![0.0],
+                load_stiffness: None,
+            })
+        }
+    }
+
+    /// The second pass sees the model it shifts: its transmissions' dynamics (without them
+    /// the friction and play columns of the second pass fell back to the quasi-static wind-up)
+    /// and its column mapping.
+    #[test]
+    fn the_shifted_model_keeps_the_transmission_dynamics_and_column_mapping() {
+        let inner = Driven;
+        let shifted = Shifted {
+            inner: &inner,
+            delta: vec![],
+            q_offset: vec![0.0],
+        };
+        assert_eq!(
+            shifted.transmission_dynamics(&[]),
+            inner.transmission_dynamics(&[])
+        );
+        assert!(shifted.transmission_dynamics(&[]).is_some());
+        assert_eq!(shifted.column_defaults(), inner.column_defaults());
     }
 }
