@@ -188,9 +188,13 @@ pub const CONFOUNDS_IN_VERDICT: usize = 3;
 
 /// A residual left several times larger at load reversals after a joint's play was found
 /// says what the quasi-static play candidates leave out: the joint crossing its clearance when
-/// its load reverses — an impact, then rattle — which they cannot express (they place the
-/// joint against the side its load pushes it to, as if it got there at once). The channels
-/// whose unexplained residual concentrates at load reversals (> 3× larger there) are named.
+/// its load reverses and what that excites — an impact, and the ringing of the drives'
+/// transmissions it sets off — which they cannot express (they place the joint against the
+/// side its load pushes it to, as if it got there at once). Measured on the multibody suite's
+/// bearing truths (README, "What the play leaves in the torques"): with lubricated contacts
+/// the torque part is mostly the transmissions' ringing near the direct singularity, three
+/// times smaller with three times their damping. The channels whose unexplained residual
+/// concentrates at load reversals (> 3× larger there) are named.
 fn play_dynamics(
     set: &[usize],
     cands: &[Candidate],
@@ -224,7 +228,7 @@ fn play_dynamics(
         return None;
     }
     Some(format!(
-        "What the found play does not explain comes at load reversals — {}: the joint crossing its clearance when its load reverses (an impact, then rattle), which the quasi-static play of {} leaves out. ",
+        "What the found play does not explain comes at load reversals — {}: the joint crossing its clearance when its load reverses and what that excites (an impact, the ringing of the drives' transmissions), which the quasi-static play of {} leaves out. ",
         at_reversals.join(", "),
         play.join(" and ")
     ))
@@ -308,6 +312,7 @@ mod tests {
             "{t}"
         );
         assert!(t.contains("radial clearance in joint F"), "{t}");
+        assert!(t.contains("ringing of the drives' transmissions"), "{t}");
         assert!(play_dynamics(&[1], &cands, &at_reversal, &yes).is_none());
         assert!(play_dynamics(&[0], &cands, &at_reversal, &|_| false).is_none());
         let elsewhere = adequacy("acceleration peak of drive A", 9.2, true);
