@@ -259,10 +259,10 @@ impl CaseResult {
     /// library names nothing but a mismatch remains.
     pub fn found_text(&self) -> String {
         let unstable: Vec<&String> = self.selected.iter().filter(|s| !self.found.contains(s)).collect();
-        let mut s = if self.found.is_empty() && self.unexplained {
-            "nothing; flagged unexplained".to_string()
-        } else if self.found.is_empty() {
+        let mut s = if super::adequacy::no_significant_mismatch(&self.found, self.unexplained) {
             "nothing (no significant mismatch)".to_string()
+        } else if self.found.is_empty() {
+            "nothing; flagged unexplained".to_string()
         } else {
             self.found.iter().take(3).cloned().collect::<Vec<_>>().join("; ")
         };
