@@ -512,3 +512,41 @@ fn a_force_naming_a_body_of_another_model_is_refused_by_the_dae() {
         "{msg}"
     );
 }
+
+#[test]
+fn a_constraint_offset_moves_the_joint_and_its_acceleration_loads_it() {
+    // A 2 kg bob 0.5 m below a driven revolute pivot about y.
+    let mut mech = Mechanism::new();
+    let bob = mech
+        .add_body(RigidBody::new("bob", 2.0, Matrix3::identity() * 1e-3).at(Vector3::new(0.0, 0.0, -0.5)));
+    let pivot = mech.revolute_at("pivot", Attach::Ground, bob, Vector3::zeros(), Vector3::y());
+    mech.drive("q", pivot, MotionLaw::Constant(0.0), 0.0).unwrap();
+    let analysis = Analysis::new(&mech).unwrap();
+    let mut data = MechanismData::new(&mech);
+    let (q0, w0) = mech.initial_guess();
+    let nominal = analysis.state_at(&mech, &mut data, 0.0, &q0, &w0).unwrap();
+    let f0 = data.reaction(&mech, pivot).unwrap().force;
+    // Row 0 of the pivot: the bob's point sits 1 mm off the ground's along x.
+    let row = mech.layout().joint_lambda(pivot).start;
+    data.set_constraint_offset(row, 0.0, [1e-3, 0.0, 0.0]).unwrap();
+    let shifted = analysis
+        .state_at(&mech, &mut data, 0.0, &nominal.q, &nominal.w)
+        .unwrap();
+    let moved = shifted.body_position(bob) - nominal.body_position(bob);
+    assert!((moved - Vector3::new(1e-3, 0.0, 0.0)).norm() < 1e-9, "{moved}");
+    // Accelerated along x at 3 m/s², the pivot pushes the bob with m·a = 6 N more.
+    data.set_constraint_offset(row, 0.0, [0.0, 0.0, 3.0]).unwrap();
+    analysis
+        .state_at(&mech, &mut data, 0.0, &nominal.q, &nominal.w)
+        .unwrap();
+    let f = data.reaction(&mech, pivot).unwrap().force;
+    assert!((f[0] - f0[0] - 6.0).abs() < 1e-6, "{f:?} against {f0:?}");
+    assert!((f[2] - f0[2]).abs() < 1e-6);
+    // Cleared, the nominal comes back; a row out of range is an error.
+    data.clear_constraint_offsets();
+    let back = analysis
+        .state_at(&mech, &mut data, 0.0, &shifted.q, &shifted.w)
+        .unwrap();
+    assert!((back.body_position(bob) - nominal.body_position(bob)).norm() < 1e-9);
+    assert!(data.set_constraint_offset(99, 0.0, [1.0, 0.0, 0.0]).is_err());
+}

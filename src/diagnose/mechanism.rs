@@ -66,7 +66,7 @@
 use super::error::DiagnoseError;
 use super::model::{
     ColumnDefaults, DeclaredCandidate, InverseDynamicsModel, JointMotion, ModelParameter,
-    OutputSensitivities, PlayData,
+    OutputSensitivities, PlayData, PlayDynamics,
 };
 use super::transmission::{self, TransmissionDynamics};
 use crate::contact::play::UniversalPlay;
@@ -224,6 +224,11 @@ struct Windup {
 /// Largest joint-position change (rad or m) assembled in one Newton solve; larger jumps
 /// between samples are walked in steps (continuation), so assembly stays on its branch.
 pub const CONTINUATION_STEP: f64 = 0.1;
+
+/// Step of the central differences in a play joint's constraint offsets and the arms'
+/// positions for [`InverseDynamicsModel::play_dynamics`] (m for a shift, rad for a tilt or
+/// an arm).
+pub const PLAY_OFFSET_STEP: f64 = 1e-6;
 
 /// Step of the central differences of the joint-side torques in the arm positions, rad
 /// ([`TransmissionDynamics::load_stiffness`]).
@@ -685,6 +690,86 @@ impl MechanismModel {
     /// The joint-side torques at joint positions `qa` (with rates and accelerations): the
     /// drivers' efforts, the state left in `built`. None where the mechanism cannot be
     /// assembled or its inverse dynamics is singular.
+    /// Central differences of the joint-side torques and the play joints' reactions at the
+    /// arms' place of the last sample, one per perturbation: each of `rows` offset by
+    /// ±[`PLAY_OFFSET_STEP`], each of `rows` accelerated by ±1 (accelerations enter
+    /// linearly), each arm moved by ±[`PLAY_OFFSET_STEP`], each arm accelerated by ±1. Per
+    /// perturbation: the torques (one per drive), then per play joint its reaction's force
+    /// and moment (base frame). The joints are placed back afterwards; None where an
+    /// evaluation fails.
+    fn offset_differences(
+        built: &mut Built,
+        rows: &[usize],
+        qd: &[f64],
+        qdd: &[f64],
+    ) -> Option<Vec<Vec<f64>>> {
+        let (qa, qda, qdd_s, qdda) = match built.dynamic.as_ref().and_then(|d| d.arm.clone()) {
+            Some([qa, qda, qdd_s, qdda]) => (qa, qda, qdd_s, qdda),
+            None => (built.last.clone(), qd.to_vec(), qdd.to_vec(), qdd.to_vec()),
+        };
+        let (n, nr) = (qa.len(), rows.len());
+        let (q0, w0, last0) = (built.q.clone(), built.w.clone(), built.last.clone());
+        let loads = |built: &Built, mut v: Vec<f64>| -> Vec<f64> {
+            for &jh in &built.play_joints {
+                match built.data.reaction(&built.model, jh) {
+                    Some(r) => v.extend(r.force.iter().chain(r.torque.iter())),
+                    None => v.extend([f64::NAN; 6]),
+                }
+            }
+            v
+        };
+        let mut out = Vec::with_capacity(2 * (nr + n));
+        let mut ok = true;
+        'perturbations: for p in 0..2 * (nr + n) {
+            let step = if p < nr || (2 * nr..2 * nr + n).contains(&p) {
+                PLAY_OFFSET_STEP
+            } else {
+                1.0
+            };
+            let mut column = [vec![], vec![]];
+            for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
+                let (mut x, mut acc) = (qa.clone(), qdd_s.clone());
+                let set = if p < nr {
+                    built
+                        .data
+                        .set_constraint_offset(rows[p], 0.0, [sign * step, 0.0, 0.0])
+                } else if p < 2 * nr {
+                    built
+                        .data
+                        .set_constraint_offset(rows[p - nr], 0.0, [0.0, 0.0, sign * step])
+                } else if p < 2 * nr + n {
+                    x[p - 2 * nr] += sign * step;
+                    Ok(())
+                } else {
+                    acc[p - 2 * nr - n] += sign * step;
+                    Ok(())
+                };
+                built.q.clone_from(&q0);
+                built.w.clone_from(&w0);
+                let tau = set.ok().and_then(|_| Self::joint_torques(built, &x, &qda, &acc));
+                built.data.clear_constraint_offsets();
+                match tau {
+                    Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = loads(built, t),
+                    _ => {
+                        ok = false;
+                        break 'perturbations;
+                    }
+                }
+            }
+            out.push(
+                (0..column[0].len())
+                    .map(|j| (column[0][j] - column[1][j]) / (2.0 * step))
+                    .collect(),
+            );
+        }
+        built.data.clear_constraint_offsets();
+        built.q = q0;
+        built.w = w0;
+        built.last = last0;
+        Self::place_joints(built, &qa, &qda, &qdda)?;
+        ok.then_some(out)
+    }
+
     fn joint_torques(built: &mut Built, qa: &[f64], qd: &[f64], qdd: &[f64]) -> Option<Vec<f64>> {
         let n = qa.len();
         // Walk large jumps (the first sample, or a new recording) from the last assembled
@@ -1214,6 +1299,91 @@ impl InverseDynamicsModel for MechanismModel {
             });
         }
         Some(OutputSensitivities { sites: vec![], play })
+    }
+    /// Per play site: [`PlayDynamics`] from central differences of the inverse dynamics
+    /// ([`PLAY_OFFSET_STEP`]; accelerations by unit steps, exact as they enter linearly).
+    fn play_dynamics(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64]) -> Option<Vec<PlayDynamics>> {
+        if self.play.is_empty() {
+            return None;
+        }
+        let current = {
+            let b = self.built.borrow();
+            b.as_ref().is_some_and(|x| {
+                x.theta == theta && x.dynamic.is_some() && (0..q.len()).all(|j| x.last_encoder[j] == q[j])
+            })
+        };
+        if !current {
+            self.sample(None, theta, q, qd, qdd)?;
+        }
+        let mut b = self.built.borrow_mut();
+        let built = b.as_mut()?;
+        let lay = built.model.layout().clone();
+        let rows: Vec<usize> = built
+            .play_joints
+            .iter()
+            .flat_map(|&jh| {
+                let r = lay.joint_lambda(jh);
+                r.start..r.start + 4
+            })
+            .collect();
+        let mut sites = vec![];
+        for &jh in &built.play_joints {
+            let joint = built.model.joint(jh)?;
+            let axis = |side: crate::multibody::Attach, a: Vector3<f64>| match side {
+                crate::multibody::Attach::Ground => a,
+                crate::multibody::Attach::Body(h) => built.data.body_rotation(h) * a,
+            };
+            let n = axis(joint.body_i, joint.frame_i.axes.column(2).into())
+                .cross(&axis(joint.body_j, joint.frame_j.axes.column(2).into()));
+            let n = if n.norm() > 0.0 { n.normalize() } else { n };
+            let r = built.data.reaction(&built.model, jh)?;
+            sites.push((
+                n,
+                [
+                    r.force[0],
+                    r.force[1],
+                    r.force[2],
+                    Vector3::from(r.torque).dot(&n),
+                ],
+            ));
+        }
+        let d = Self::offset_differences(built, &rows, qd, qdd)?;
+        let (nj, np) = (self.joints.len(), sites.len());
+        // The perturbations' order (see `offset_differences`), and the tilt's sign: the
+        // perpendicularity row's offset is −φ.
+        let sign = |c: usize| if c == 3 { -1.0 } else { 1.0 };
+        let reaction = |v: &[f64], k: usize, n: &Vector3<f64>| -> [f64; 4] {
+            let l = &v[nj + 6 * k..nj + 6 * k + 6];
+            [l[0], l[1], l[2], Vector3::new(l[3], l[4], l[5]).dot(n)]
+        };
+        let scaled = |v: [f64; 4], s: f64| v.map(|x| s * x);
+        Some(
+            sites
+                .iter()
+                .enumerate()
+                .map(|(k, (n, lam))| {
+                    let off = |c: usize| &d[4 * k + c];
+                    let acc = |c: usize| &d[4 * np + 4 * k + c];
+                    PlayDynamics {
+                        reaction: *lam,
+                        torque_by_offset: std::array::from_fn(|c| {
+                            off(c)[..nj].iter().map(|v| sign(c) * v).collect()
+                        }),
+                        torque_by_offset_acceleration: std::array::from_fn(|c| {
+                            acc(c)[..nj].iter().map(|v| sign(c) * v).collect()
+                        }),
+                        reaction_by_offset: std::array::from_fn(|c| scaled(reaction(off(c), k, n), sign(c))),
+                        reaction_by_offset_acceleration: std::array::from_fn(|c| {
+                            scaled(reaction(acc(c), k, n), sign(c))
+                        }),
+                        reaction_by_drive: (0..nj).map(|a| reaction(&d[8 * np + a], k, n)).collect(),
+                        reaction_by_drive_acceleration: (0..nj)
+                            .map(|a| reaction(&d[8 * np + nj + a], k, n))
+                            .collect(),
+                    }
+                })
+                .collect(),
+        )
     }
     fn configuration_tag(&self, _theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
         self.tagger.as_ref().and_then(|t| t(q, y))

@@ -82,6 +82,33 @@ pub struct PlayData {
     pub play: crate::contact::play::UniversalPlay,
 }
 
+/// How a universal joint's play couples to the drives at one sample, to first order about the
+/// nominal motion: the joint's four play coordinates e = (shift of side j from side i along
+/// base x, y, z in m; tilt of side j about n = z_i × z_j in rad), the drives' joint-side
+/// torques τ_s and the joint's generalised reaction Λ = (force on side j along base x, y, z
+/// in N; moment on side j about n in N·m, the load conjugate to the tilt). Each entry is a
+/// derivative of the nominal model's inverse dynamics with the joint's constraints offset by
+/// e (or accelerated by ë) and the arms where they are — the data a reduced dynamic model of
+/// the play needs: the play coordinates' inertia is ∂Λ/∂ë, their coupling to the drives
+/// ∂τ_s/∂ë and ∂Λ/∂q̈_arm (equal by reciprocity), their stiffness ∂Λ/∂e.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlayDynamics {
+    /// Λ at the sample: N along x, y, z, then N·m about n.
+    pub reaction: [f64; 4],
+    /// ∂τ_s/∂e_c per play coordinate c, per drive (N·m per m, N·m per rad).
+    pub torque_by_offset: [Vec<f64>; 4],
+    /// ∂τ_s/∂ë_c per play coordinate c, per drive (N·m per m/s², N·m per rad/s²).
+    pub torque_by_offset_acceleration: [Vec<f64>; 4],
+    /// ∂Λ_r/∂e_c as `[c][r]`.
+    pub reaction_by_offset: [[f64; 4]; 4],
+    /// ∂Λ_r/∂ë_c as `[c][r]`.
+    pub reaction_by_offset_acceleration: [[f64; 4]; 4],
+    /// ∂Λ_r/∂q_k per drive k (the arm's position, rad or m) as `[k][r]`.
+    pub reaction_by_drive: Vec<[f64; 4]>,
+    /// ∂Λ_r/∂q̈_k per drive k as `[k][r]`.
+    pub reaction_by_drive_acceleration: Vec<[f64; 4]>,
+}
+
 /// One perturbable parameter of a nominal model.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModelParameter {
@@ -288,6 +315,20 @@ pub trait InverseDynamicsModel {
         &self,
         _theta: &[f64],
     ) -> Option<crate::diagnose::transmission::TransmissionDynamics> {
+        None
+    }
+    /// The play sites' coupling to the drives ([`PlayDynamics`], in the order of
+    /// [`play_sites`](Self::play_sites)) at the sample the model last evaluated with
+    /// [`evaluate_at`](Self::evaluate_at) (or at a lone sample): for a reduced dynamic model
+    /// of the play. Costs several inverse-dynamics evaluations per site, so it is asked for
+    /// apart from [`output_sensitivities`](Self::output_sensitivities). Default None.
+    fn play_dynamics(
+        &self,
+        _theta: &[f64],
+        _q: &[f64],
+        _qd: &[f64],
+        _qdd: &[f64],
+    ) -> Option<Vec<PlayDynamics>> {
         None
     }
     /// Joints with play (names), in the order of [`OutputSensitivities::play`]. Default:

@@ -253,6 +253,58 @@ mod tests {
         }
     }
 
+    /// The play's coupling to the drives obeys reciprocity: the torque a play coordinate's
+    /// acceleration asks of a drive equals the reaction conjugate to that coordinate which
+    /// the drive's acceleration asks of the joint (∂τ_k/∂ë_c = ∂Λ_c/∂q̈_k), and the play
+    /// coordinates' own inertia ∂Λ/∂ë is symmetric and positive definite. A check of the
+    /// constraint offsets, the tilt's sign and the reaction's conjugate components at once.
+    #[test]
+    fn the_plays_inertial_coupling_is_reciprocal() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let model = mr2120_model(&g, &mp).unwrap();
+        let m = Vector3::new(0.02, 0.01, 0.5);
+        let q: Vec<f64> = inverse(&g, m).unwrap().to_vec();
+        let (qd, qdd) = (vec![0.1, -0.2, 0.05], vec![1.0, 0.5, -2.0]);
+        let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+        let sites = model.play_dynamics(&theta, &q, &qd, &qdd).expect("play dynamics");
+        assert_eq!(sites.len(), model.play_sites().len());
+        for (s, name) in sites.iter().zip(model.play_sites()) {
+            let scale = s
+                .reaction_by_offset_acceleration
+                .iter()
+                .flatten()
+                .fold(0.0f64, |a, v| a.max(v.abs()));
+            assert!(scale > 0.1, "joint {name}: inertia {scale}");
+            for c in 0..4 {
+                for k in 0..3 {
+                    let (a, b) = (
+                        s.torque_by_offset_acceleration[c][k],
+                        s.reaction_by_drive_acceleration[k][c],
+                    );
+                    assert!(
+                        (a - b).abs() < 1e-6 * scale,
+                        "joint {name}, coordinate {c}, drive {k}: {a} vs {b}"
+                    );
+                }
+                for r in 0..4 {
+                    let (a, b) = (
+                        s.reaction_by_offset_acceleration[c][r],
+                        s.reaction_by_offset_acceleration[r][c],
+                    );
+                    assert!(
+                        (a - b).abs() < 1e-6 * scale,
+                        "joint {name}: inertia ({c}, {r}) {a} vs {b}"
+                    );
+                }
+            }
+            let inertia = nalgebra::Matrix4::from_fn(|r, c| s.reaction_by_offset_acceleration[c][r]);
+            assert!(
+                inertia.symmetric_eigenvalues().iter().all(|&e| e > 0.0),
+                "joint {name}: {inertia}"
+            );
+        }
+    }
+
     /// A leg's joint compliance acts as that much more compliance of its drive (at a lone
     /// sample, quasi-static wind-up): the same torques and platform position.
     #[test]

@@ -173,6 +173,15 @@ impl InverseDynamicsModel for Shifted<'_> {
     ) -> Option<OutputSensitivities> {
         self.inner.output_sensitivities(theta, &self.q(q), qd, qdd, y)
     }
+    fn play_dynamics(
+        &self,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+    ) -> Option<Vec<super::model::PlayDynamics>> {
+        self.inner.play_dynamics(theta, &self.q(q), qd, qdd)
+    }
     fn clearance_sites(&self) -> Vec<String> {
         self.inner.clearance_sites()
     }

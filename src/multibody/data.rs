@@ -136,6 +136,41 @@ impl MechanismData {
         }
     }
 
+    /// Makes constraint row `row` hold at Φ_row = ε(t) instead of 0 in the analyses on this
+    /// data ([`Analysis`](super::Analysis): assembly, velocities, accelerations, inverse
+    /// dynamics), ε the local quadratic about `t0` with value `x`, rate `v` and acceleration
+    /// `a`: a joint that sits, or moves, off its nominal — a joint in its play, say. Units are
+    /// the row's: for a joint's point-coincidence rows ([`Layout::joint_lambda`], rows 0–2 of
+    /// a spherical, universal or revolute joint) ε is the side-j point's displacement from the
+    /// side-i point along base x, y, z (m); for a universal joint's perpendicularity row (row
+    /// 3) ε = −φ, φ a rotation of side j about z_i × z_j (rad) — the convention of
+    /// [`Analysis::constraint_offset_sensitivity`](super::Analysis::constraint_offset_sensitivity).
+    /// Every offset shares the last `t0` given. The data's model is not changed.
+    pub fn set_constraint_offset(
+        &mut self,
+        row: usize,
+        t0: f64,
+        [x, v, a]: [f64; 3],
+    ) -> Result<(), ModelError> {
+        let n = self.ev.layout.constraints();
+        if row >= n {
+            return Err(ModelError::Output(format!(
+                "constraint row {row} out of range ({n} constraint equations)"
+            )));
+        }
+        if self.ev.offsets.len() != n {
+            self.ev.offsets = vec![[0.0; 3]; n];
+        }
+        self.ev.offsets[row] = [x, v, a];
+        self.ev.offset_t0 = t0;
+        Ok(())
+    }
+
+    /// Removes every constraint offset ([`set_constraint_offset`](Self::set_constraint_offset)).
+    pub fn clear_constraint_offsets(&mut self) {
+        self.ev.offsets.clear();
+    }
+
     /// The reaction of joint `h` on its side-j body at the current state (at the joint
     /// origin, base frame); `None` for a removed joint.
     pub fn reaction(&self, model: &Mechanism, h: JointHandle) -> Option<Reaction> {

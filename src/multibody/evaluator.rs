@@ -22,6 +22,12 @@ pub(crate) struct Evaluator {
     pub poses: Vec<Pose>,
     pub states: Vec<BodyState>,
     pub loads: Vec<BodyLoad>,
+    /// Per constraint row, the offset ε(t) = x + v·(t − t0) + ½a·(t − t0)² that Φ_k holds
+    /// instead of 0, as [x, v, a] (empty: none). Set through
+    /// [`MechanismData::set_constraint_offset`](super::MechanismData::set_constraint_offset).
+    pub offsets: Vec<[f64; 3]>,
+    /// The time t0 of the offsets' quadratics, s.
+    pub offset_t0: f64,
 }
 
 impl Evaluator {
@@ -35,6 +41,8 @@ impl Evaluator {
             poses: vec![Pose::ground(); nb],
             states: vec![BodyState::ground(); nb],
             loads: vec![BodyLoad::default(); nb],
+            offsets: vec![],
+            offset_t0: 0.0,
             blocks,
             driver_block0,
             layout,
@@ -76,6 +84,11 @@ impl Evaluator {
             let n = blk.prim.len();
             blk.prim.eval(&pi, &pj, t, &mut self.rows[k..k + n]);
             k += n;
+        }
+        let dt = t - self.offset_t0;
+        for (row, &[x, v, a]) in self.rows.iter_mut().zip(&self.offsets) {
+            row.phi -= x + v * dt + 0.5 * a * dt * dt;
+            row.phi_t -= v + a * dt;
         }
     }
 
