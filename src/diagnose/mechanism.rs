@@ -1333,12 +1333,13 @@ impl InverseDynamicsModel for MechanismModel {
                 crate::multibody::Attach::Ground => a,
                 crate::multibody::Attach::Body(h) => built.data.body_rotation(h) * a,
             };
-            let n = axis(joint.body_i, joint.frame_i.axes.column(2).into())
-                .cross(&axis(joint.body_j, joint.frame_j.axes.column(2).into()));
+            let z_i = axis(joint.body_i, joint.frame_i.axes.column(2).into());
+            let z_j = axis(joint.body_j, joint.frame_j.axes.column(2).into());
+            let n = z_i.cross(&z_j);
             let n = if n.norm() > 0.0 { n.normalize() } else { n };
             let r = built.data.reaction(&built.model, jh)?;
             sites.push((
-                n,
+                (z_i, z_j, n),
                 [
                     r.force[0],
                     r.force[1],
@@ -1361,10 +1362,13 @@ impl InverseDynamicsModel for MechanismModel {
             sites
                 .iter()
                 .enumerate()
-                .map(|(k, (n, lam))| {
+                .map(|(k, ((z_i, z_j, n), lam))| {
                     let off = |c: usize| &d[4 * k + c];
                     let acc = |c: usize| &d[4 * np + 4 * k + c];
                     PlayDynamics {
+                        z_i: *z_i,
+                        z_j: *z_j,
+                        play: self.play[k].play,
                         reaction: *lam,
                         torque_by_offset: std::array::from_fn(|c| {
                             off(c)[..nj].iter().map(|v| sign(c) * v).collect()

@@ -10,6 +10,7 @@
 //! | `mechanism.rs` | any mechanism built with the multibody API as a nominal model: declared sensors (encoder placement, trackers), joints with play |
 //! | `mr2120.rs` | the MR2120's multibody nominal model (the diagnosis' nominal for the MR2120) |
 //! | `transmission.rs` | the drive transmissions' wind-up dynamics: one Newmark integrator for the nominal model's wind-up and the candidates' linear response to a joint-side torque |
+//! | `play_dynamics.rs` | a reduced dynamic model of a universal joint's play along a recording (the drives' transmissions and the joint's play coordinates, linearised about the nominal, the trunnion balls' contact nonlinear): what the quasi-static play candidates leave out |
 //! | `data.rs` | measured motion and torques of one recording, checked against the model |
 //! | `candidates.rs` | the library of candidate physics and their regressors |
 //! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
@@ -73,6 +74,7 @@ pub mod model_file;
 pub mod mr2120;
 mod options;
 mod outcome;
+pub mod play_dynamics;
 pub mod recording;
 mod relinearize;
 pub mod report;

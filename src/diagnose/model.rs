@@ -93,6 +93,12 @@ pub struct PlayData {
 /// ∂τ_s/∂ë and ∂Λ/∂q̈_arm (equal by reciprocity), their stiffness ∂Λ/∂e.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlayDynamics {
+    /// Axis of the side-i trunnions (unit, base frame).
+    pub z_i: Vector3<f64>,
+    /// Axis of the side-j trunnions (unit, base frame).
+    pub z_j: Vector3<f64>,
+    /// The play geometry.
+    pub play: crate::contact::play::UniversalPlay,
     /// Λ at the sample: N along x, y, z, then N·m about n.
     pub reaction: [f64; 4],
     /// ∂τ_s/∂e_c per play coordinate c, per drive (N·m per m, N·m per rad).
