@@ -7,7 +7,7 @@
 //! units and writes plots.
 //!
 //! ```text
-//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m] [recording 1-6] [out dir]
+//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m] [recording 1-6] [out dir] [ball stiffness N/m] [ball damping N·s/m]
 //! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics
 //! ```
 //! (about a minute: two truth simulations and the nominal model's play derivatives at every
@@ -16,7 +16,7 @@
 use lash::contact::BearingDesign;
 use lash::diagnose::model::InverseDynamicsModel;
 use lash::diagnose::mr2120::mr2120_model;
-use lash::diagnose::play_dynamics::{respond, PlaySample, BALL_CONTACT};
+use lash::diagnose::play_dynamics::{respond, BallContact, PlaySample, BALL_CONTACT};
 use lash::diagnose::suite::{lumped::excitation, SuiteOptions};
 use lash::mechanisms::mr2120::clearance::LUBRICATED_DAMPING;
 use lash::mechanisms::mr2120::record::RecordOptions;
@@ -41,6 +41,10 @@ fn main() -> Result<(), Box<dyn Error>> {
     }
     let out = PathBuf::from(args.get(3).map(String::as_str).unwrap_or("out/play-dynamics"));
     std::fs::create_dir_all(&out)?;
+    let contact = BallContact {
+        stiffness: args.get(4).map(|s| s.parse()).transpose()?.unwrap_or(BALL_CONTACT.stiffness),
+        damping: args.get(5).map(|s| s.parse()).transpose()?.unwrap_or(BALL_CONTACT.damping),
+    };
 
     // The truth, with and without clearance in the joint (a Hertz bearing both times).
     let suite = SuiteOptions::default();
@@ -95,7 +99,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             })
         })
         .collect();
-    let reduced = respond(&samples, h, &BALL_CONTACT);
+    let reduced = respond(&samples, h, &contact);
 
     // Side by side, in torque-noise units.
     let sigma = ropts.noise.torque;
@@ -107,9 +111,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         (0.6, t[n - 1] + 1e-9),
     ];
     println!(
-        "joint {name}, radial clearance {:.1} µm, recording {recording}: the play's effect on the drive torques \
+        "joint {name}, radial clearance {:.1} µm, recording {recording}, balls {:e} N/m and {:e} N·s/m: the play's effect on the drive torques \
          (truth with clearance − without) and what the reduced model leaves of it, RMS in torque-noise units ({sigma} N·m)",
-        h * 1e6
+        h * 1e6,
+        contact.stiffness,
+        contact.damping
     );
     for (k, drive) in ["A", "B", "C"].iter().enumerate() {
         let effect = |i: usize| loose.tau[k][i] - tight.tau[k][i];
