@@ -42,8 +42,16 @@ fn main() -> Result<(), Box<dyn Error>> {
     let out = PathBuf::from(args.get(3).map(String::as_str).unwrap_or("out/play-dynamics"));
     std::fs::create_dir_all(&out)?;
     let contact = BallContact {
-        stiffness: args.get(4).map(|s| s.parse()).transpose()?.unwrap_or(BALL_CONTACT.stiffness),
-        damping: args.get(5).map(|s| s.parse()).transpose()?.unwrap_or(BALL_CONTACT.damping),
+        stiffness: args
+            .get(4)
+            .map(|s| s.parse())
+            .transpose()?
+            .unwrap_or(BALL_CONTACT.stiffness),
+        damping: args
+            .get(5)
+            .map(|s| s.parse())
+            .transpose()?
+            .unwrap_or(BALL_CONTACT.damping),
     };
 
     // The truth, with and without clearance in the joint (a Hertz bearing both times).

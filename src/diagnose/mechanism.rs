@@ -690,6 +690,48 @@ impl MechanismModel {
     /// The joint-side torques at joint positions `qa` (with rates and accelerations): the
     /// drivers' efforts, the state left in `built`. None where the mechanism cannot be
     /// assembled or its inverse dynamics is singular.
+    /// Leaves the sample at encoder positions `q` in the cache: the one last evaluated along
+    /// a recording (with its wind-up state) if it is that one, else a lone sample.
+    fn ensure_sample(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64]) -> Option<()> {
+        let current = {
+            let b = self.built.borrow();
+            b.as_ref().is_some_and(|x| {
+                x.theta == theta && x.dynamic.is_some() && (0..q.len()).all(|j| x.last_encoder[j] == q[j])
+            })
+        };
+        if !current {
+            self.sample(None, theta, q, qd, qdd)?;
+        }
+        Some(())
+    }
+
+    /// The play joints' constraint rows, four each (point along x, y, z; perpendicularity).
+    fn play_rows(built: &Built) -> Vec<usize> {
+        let lay = built.model.layout();
+        built
+            .play_joints
+            .iter()
+            .flat_map(|&jh| {
+                let r = lay.joint_lambda(jh);
+                r.start..r.start + 4
+            })
+            .collect()
+    }
+
+    /// The trunnion axes (z_i, z_j) of universal joint `jh` at the cached state (unit, base
+    /// frame).
+    fn trunnion_axes(built: &Built, jh: JointHandle) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        let joint = built.model.joint(jh)?;
+        let axis = |side: crate::multibody::Attach, a: Vector3<f64>| match side {
+            crate::multibody::Attach::Ground => a,
+            crate::multibody::Attach::Body(h) => built.data.body_rotation(h) * a,
+        };
+        Some((
+            axis(joint.body_i, joint.frame_i.axes.column(2).into()),
+            axis(joint.body_j, joint.frame_j.axes.column(2).into()),
+        ))
+    }
+
     /// Central differences of the joint-side torques and the play joints' reactions at the
     /// arms' place of the last sample, one per perturbation: each of `rows` offset by
     /// ±[`PLAY_OFFSET_STEP`], each of `rows` accelerated by ±1 (accelerations enter
@@ -1240,24 +1282,10 @@ impl InverseDynamicsModel for MechanismModel {
         if self.play.is_empty() || self.sensors.outputs.is_empty() {
             return None;
         }
-        // The sample last evaluated along a recording (its wind-up state), or a lone one.
-        let current = {
-            let b = self.built.borrow();
-            b.as_ref().is_some_and(|x| {
-                x.theta == theta && x.dynamic.is_some() && (0..q.len()).all(|j| x.last_encoder[j] == q[j])
-            })
-        };
-        if !current {
-            self.sample(None, theta, q, qd, qdd)?;
-        }
+        self.ensure_sample(theta, q, qd, qdd)?;
         let mut b = self.built.borrow_mut();
         let built = b.as_mut()?;
-        let lay = built.model.layout().clone();
-        let mut rows = vec![];
-        for &jh in &built.play_joints {
-            let r = lay.joint_lambda(jh);
-            rows.extend(r.start..r.start + 4);
-        }
+        let rows = Self::play_rows(built);
         let q_now = built.data.q.clone();
         let dq = built
             .analysis
@@ -1275,14 +1303,8 @@ impl InverseDynamicsModel for MechanismModel {
         };
         let mut play = vec![];
         for (k, (&jh, site)) in built.play_joints.iter().zip(&self.play).enumerate() {
-            let joint = built.model.joint(jh)?;
             let reaction = built.data.reaction(&built.model, jh)?;
-            let axis = |side: crate::multibody::Attach, a: Vector3<f64>| match side {
-                crate::multibody::Attach::Ground => a,
-                crate::multibody::Attach::Body(h) => built.data.body_rotation(h) * a,
-            };
-            let z_i = axis(joint.body_i, joint.frame_i.axes.column(2).into());
-            let z_j = axis(joint.body_j, joint.frame_j.axes.column(2).into());
+            let (z_i, z_j) = Self::trunnion_axes(built, jh)?;
             play.push(PlayData {
                 dy_dshift: [
                     dy(&dq[4 * k], 1.0),
@@ -1306,35 +1328,13 @@ impl InverseDynamicsModel for MechanismModel {
         if self.play.is_empty() {
             return None;
         }
-        let current = {
-            let b = self.built.borrow();
-            b.as_ref().is_some_and(|x| {
-                x.theta == theta && x.dynamic.is_some() && (0..q.len()).all(|j| x.last_encoder[j] == q[j])
-            })
-        };
-        if !current {
-            self.sample(None, theta, q, qd, qdd)?;
-        }
+        self.ensure_sample(theta, q, qd, qdd)?;
         let mut b = self.built.borrow_mut();
         let built = b.as_mut()?;
-        let lay = built.model.layout().clone();
-        let rows: Vec<usize> = built
-            .play_joints
-            .iter()
-            .flat_map(|&jh| {
-                let r = lay.joint_lambda(jh);
-                r.start..r.start + 4
-            })
-            .collect();
+        let rows = Self::play_rows(built);
         let mut sites = vec![];
         for &jh in &built.play_joints {
-            let joint = built.model.joint(jh)?;
-            let axis = |side: crate::multibody::Attach, a: Vector3<f64>| match side {
-                crate::multibody::Attach::Ground => a,
-                crate::multibody::Attach::Body(h) => built.data.body_rotation(h) * a,
-            };
-            let z_i = axis(joint.body_i, joint.frame_i.axes.column(2).into());
-            let z_j = axis(joint.body_j, joint.frame_j.axes.column(2).into());
+            let (z_i, z_j) = Self::trunnion_axes(built, jh)?;
             let n = z_i.cross(&z_j);
             let n = if n.norm() > 0.0 { n.normalize() } else { n };
             let r = built.data.reaction(&built.model, jh)?;
