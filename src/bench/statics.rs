@@ -1,7 +1,7 @@
 //! `lash bench statics`: the static envelope of the paper's Table 3 (method (b), 13 load
 //! cases per point and clearance set) by the direct equilibrium solver
-//! ([`static_envelope`](crate::mechanisms::mr2120::accuracy::static_envelope)) and by dynamic
-//! relaxation ([`relaxation_envelope`](crate::mechanisms::mr2120::accuracy::relaxation_envelope)),
+//! ([`crate::mechanisms::mr2120::accuracy::static_envelope`]) and by dynamic
+//! relaxation ([`crate::mechanisms::mr2120::accuracy::relaxation_envelope`]),
 //! side by side in one run: wall times, their ratio, and how far the two envelopes differ.
 
 use crate::mechanisms::mr2120::accuracy::{relaxation_envelope, static_envelope, Excitation, Ranges};

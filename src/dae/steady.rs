@@ -109,8 +109,8 @@ pub struct SteadyStats {
 }
 
 /// Finds y with F(t, y, 0, p) = 0 starting from `y` (overwritten with the steady state) by
-/// pseudo-transient continuation (see the [module docs](self)): [`SteadySolver::new`] and one
-/// [`SteadySolver::solve`].
+/// pseudo-transient continuation (see the module docs in `src/dae/steady.rs`):
+/// [`SteadySolver::new`] and one [`SteadySolver::solve`].
 ///
 /// Errors: [`DaeError::InvalidInput`] for bad options or dimensions, [`DaeError::SteadyState`]
 /// when the iteration does not converge within the iteration budget (naming the components

@@ -87,7 +87,7 @@ impl Grouping {
     }
 }
 
-/// The cost of a design: Σ_k (radial[k] / h_LR,k + axial[k] / h_LW,k), 1/m, joints in the
+/// The cost of a design: Σ_k (radial\[k\] / h_LR,k + axial\[k\] / h_LW,k), 1/m, joints in the
 /// order of [`UNIVERSAL_JOINTS`]. Weights are positive and dimensionless; all 1 by default.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct CostModel {

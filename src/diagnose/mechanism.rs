@@ -94,7 +94,7 @@ pub type SeriesGain = Arc<dyn Fn(&[f64], &[f64]) -> f64 + Send + Sync>;
 /// A compliance in series with a drive's transmission whose value in drive coordinates
 /// depends on the configuration: e.g. the contact compliance of a leg's joints, c (m/N), which
 /// a drive sees as c/ℓ'(q)² (ℓ' how fast the drive stretches the leg). The transmission of
-/// `drive` then has compliance θ[its own] + Σ θ[`parameter`]·`gain`(q, y), taken at the
+/// `drive` then has compliance θ\[its own\] + Σ θ\[`parameter`\]·`gain`(q, y), taken at the
 /// previous sample's configuration along a recording.
 #[derive(Clone)]
 pub struct SeriesCompliance {

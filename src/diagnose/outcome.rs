@@ -78,7 +78,7 @@ pub struct Confound {
     /// The recording that would separate them.
     pub experiment: String,
     /// The selected estimate expressed as the alternative's parameter, where both have one
-    /// (e.g. a force-sensor scale error as a mass error), e.g. "delta [kg] = -0.3016".
+    /// (e.g. a force-sensor scale error as a mass error), e.g. "delta \[kg\] = -0.3016".
     pub equivalent: Option<String>,
 }
 

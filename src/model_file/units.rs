@@ -6,17 +6,17 @@ use std::fmt;
 /// What a field measures (its SI unit in brackets).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Dimension {
-    /// A pure number [1].
+    /// A pure number \[1\].
     Ratio,
-    /// Length [m].
+    /// Length \[m\].
     Length,
-    /// Angle [rad].
+    /// Angle \[rad\].
     Angle,
-    /// Mass [kg].
+    /// Mass \[kg\].
     Mass,
     /// Moment of inertia [kg m²].
     Inertia,
-    /// Time [s].
+    /// Time \[s\].
     Time,
     /// Velocity [m/s].
     Velocity,
@@ -24,7 +24,7 @@ pub enum Dimension {
     AngularVelocity,
     /// Acceleration [m/s²].
     Acceleration,
-    /// Force [N].
+    /// Force \[N\].
     Force,
     /// Torque [N m].
     Torque,
@@ -36,7 +36,7 @@ pub enum Dimension {
     Damping,
     /// Rotational damping [N m s/rad].
     RotationalDamping,
-    /// Pressure or elastic modulus [Pa].
+    /// Pressure or elastic modulus \[Pa\].
     Pressure,
     /// Translational compliance [m/N].
     Compliance,

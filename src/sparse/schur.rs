@@ -58,7 +58,7 @@ struct Group {
 }
 
 /// Sparse LU of a square matrix after eliminating small diagonal blocks (see the
-/// [module documentation](self)).
+/// module documentation in `src/sparse/schur.rs`).
 #[derive(Debug)]
 pub struct BlockSchurLu {
     pattern: CscPattern,

@@ -285,7 +285,7 @@ pub fn static_load_cases(ex: &Excitation) -> Vec<(Vector3<f64>, Vector3<f64>)> {
 /// Method (b): a deterministic envelope of quasi-static equilibria. With the drives locked at
 /// q(M), the platform carries in turn the loads of [`static_load_cases`] (none, a force of
 /// [`Excitation::force`] along ±x, ±y, ±z, a torque of [`Excitation::torque`] about ±x, ±y,
-/// ±z); each equilibrium is solved directly by [`static_equilibrium`] (pseudo-transient
+/// ±z); each equilibrium is solved directly by [`crate::multibody::static_equilibrium`] (pseudo-transient
 /// continuation on the contact model, Newton in the limit), the loaded cases warm-started
 /// from the unloaded one. The ranges span the 13 equilibria. Returns the ranges and the
 /// pseudo-steps taken.

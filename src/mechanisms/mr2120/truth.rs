@@ -19,7 +19,7 @@
 //!   the ground, coaxial with the arm's revolute pair, follows the commanded motor angle
 //!   exactly (a driver); the arm's revolute pair is *not* driven: the arm is coupled to the
 //!   rotor by a torsional spring-damper
-//!   ([`RotationalSpringDamper`](crate::multibody::forces::RotationalSpringDamper)).
+//!   ([`crate::multibody::forces::RotationalSpringDamper`]).
 //! * **Arm-side joint friction** as force elements ([`ArmFriction`]): Stribeck friction with
 //!   its own scales and exponent, Coulomb friction that drifts over the record, cogging
 //!   torque ripple. (LuGre is not implemented: it needs a friction state, which a force
