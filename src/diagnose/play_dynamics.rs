@@ -32,8 +32,8 @@
 //! **Outputs**: the torque sensors read K·δw + D·δẇ more.
 //!
 //! **Integration**: semi-implicit (symplectic) Euler over substeps of each sample interval,
-//! the matrices held at the interval's end, the substep set by the stiffest contact and the
-//! lightest play coordinate ([`substeps`]). A recording's first sample, and the first after a
+//! the matrices held at the interval's end, the substep a tenth of the period of the fastest
+//! mode with every ball in contact. A recording's first sample, and the first after a
 //! gap longer than [`transmission::MAX_GAP`](super::transmission::MAX_GAP) or a sample without
 //! the model's data, starts quasi-statically: the joint against the wall its nominal reaction
 //! pushes it to ([`UniversalPlay::shift`](crate::contact::play::UniversalPlay::shift)), the
@@ -176,7 +176,7 @@ fn matrices(s: &PlaySample) -> Option<(DMatrix<f64>, DMatrix<f64>, DVector<f64>)
 /// with every ball in contact (the largest eigenvalue of M⁻¹·(K + K_c), K_c = k·Σ J_bᵀJ_b),
 /// and the contacts' damping resolved (dt·λ_max(M⁻¹·C_c) ≤ 0.5); at least 1, at most
 /// 100 000. None if the mass matrix is not positive definite.
-pub fn substeps(
+fn substeps(
     mass: &DMatrix<f64>,
     stiffness: &DMatrix<f64>,
     maps: &[[[f64; 4]; 2]; 4],
