@@ -687,9 +687,6 @@ impl MechanismModel {
         c
     }
 
-    /// The joint-side torques at joint positions `qa` (with rates and accelerations): the
-    /// drivers' efforts, the state left in `built`. None where the mechanism cannot be
-    /// assembled or its inverse dynamics is singular.
     /// Leaves the sample at encoder positions `q` in the cache: the one last evaluated along
     /// a recording (with its wind-up state) if it is that one, else a lone sample.
     fn ensure_sample(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64]) -> Option<()> {
@@ -812,6 +809,9 @@ impl MechanismModel {
         ok.then_some(out)
     }
 
+    /// The joint-side torques at joint positions `qa` (with rates and accelerations): the
+    /// drivers' efforts, the state left in `built`. None where the mechanism cannot be
+    /// assembled or its inverse dynamics is singular.
     fn joint_torques(built: &mut Built, qa: &[f64], qd: &[f64], qdd: &[f64]) -> Option<Vec<f64>> {
         let n = qa.len();
         // Walk large jumps (the first sample, or a new recording) from the last assembled
