@@ -1350,6 +1350,16 @@ impl InverseDynamicsModel for MechanismModel {
         }
         let d = Self::offset_differences(built, &rows, qd, qdd)?;
         let (nj, np) = (self.joints.len(), sites.len());
+        // The cached reaction is the inverse dynamics' at the encoders' accelerations (the
+        // wind-up integration asks for τ_s there); the arms accelerate by ẅ less, and Λ is
+        // linear in the accelerations: Λ(q̈ − ẅ) = Λ(q̈) − Σ_k ∂Λ/∂q̈_k·ẅ_k. Without it the
+        // transmissions' ringing, which loads a joint near the direct singularity by some
+        // 100 N, is missing from the play's load.
+        let arm_lag: Vec<f64> = match built.dynamic.as_ref().and_then(|x| x.arm.as_ref()) {
+            Some([_, _, qdd_s, qdda]) => (0..nj).map(|k| qdd_s[k] - qdda[k]).collect(),
+            None => vec![0.0; nj],
+        };
+
         // The perturbations' order (see `offset_differences`), and the tilt's sign: the
         // perpendicularity row's offset is −φ.
         let sign = |c: usize| if c == 3 { -1.0 } else { 1.0 };
@@ -1369,7 +1379,16 @@ impl InverseDynamicsModel for MechanismModel {
                         z_i: *z_i,
                         z_j: *z_j,
                         play: self.play[k].play,
-                        reaction: *lam,
+                        reaction: {
+                            let mut r = *lam;
+                            for (a, wdd) in arm_lag.iter().enumerate() {
+                                let by = reaction(&d[8 * np + nj + a], k, n);
+                                for (x, y) in r.iter_mut().zip(by) {
+                                    *x -= y * wdd;
+                                }
+                            }
+                            r
+                        },
                         torque_by_offset: std::array::from_fn(|c| {
                             off(c)[..nj].iter().map(|v| sign(c) * v).collect()
                         }),

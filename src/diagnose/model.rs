@@ -99,7 +99,8 @@ pub struct PlayDynamics {
     pub z_j: Vector3<f64>,
     /// The play geometry.
     pub play: crate::contact::play::UniversalPlay,
-    /// Λ at the sample: N along x, y, z, then N·m about n.
+    /// Λ at the sample, N along x, y, z, then N·m about n: the inverse dynamics' at the arms'
+    /// motion (the encoders' less the transmissions' wind-up, where the model carries one).
     pub reaction: [f64; 4],
     /// ∂τ_s/∂e_c per play coordinate c, per drive (N·m per m, N·m per rad).
     pub torque_by_offset: [Vec<f64>; 4],

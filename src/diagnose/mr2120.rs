@@ -305,6 +305,90 @@ mod tests {
         }
     }
 
+    /// The play's load follows the arms, not the encoders: while the transmissions ring after
+    /// a jerk of the encoders, every play joint's reaction is the inverse dynamics' at the
+    /// arms' motion. Checked against the model with rigid transmissions driven by that motion,
+    /// found independently: positions from the tracker by inverse kinematics, rates as the
+    /// encoders' less the wind-up rate, accelerations by central differences of those rates.
+    #[test]
+    fn the_plays_load_follows_the_ringing_arms() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let model = mr2120_model(&g, &mp).unwrap();
+        let rigid_model = mr2120_model(&g, &mp).unwrap();
+        let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+        let mut rigid = theta.clone();
+        for j in 0..3 {
+            assert!(theta[DRIVE_COMPLIANCE + j] > 0.0);
+            rigid[DRIVE_COMPLIANCE + j] = 0.0;
+        }
+        let q0 = inverse(&g, Vector3::new(0.02, 0.01, 0.5)).unwrap();
+        // At rest past the model's start transient (`WINDUP_SETTLING`), then a jerk.
+        let (dt, jerk_at, acc) = (2e-3, 270, [20.0, -15.0, 10.0]);
+        let motion = |i: usize| {
+            let s = (i.saturating_sub(jerk_at)) as f64 * dt;
+            let on = if i >= jerk_at { 1.0 } else { 0.0 };
+            let q: Vec<f64> = (0..3).map(|j| q0[j] + 0.5 * acc[j] * s * s).collect();
+            let qd: Vec<f64> = (0..3).map(|j| acc[j] * s).collect();
+            let qdd: Vec<f64> = (0..3).map(|j| on * acc[j]).collect();
+            (q, qd, qdd)
+        };
+        let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
+        let mut arm_rate = vec![];
+        let mut arm_at = vec![];
+        let mut reaction = vec![];
+        for i in 0..jerk_at + 30 {
+            let (q, qd, qdd) = motion(i);
+            model.evaluate_at(i as f64 * dt, &theta, &q, &qd, &qdd, &mut tau, &mut y);
+            if i + 1 < jerk_at {
+                continue;
+            }
+            let wd = model
+                .transmission_dynamics(&theta)
+                .expect("compliant drives")
+                .windup_rate;
+            arm_rate.push((0..3).map(|j| qd[j] - wd[j]).collect::<Vec<f64>>());
+            arm_at.push(inverse(&g, Vector3::new(y[0], y[1], y[2])).unwrap().to_vec());
+            let sites = model.play_dynamics(&theta, &q, &qd, &qdd).expect("play dynamics");
+            reaction.push(sites.iter().map(|s| s.reaction).collect::<Vec<_>>());
+        }
+        // Per joint and component: the largest ring (arms' load less the encoders') and the
+        // largest error over the samples after the jerk.
+        let sites = model.play_sites();
+        let mut ring = vec![[0.0f64; 4]; sites.len()];
+        let mut error = vec![[0.0f64; 4]; sites.len()];
+        for k in 3..29 {
+            let qdd_arm: Vec<f64> = (0..3)
+                .map(|j| (arm_rate[k + 1][j] - arm_rate[k - 1][j]) / (2.0 * dt))
+                .collect();
+            let at = |qdd: &[f64]| {
+                rigid_model
+                    .play_dynamics(&rigid, &arm_at[k], &arm_rate[k], qdd)
+                    .unwrap()
+            };
+            let (arms, encoders) = (at(&qdd_arm), at(&motion(jerk_at - 1 + k).2));
+            for site in 0..sites.len() {
+                for r in 0..4 {
+                    let want = arms[site].reaction[r];
+                    ring[site][r] = ring[site][r].max((want - encoders[site].reaction[r]).abs());
+                    error[site][r] = error[site][r].max((reaction[k][site][r] - want).abs());
+                }
+            }
+        }
+        for (site, name) in sites.iter().enumerate() {
+            for r in 0..4 {
+                assert!(
+                    error[site][r] <= 0.05 * ring[site][r] + 1e-3,
+                    "joint {name}, component {r}: off by {} where the ringing moves it by {}",
+                    error[site][r],
+                    ring[site][r]
+                );
+            }
+        }
+        // The ringing moves the loads by newtons: the check discriminates.
+        let largest = ring.iter().flatten().fold(0.0f64, |a, &v| a.max(v));
+        assert!(largest > 1.0, "{largest}");
+    }
+
     /// A leg's joint compliance acts as that much more compliance of its drive (at a lone
     /// sample, quasi-static wind-up): the same torques and platform position.
     #[test]

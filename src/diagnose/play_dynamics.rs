@@ -21,7 +21,8 @@
 //!
 //! **Contacts**: the four trunnion balls, two per pair a ball spacing s apart, each in a bore
 //! with radial clearance h, on a linear penalty law ([`BallContact`]: stiffness on the
-//! penetration, damping on its rate, never pulling). The cross is rigid between its pairs:
+//! penetration, damping on its rate, never pulling; the same damping along the bore's wall
+//! while in contact). The cross is rigid between its pairs:
 //! each pair takes half the shift along n and half the tilt, all the shift across its own axis
 //! within the plane of the other, so the balls of the side-i pair (axis z_i) sit at
 //! (e·z_j ± (s/4)·φ, ½·e·n) in their bores' plane, those of the side-j pair at
@@ -40,10 +41,11 @@
 //! transmissions wound up by the torques that shift asks for.
 //!
 //! Measured on the suite's truth (README, "What the play leaves in the torques"): with 6 µm of
-//! radial clearance in joint F, it reproduces the first torque swing after the load peak near
-//! the direct singularity (0.70 against 0.72 N·m, at the same instant) and the small bursts at
-//! the load reversals where the truth has them; the rattle while the joint is nearly unloaded,
-//! it does not (±0.4 against ±1.5 N·m).
+//! radial clearance in joint F, on the shaken recording of the suite's design, it takes the
+//! play's effect on the drive torques from 11.2 to 3.9 torque-noise units RMS over the record
+//! (drive A): the torque swing after the load peak near the direct singularity and the rattle
+//! while the joint is nearly unloaded, in amplitude and, for a few periods, in phase. Where the
+//! truth's effect is about one noise unit it adds about as much of its own.
 
 use super::model::PlayDynamics;
 use super::transmission::{TransmissionDynamics, MAX_GAP};
@@ -54,7 +56,8 @@ use nalgebra::{DMatrix, DVector, Vector3};
 pub struct BallContact {
     /// Stiffness on a ball's penetration of its bore's clearance, N/m.
     pub stiffness: f64,
-    /// Damping on the penetration's rate, N·s/m (the contact never pulls).
+    /// Damping on the penetration's rate, and on the ball's sliding along the wall while in
+    /// contact, N·s/m (the contact never pulls).
     pub damping: f64,
 }
 
@@ -62,8 +65,12 @@ pub struct BallContact {
 /// MR2120 bearing design's Hertz contact (a 4 mm steel ball in a bore 6 µm larger:
 /// K = 1.12e11 N/m^1.5 from [`crate::contact::stiffness::ball_in_bore`], so F/δ = 0.85e8 N/m
 /// at 50 N, 1.08e8 at 100 N, 1.55e8 at 300 N), and 2e3 N·s/m, a tenth of critical for a
-/// kilogram on it. Chosen, not fitted: in the example, damping 2e2–2e4 N·s/m changed nothing;
-/// 1e9 N/m did worse in the loaded window and 1e7 N/m diverged.
+/// kilogram on it, across and along the wall. Chosen, not fitted. Measured in the example
+/// (joint F, 6 µm, torque-noise units RMS over the record, drive A): damping only across the
+/// wall leaves the joint rocking along its walls in quiet stretches (gentle recording 6: the
+/// effect 0.49, left 1.18; along the wall too: 0.68); 2e4 N·s/m quiets that (0.33) but damps
+/// the rattle (shaken recording 5: 3.9 → 5.7 left); 1e9 N/m did worse in the loaded window
+/// and 1e7 N/m diverged (both before the reactions followed the arms).
 pub const BALL_CONTACT: BallContact = BallContact {
     stiffness: 1e8,
     damping: 2e3,
@@ -114,10 +121,13 @@ fn contact_load(maps: &[[[f64; 4]; 2]; 4], e: &[f64], ed: &[f64], h: f64, c: &Ba
         let (b, bd) = ([at(e, 0), at(e, 1)], [at(ed, 0), at(ed, 1)]);
         let r = b[0].hypot(b[1]);
         if r > h {
-            let nb = [b[0] / r, b[1] / r];
+            // Normal: the penalty and its damping, never pulling; tangential (along the
+            // bore's wall): the same damping, while in contact.
+            let (nb, tb) = ([b[0] / r, b[1] / r], [-b[1] / r, b[0] / r]);
             let f = (-c.stiffness * (r - h) - c.damping * (bd[0] * nb[0] + bd[1] * nb[1])).min(0.0);
+            let ft = -c.damping * (bd[0] * tb[0] + bd[1] * tb[1]);
             for (k, o) in out.iter_mut().enumerate() {
-                *o += f * (nb[0] * jb[0][k] + nb[1] * jb[1][k]);
+                *o += f * (nb[0] * jb[0][k] + nb[1] * jb[1][k]) + ft * (tb[0] * jb[0][k] + tb[1] * jb[1][k]);
             }
         }
     }
