@@ -729,6 +729,34 @@ impl MechanismModel {
         ))
     }
 
+    /// The arms' motion of the cached sample: positions, rates, the accelerations the inverse
+    /// dynamics was asked at (the encoders') and the arms' own (the encoders' less the
+    /// wind-up's, where the model integrates one; else the encoders' motion, `built.last`).
+    fn arm_motion(built: &Built, qd: &[f64], qdd: &[f64]) -> [Vec<f64>; 4] {
+        built
+            .dynamic
+            .as_ref()
+            .and_then(|d| d.arm.clone())
+            .unwrap_or_else(|| [built.last.clone(), qd.to_vec(), qdd.to_vec(), qdd.to_vec()])
+    }
+
+    /// Runs `f` on the cache, then puts the cached sample back: its assembled positions and
+    /// velocities, its drive positions, the joints placed at the arms' motion `arm`
+    /// ([`Self::arm_motion`]). None if placing them back fails.
+    fn keeping_sample<T>(
+        built: &mut Built,
+        arm: &[Vec<f64>; 4],
+        f: impl FnOnce(&mut Built) -> T,
+    ) -> Option<T> {
+        let (q0, w0, last0) = (built.q.clone(), built.w.clone(), built.last.clone());
+        let out = f(built);
+        built.q = q0;
+        built.w = w0;
+        built.last = last0;
+        Self::place_joints(built, &arm[0], &arm[1], &arm[3])?;
+        Some(out)
+    }
+
     /// The play joints' reactions (force in N, moment in N·m; on side j, base frame) at the arms'
     /// motion of the cached sample: the inverse dynamics evaluated afresh at the arms'
     /// positions, rates and accelerations — the encoders' less the wind-up where the model
@@ -737,12 +765,9 @@ impl MechanismModel {
     /// the arms' differ by enough to move a joint's load by some 100 N), and perturbation
     /// passes leave theirs. The cache is put back afterwards.
     fn play_loads(built: &mut Built, qd: &[f64], qdd: &[f64]) -> Option<Vec<(Vector3<f64>, Vector3<f64>)>> {
-        let (qa, qda, qdda) = match built.dynamic.as_ref().and_then(|d| d.arm.clone()) {
-            Some([qa, qda, _, qdda]) => (qa, qda, qdda),
-            None => (built.last.clone(), qd.to_vec(), qdd.to_vec()),
-        };
-        let (q0, w0, last0) = (built.q.clone(), built.w.clone(), built.last.clone());
-        let loads = Self::joint_torques(built, &qa, &qda, &qdda).and_then(|_| {
+        let arm = Self::arm_motion(built, qd, qdd);
+        Self::keeping_sample(built, &arm, |built| {
+            Self::joint_torques(built, &arm[0], &arm[1], &arm[3])?;
             built
                 .play_joints
                 .iter()
@@ -751,12 +776,7 @@ impl MechanismModel {
                     Some((Vector3::from(r.force), Vector3::from(r.torque)))
                 })
                 .collect::<Option<Vec<_>>>()
-        });
-        built.q = q0;
-        built.w = w0;
-        built.last = last0;
-        Self::place_joints(built, &qa, &qda, &qdda)?;
-        loads
+        })?
     }
 
     /// Central differences of the joint-side torques and the play joints' reactions at the
@@ -772,12 +792,10 @@ impl MechanismModel {
         qd: &[f64],
         qdd: &[f64],
     ) -> Option<Vec<Vec<f64>>> {
-        let (qa, qda, qdd_s, qdda) = match built.dynamic.as_ref().and_then(|d| d.arm.clone()) {
-            Some([qa, qda, qdd_s, qdda]) => (qa, qda, qdd_s, qdda),
-            None => (built.last.clone(), qd.to_vec(), qdd.to_vec(), qdd.to_vec()),
-        };
+        let arm = Self::arm_motion(built, qd, qdd);
+        let [qa, qda, qdd_s, _] = &arm;
         let (n, nr) = (qa.len(), rows.len());
-        let (q0, w0, last0) = (built.q.clone(), built.w.clone(), built.last.clone());
+        let (q0, w0) = (built.q.clone(), built.w.clone());
         let loads = |built: &Built, mut v: Vec<f64>| -> Vec<f64> {
             for &jh in &built.play_joints {
                 match built.data.reaction(&built.model, jh) {
@@ -787,56 +805,49 @@ impl MechanismModel {
             }
             v
         };
-        let mut out = Vec::with_capacity(2 * (nr + n));
-        let mut ok = true;
-        'perturbations: for p in 0..2 * (nr + n) {
-            let step = if p < nr || (2 * nr..2 * nr + n).contains(&p) {
-                PLAY_OFFSET_STEP
-            } else {
-                1.0
-            };
-            let mut column = [vec![], vec![]];
-            for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
-                let (mut x, mut acc) = (qa.clone(), qdd_s.clone());
-                let set = if p < nr {
-                    built
-                        .data
-                        .set_constraint_offset(rows[p], 0.0, [sign * step, 0.0, 0.0])
-                } else if p < 2 * nr {
-                    built
-                        .data
-                        .set_constraint_offset(rows[p - nr], 0.0, [0.0, 0.0, sign * step])
-                } else if p < 2 * nr + n {
-                    x[p - 2 * nr] += sign * step;
-                    Ok(())
+        Self::keeping_sample(built, &arm, |built| {
+            let mut out = Vec::with_capacity(2 * (nr + n));
+            for p in 0..2 * (nr + n) {
+                let step = if p < nr || (2 * nr..2 * nr + n).contains(&p) {
+                    PLAY_OFFSET_STEP
                 } else {
-                    acc[p - 2 * nr - n] += sign * step;
-                    Ok(())
+                    1.0
                 };
-                built.q.clone_from(&q0);
-                built.w.clone_from(&w0);
-                let tau = set.ok().and_then(|_| Self::joint_torques(built, &x, &qda, &acc));
-                built.data.clear_constraint_offsets();
-                match tau {
-                    Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = loads(built, t),
-                    _ => {
-                        ok = false;
-                        break 'perturbations;
+                let mut column = [vec![], vec![]];
+                for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
+                    let (mut x, mut acc) = (qa.clone(), qdd_s.clone());
+                    let set = if p < nr {
+                        built
+                            .data
+                            .set_constraint_offset(rows[p], 0.0, [sign * step, 0.0, 0.0])
+                    } else if p < 2 * nr {
+                        built
+                            .data
+                            .set_constraint_offset(rows[p - nr], 0.0, [0.0, 0.0, sign * step])
+                    } else if p < 2 * nr + n {
+                        x[p - 2 * nr] += sign * step;
+                        Ok(())
+                    } else {
+                        acc[p - 2 * nr - n] += sign * step;
+                        Ok(())
+                    };
+                    built.q.clone_from(&q0);
+                    built.w.clone_from(&w0);
+                    let tau = set.ok().and_then(|_| Self::joint_torques(built, &x, qda, &acc));
+                    built.data.clear_constraint_offsets();
+                    match tau {
+                        Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = loads(built, t),
+                        _ => return None,
                     }
                 }
+                out.push(
+                    (0..column[0].len())
+                        .map(|j| (column[0][j] - column[1][j]) / (2.0 * step))
+                        .collect(),
+                );
             }
-            out.push(
-                (0..column[0].len())
-                    .map(|j| (column[0][j] - column[1][j]) / (2.0 * step))
-                    .collect(),
-            );
-        }
-        built.data.clear_constraint_offsets();
-        built.q = q0;
-        built.w = w0;
-        built.last = last0;
-        Self::place_joints(built, &qa, &qda, &qdda)?;
-        ok.then_some(out)
+            Some(out)
+        })?
     }
 
     /// The joint-side torques at joint positions `qa` (with rates and accelerations): the
@@ -1377,7 +1388,6 @@ impl InverseDynamicsModel for MechanismModel {
         }
         let d = Self::offset_differences(built, &rows, qd, qdd)?;
         let (nj, np) = (self.joints.len(), sites.len());
-
         // The perturbations' order (see `offset_differences`), and the tilt's sign: the
         // perpendicularity row's offset is −φ.
         let sign = |c: usize| if c == 3 { -1.0 } else { 1.0 };
