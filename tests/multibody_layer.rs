@@ -550,3 +550,52 @@ fn a_constraint_offset_moves_the_joint_and_its_acceleration_loads_it() {
     assert!((back.body_position(bob) - nominal.body_position(bob)).norm() < 1e-9);
     assert!(data.set_constraint_offset(99, 0.0, [1.0, 0.0, 0.0]).is_err());
 }
+
+#[test]
+fn the_multipliers_sensitivity_to_acceleration_offsets_is_the_bobs_inertia() {
+    // The bob of the test above, its pivot driven: a unit acceleration along x at the pivot
+    // asks m = 2 N more of it, a unit angular acceleration of the drive asks the bob's
+    // inertia about the pivot, 1e-3 + 2·0.5² = 0.501 N·m, of the driver — exactly, and as
+    // central differences of the full analysis with the offsets set give them.
+    let mut mech = Mechanism::new();
+    let bob = mech
+        .add_body(RigidBody::new("bob", 2.0, Matrix3::identity() * 1e-3).at(Vector3::new(0.0, 0.0, -0.5)));
+    let pivot = mech.revolute_at("pivot", Attach::Ground, bob, Vector3::zeros(), Vector3::y());
+    let driver = mech.drive("q", pivot, MotionLaw::Constant(0.3), 0.0).unwrap();
+    let analysis = Analysis::new(&mech).unwrap();
+    let mut data = MechanismData::new(&mech);
+    let (q0, w0) = mech.initial_guess();
+    data.prescribe_driver(driver, 0.0, [0.3, 0.5, 0.0]).unwrap();
+    let s = analysis.state_at(&mech, &mut data, 0.0, &q0, &w0).unwrap();
+    let lay = mech.layout();
+    let (row, drow) = (lay.joint_lambda(pivot).start, lay.driver_lambda(driver).unwrap());
+    let d = analysis
+        .acceleration_offset_sensitivity(&mech, &mut data, 0.0, &s.q, &s.w, &[row, drow])
+        .unwrap();
+    let force = |dl: &[f64]| analysis.reactions(&mech, 0.0, &s.q, dl)[0].force;
+    assert!((force(&d[0])[0] - 2.0).abs() < 1e-9, "{:?}", force(&d[0]));
+    assert!((-d[1][drow] - 0.501).abs() < 1e-9, "{}", -d[1][drow]);
+    // Against the analysis with the offsets set (central differences, ±1).
+    let lambda_at =
+        |data: &mut MechanismData| analysis.state_at(&mech, data, 0.0, &s.q, &s.w).unwrap().lambda;
+    for (k, set) in [0, 1].into_iter().zip([true, false]) {
+        let mut l = vec![];
+        for a in [1.0, -1.0] {
+            if set {
+                data.set_constraint_offset(row, 0.0, [0.0, 0.0, a]).unwrap();
+            } else {
+                data.prescribe_driver(driver, 0.0, [0.3, 0.5, a]).unwrap();
+            }
+            l.push(lambda_at(&mut data));
+            data.clear_constraint_offsets();
+            data.prescribe_driver(driver, 0.0, [0.3, 0.5, 0.0]).unwrap();
+        }
+        for (i, x) in d[k].iter().enumerate() {
+            let fd = (l[0][i] - l[1][i]) / 2.0;
+            assert!(
+                (x - fd).abs() < 1e-8 * (1.0 + fd.abs()),
+                "row {k}, λ {i}: {x} against {fd}"
+            );
+        }
+    }
+}

@@ -779,13 +779,15 @@ impl MechanismModel {
         })?
     }
 
-    /// Central differences of the joint-side torques and the play joints' reactions at the
-    /// arms' place of the last sample, one per perturbation: each of `rows` offset by
-    /// ±[`PLAY_OFFSET_STEP`], each of `rows` accelerated by ±1 (accelerations enter
-    /// linearly), each arm moved by ±[`PLAY_OFFSET_STEP`], each arm accelerated by ±1. Per
-    /// perturbation: the torques (one per drive), then per play joint its reaction's force
-    /// and moment (base frame). The joints are placed back afterwards; None where an
-    /// evaluation fails.
+    /// Derivatives of the joint-side torques and the play joints' reactions at the arms'
+    /// place of the last sample, one per perturbation: each of `rows` offset by
+    /// ±[`PLAY_OFFSET_STEP`] and each arm moved by ±[`PLAY_OFFSET_STEP`] (central differences
+    /// of the inverse dynamics), each of `rows` and each arm accelerated by a unit (exact:
+    /// the accelerations enter linearly, so one factorisation at the sample gives them all,
+    /// [`Analysis::acceleration_offset_sensitivity`]). In the order: offsets, offset
+    /// accelerations, arm positions, arm accelerations. Per perturbation: the torques (one per
+    /// drive), then per play joint its reaction's force and moment (base frame). The joints
+    /// are placed back afterwards; None where an evaluation fails.
     fn offset_differences(
         built: &mut Built,
         rows: &[usize],
@@ -806,45 +808,65 @@ impl MechanismModel {
             v
         };
         Self::keeping_sample(built, &arm, |built| {
-            let mut out = Vec::with_capacity(2 * (nr + n));
-            for p in 0..2 * (nr + n) {
-                let step = if p < nr || (2 * nr..2 * nr + n).contains(&p) {
-                    PLAY_OFFSET_STEP
-                } else {
-                    1.0
-                };
+            let mut out = vec![vec![]; 2 * (nr + n)];
+            // Positions: central differences.
+            for p in (0..nr).chain(2 * nr..2 * nr + n) {
                 let mut column = [vec![], vec![]];
                 for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
-                    let (mut x, mut acc) = (qa.clone(), qdd_s.clone());
+                    let mut x = qa.clone();
                     let set = if p < nr {
                         built
                             .data
-                            .set_constraint_offset(rows[p], 0.0, [sign * step, 0.0, 0.0])
-                    } else if p < 2 * nr {
-                        built
-                            .data
-                            .set_constraint_offset(rows[p - nr], 0.0, [0.0, 0.0, sign * step])
-                    } else if p < 2 * nr + n {
-                        x[p - 2 * nr] += sign * step;
-                        Ok(())
+                            .set_constraint_offset(rows[p], 0.0, [sign * PLAY_OFFSET_STEP, 0.0, 0.0])
                     } else {
-                        acc[p - 2 * nr - n] += sign * step;
+                        x[p - 2 * nr] += sign * PLAY_OFFSET_STEP;
                         Ok(())
                     };
                     built.q.clone_from(&q0);
                     built.w.clone_from(&w0);
-                    let tau = set.ok().and_then(|_| Self::joint_torques(built, &x, qda, &acc));
+                    let tau = set.ok().and_then(|_| Self::joint_torques(built, &x, qda, qdd_s));
                     built.data.clear_constraint_offsets();
                     match tau {
                         Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = loads(built, t),
                         _ => return None,
                     }
                 }
-                out.push(
-                    (0..column[0].len())
-                        .map(|j| (column[0][j] - column[1][j]) / (2.0 * step))
-                        .collect(),
-                );
+                out[p] = (0..column[0].len())
+                    .map(|j| (column[0][j] - column[1][j]) / (2.0 * PLAY_OFFSET_STEP))
+                    .collect();
+            }
+            // Accelerations: exact, at the sample itself.
+            built.q.clone_from(&q0);
+            built.w.clone_from(&w0);
+            Self::joint_torques(built, qa, qda, qdd_s)?;
+            let lay = built.model.layout();
+            let drivers: Vec<usize> = built
+                .drivers
+                .iter()
+                .map(|&h| lay.driver_lambda(h))
+                .collect::<Option<_>>()?;
+            let joints: Vec<(&crate::multibody::Joint, usize)> = built
+                .play_joints
+                .iter()
+                .map(|&jh| Some((built.model.joint(jh)?, lay.joint_lambda(jh).start)))
+                .collect::<Option<_>>()?;
+            let accelerated: Vec<usize> = rows.iter().chain(&drivers).copied().collect();
+            let (q, w) = (built.q.clone(), built.w.clone());
+            let dl = built
+                .analysis
+                .acceleration_offset_sensitivity(&built.model, &mut built.data, 0.0, &q, &w, &accelerated)
+                .ok()?;
+            for (m, dl) in dl.iter().enumerate() {
+                // A driver's effort is −λ of its row.
+                let mut v: Vec<f64> = drivers.iter().map(|&k| -dl[k]).collect();
+                for &(joint, k0) in &joints {
+                    let (r, _) = crate::multibody::analysis::joint_reaction(joint, k0, 0.0, &q, dl);
+                    v.extend(r.force.iter().chain(r.torque.iter()));
+                }
+                if !v.iter().all(|x| x.is_finite()) {
+                    return None;
+                }
+                out[if m < nr { nr + m } else { 2 * nr + n + (m - nr) }] = v;
             }
             Some(out)
         })?

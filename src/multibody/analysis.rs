@@ -508,6 +508,73 @@ impl Analysis {
         ))
     }
 
+    /// How the constraint multipliers λ move when the acceleration-level equation of each
+    /// of `rows` (indices into the constraint vector) is offset by a unit: Φ̈_k = 1 instead of
+    /// 0 — a constraint acceleration offset ([`MechanismData::set_constraint_offset`] with
+    /// `[0, 0, 1]`) or, for a driver's row ([`Layout::driver_lambda`]), a unit more of the
+    /// driver's prescribed acceleration. One column dλ per row. The acceleration analysis
+    /// ([`accelerations`](Self::accelerations)) is linear in these right-hand sides, so this
+    /// is exact, and one factorisation serves every row: for a driven mechanism (square B)
+    /// dλ = −B⁻ᵀ·M·B⁻¹·e_k, else from the augmented system. The state (q, w) at `t` must be
+    /// assembled.
+    pub fn acceleration_offset_sensitivity(
+        &self,
+        model: &Mechanism,
+        data: &mut MechanismData,
+        t: f64,
+        q: &[f64],
+        w: &[f64],
+        rows: &[usize],
+    ) -> Result<Vec<Vec<f64>>, ModelError> {
+        model.check_data(data)?;
+        let lay = data.ev.layout.clone();
+        let nc = lay.constraints();
+        if let Some(&k) = rows.iter().find(|&&k| k >= nc) {
+            return Err(ModelError::Output(format!(
+                "constraint row {k} out of range ({nc} constraint equations)"
+            )));
+        }
+        data.ev.set_state(q, w);
+        data.ev.eval_constraints(t);
+        let (bm, _) = Self::velocity_system(&data.ev);
+        let n = 6 * lay.bodies();
+        let mut mass = DMatrix::zeros(n, n);
+        for (b, body) in model.bodies().bodies.iter().enumerate() {
+            for c in 0..3 {
+                mass[(6 * b + c, 6 * b + c)] = body.mass;
+            }
+            mass.view_mut((6 * b + 3, 6 * b + 3), (3, 3))
+                .copy_from(&body.inertia);
+        }
+        let singular = || ModelError::Output(format!("singular acceleration system at t = {t} s"));
+        if nc == n {
+            let (lu, lut) = (bm.clone().lu(), bm.transpose().lu());
+            return rows
+                .iter()
+                .map(|&k| {
+                    let mut e = DVector::zeros(n);
+                    e[k] = 1.0;
+                    let dw = lu.solve(&e).ok_or_else(singular)?;
+                    let dl = lut.solve(&(-(&mass * dw))).ok_or_else(singular)?;
+                    Ok(dl.iter().copied().collect())
+                })
+                .collect();
+        }
+        let mut k = DMatrix::zeros(n + nc, n + nc);
+        k.view_mut((0, 0), (n, n)).copy_from(&mass);
+        k.view_mut((0, n), (n, nc)).copy_from(&bm.transpose());
+        k.view_mut((n, 0), (nc, n)).copy_from(&bm);
+        let lu = k.lu();
+        rows.iter()
+            .map(|&r| {
+                let mut e = DVector::zeros(n + nc);
+                e[n + r] = 1.0;
+                let sol = lu.solve(&e).ok_or_else(singular)?;
+                Ok(sol.rows(n, nc).iter().copied().collect())
+            })
+            .collect()
+    }
+
     /// The consistent initial state at `t0` from the model's initial poses and velocities;
     /// also stored in `data`.
     pub fn initial_state(
