@@ -86,6 +86,11 @@ pub struct Args {
     /// out/diagnose-suite].
     #[arg(long)]
     report: Option<PathBuf>,
+    /// Skip the play-dynamics check (after the selection, a found radial play's drive
+    /// torques from the reduced dynamic play model, the selection refitted: how much of what
+    /// remains is the play's dynamics; costs the play's derivatives at every sample).
+    #[arg(long)]
+    no_play_dynamics: bool,
     /// Print the diagnosis as JSON.
     #[arg(long)]
     json: bool,
@@ -204,7 +209,10 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     };
     let fit = load(&fit_files)?;
     let held = load(&holdout_files)?;
-    let mut opts = DiagnoseOptions::default();
+    let mut opts = DiagnoseOptions {
+        play_dynamics: !a.no_play_dynamics,
+        ..DiagnoseOptions::default()
+    };
     opts.library.exclude = a
         .exclude
         .as_deref()

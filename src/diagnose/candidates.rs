@@ -32,10 +32,13 @@
 //! | joint-position sensor offset o_j | −o_j·∂(τ, y)/∂q_j (torques too) |
 //! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) |
 //! | clearance h at a site (e.g. the joints of a leg) | h·∂y/∂s·tanh(F/F_c), F the site's load |
+//! | play h of a universal joint, radial or axial ([`crate::contact::play`]) | h·∂y/∂(shift, tilt)·(the shift toward the joint's load per unit clearance, over load scale F_c) |
+//! | the same radial play, re-linearised pass | drive torques too: h·Δτ(h_ref)/h_ref, Δτ the reduced dynamic play model's response ([`super::play_dynamics`]) at the first pass's estimate h_ref ([`LibraryOptions::dynamic_play_clearance`]) |
 //! | output-sensor offset | o_k on output k |
 //! | output-sensor delay | −d·dy_k/dt on output k |
 use super::data::{Channel, MotionData};
-use super::model::{InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily};
+use super::model::{InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily, PlayDynamics};
+use super::play_dynamics::{respond, PlayResponse, PlaySample, BALL_CONTACT};
 use super::signal::derivative;
 use super::transmission::{self, TransmissionDynamics};
 use serde::Serialize;
@@ -66,6 +69,17 @@ pub struct LibraryOptions {
     /// (ignoring case). Each text must match at least one candidate
     /// ([`excluded_unknown`]).
     pub exclude: Vec<String>,
+    /// Radial clearance h_ref (m) at which the radial-play candidates take drive-torque rows
+    /// from the reduced dynamic play model ([`play_dynamics`](super::play_dynamics)): the
+    /// secant response(h_ref)/h_ref, so a fitted h near h_ref reproduces the model's
+    /// response at that clearance (the contact is nonlinear in h). `None` (the default): the
+    /// play candidates have tracker rows only, the quasi-static shift. Set by the
+    /// re-linearisation to the first pass's estimate when it selected a radial play; needs a
+    /// model with [`play_dynamics`](InverseDynamicsModel::play_dynamics) and
+    /// [`transmission_dynamics`](InverseDynamicsModel::transmission_dynamics).
+    pub dynamic_play_clearance: Option<f64>,
+    /// Only these candidates (exact names), if any: a fixed selection refitted.
+    pub only: Vec<String>,
 }
 
 /// The first text of `opts.exclude` that matches no candidate of `model`'s full library, if
@@ -152,6 +166,8 @@ impl Default for LibraryOptions {
             relative_coulomb_velocities: vec![0.1, 0.03, 0.01],
             speed_scales: vec![],
             exclude: vec![],
+            dynamic_play_clearance: None,
+            only: vec![],
         }
     }
 }
@@ -475,6 +491,9 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
         });
     }
     out.retain(|c| !opts.exclude.iter().any(|x| excludes(x, &c.name)));
+    if !opts.only.is_empty() {
+        out.retain(|c| opts.only.contains(&c.name));
+    }
     out
 }
 
@@ -508,27 +527,67 @@ pub fn columns(
     // recording again, so a model with internal dynamics answers at each sample's state;
     // only when outputs are recorded or a transmission is compliant).
     let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta0, j) != 0.0);
-    let (sens, dynamics): (
-        Vec<Option<OutputSensitivities>>,
-        Vec<Option<TransmissionDynamics>>,
-    ) = if output_rows.is_empty() && !compliant {
-        (vec![], vec![])
-    } else {
+    // The reduced dynamic play model's data, only where its torque rows are asked for.
+    let play_reference = opts
+        .dynamic_play_clearance
+        .filter(|h| *h > 0.0 && h.is_finite())
+        .filter(|_| {
+            chans.iter().any(|c| matches!(c, Channel::Torque(_)))
+                && cands.iter().any(|c| {
+                    matches!(
+                        c.effect,
+                        Effect::Play {
+                            direction: PlayDirection::Radial,
+                            ..
+                        }
+                    )
+                })
+        });
+    let mut sens: Vec<Option<OutputSensitivities>> = vec![];
+    let mut dynamics: Vec<Option<TransmissionDynamics>> = vec![];
+    let mut play_dyn: Vec<Option<Vec<PlayDynamics>>> = vec![];
+    if !output_rows.is_empty() || compliant {
         let (mut tau, mut yy) = (vec![0.0; model.joints()], vec![0.0; model.outputs()]);
-        (0..n)
-            .map(|i| {
-                let (q, qd, qdd) = d.motion_at(i);
-                let y: Vec<f64> = y_nom.iter().map(|v| v[i]).collect();
-                yy.copy_from_slice(&y);
-                model.evaluate_at(d.t[i], &theta0, &q, &qd, &qdd, &mut tau, &mut yy);
-                let s = if output_rows.is_empty() {
-                    None
-                } else {
-                    model.output_sensitivities(&theta0, &q, &qd, &qdd, &y)
-                };
-                (s, model.transmission_dynamics(&theta0))
-            })
-            .unzip()
+        for i in 0..n {
+            let (q, qd, qdd) = d.motion_at(i);
+            let y: Vec<f64> = y_nom.iter().map(|v| v[i]).collect();
+            yy.copy_from_slice(&y);
+            model.evaluate_at(d.t[i], &theta0, &q, &qd, &qdd, &mut tau, &mut yy);
+            // (In this order: the play's derivatives perturb the model's cached sample.)
+            sens.push(if output_rows.is_empty() {
+                None
+            } else {
+                model.output_sensitivities(&theta0, &q, &qd, &qdd, &y)
+            });
+            let td = model.transmission_dynamics(&theta0);
+            play_dyn.push(match (&td, play_reference) {
+                (Some(_), Some(_)) => model.play_dynamics(&theta0, &q, &qd, &qdd),
+                _ => None,
+            });
+            dynamics.push(td);
+        }
+    }
+    // Per play site, the reduced dynamic play model's response at h_ref along the recording.
+    let play_response: Vec<std::cell::OnceCell<Vec<Option<PlayResponse>>>> = model
+        .play_sites()
+        .iter()
+        .map(|_| std::cell::OnceCell::new())
+        .collect();
+    let response_of = |site: usize, h: f64| -> Option<&Vec<Option<PlayResponse>>> {
+        let cell = play_response.get(site)?;
+        Some(cell.get_or_init(|| {
+            let samples: Vec<Option<PlaySample>> = (0..n)
+                .map(|i| match (play_dyn.get(i)?, dynamics.get(i)?) {
+                    (Some(p), Some(transmission)) => Some(PlaySample {
+                        t: d.t[i],
+                        play: p.get(site)?,
+                        transmission,
+                    }),
+                    _ => None,
+                })
+                .collect();
+            respond(&samples, h, &BALL_CONTACT)
+        }))
     };
     let dynamic = dynamics.iter().any(|x| x.is_some());
     let arm_rate: Vec<Vec<f64>> = (0..model.joints())
@@ -737,24 +796,43 @@ pub fn columns(
                     load_scale,
                 },
                 _,
-            ) => vec![outputs_only(&|k, s, _| {
-                let Some(p) = s.play.get(site) else { return 0.0 };
-                let sh = p.play.shift(&p.z_i, &p.z_j, &p.force, &p.moment, load_scale);
-                let v = match direction {
-                    PlayDirection::Radial => {
-                        (0..3)
-                            .map(|c| p.dy_dshift[c][k] * sh.radial_translation[c])
-                            .sum::<f64>()
-                            + p.dy_dtilt[k] * sh.radial_tilt
+            ) => {
+                // The tracker: the quasi-static shift toward the load.
+                let mut col = outputs_only(&|k, s, _| {
+                    let Some(p) = s.play.get(site) else { return 0.0 };
+                    let sh = p.play.shift(&p.z_i, &p.z_j, &p.force, &p.moment, load_scale);
+                    let v = match direction {
+                        PlayDirection::Radial => {
+                            (0..3)
+                                .map(|c| p.dy_dshift[c][k] * sh.radial_translation[c])
+                                .sum::<f64>()
+                                + p.dy_dtilt[k] * sh.radial_tilt
+                        }
+                        PlayDirection::Axial => {
+                            (0..3).map(|c| p.dy_dshift[c][k] * sh.axial_translation[c]).sum()
+                        }
+                    };
+                    if v.is_finite() {
+                        v
+                    } else {
+                        0.0
                     }
-                    PlayDirection::Axial => (0..3).map(|c| p.dy_dshift[c][k] * sh.axial_translation[c]).sum(),
-                };
-                if v.is_finite() {
-                    v
-                } else {
-                    0.0
+                });
+                // The drive torques: the reduced dynamic model's secant at h_ref.
+                if let (PlayDirection::Radial, Some(h)) = (direction, play_reference) {
+                    if let Some(response) = response_of(site, h) {
+                        for (i, x) in response.iter().enumerate() {
+                            let Some(x) = x else { continue };
+                            for (a, v) in x.torque.iter().enumerate() {
+                                if let Some(r) = torque_row(a) {
+                                    col[r * n + i] = if v.is_finite() { v / h } else { 0.0 };
+                                }
+                            }
+                        }
+                    }
                 }
-            })],
+                vec![col]
+            }
             (Effect::OutputDelay { output }, _) => {
                 let mut col = vec![0.0; nc * n];
                 if let Some(r) = chans.iter().position(|&c| c == Channel::Output(output)) {
@@ -908,5 +986,180 @@ fn recording_for(a: &Candidate, b: &Candidate) -> String {
             joint(a),
             joint(b)
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::play::UniversalPlay;
+    use crate::diagnose::model::{ModelParameter, PlayData};
+    use nalgebra::{DMatrix, Vector3};
+
+    /// Torque on the drive per metre of the joint's shift along z, N·m/m.
+    const TAU_PER_M: f64 = 1000.0;
+
+    /// One compliant drive carrying a universal joint with play (axes x and y, n = z) whose
+    /// load along z follows the drive's angle, 200 N · tanh(q / 0.01 rad): it reverses where
+    /// q crosses zero. One output, the drive's angle.
+    struct Carried;
+
+    fn load(q: f64) -> f64 {
+        200.0 * (q / 0.01).tanh()
+    }
+
+    impl InverseDynamicsModel for Carried {
+        fn name(&self) -> String {
+            "carried".into()
+        }
+        fn joints(&self) -> usize {
+            1
+        }
+        fn joint_name(&self, _j: usize) -> String {
+            "drive".into()
+        }
+        fn parameters(&self) -> Vec<ModelParameter> {
+            vec![]
+        }
+        fn torques(&self, _theta: &[f64], _q: &[f64], _qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
+            tau[0] = 0.1 * qdd[0];
+        }
+        fn outputs(&self) -> usize {
+            1
+        }
+        fn evaluate(
+            &self,
+            theta: &[f64],
+            q: &[f64],
+            qd: &[f64],
+            qdd: &[f64],
+            tau: &mut [f64],
+            y: &mut [f64],
+        ) {
+            self.torques(theta, q, qd, qdd, tau);
+            y[0] = q[0];
+        }
+        fn output_sensitivities(
+            &self,
+            _theta: &[f64],
+            q: &[f64],
+            _qd: &[f64],
+            _qdd: &[f64],
+            _y: &[f64],
+        ) -> Option<OutputSensitivities> {
+            Some(OutputSensitivities {
+                sites: vec![],
+                play: vec![PlayData {
+                    dy_dshift: [vec![0.0], vec![0.0], vec![1.0]],
+                    dy_dtilt: vec![0.0],
+                    z_i: Vector3::x(),
+                    z_j: Vector3::y(),
+                    force: Vector3::new(0.0, 0.0, load(q[0])),
+                    moment: Vector3::zeros(),
+                    play: UniversalPlay { ball_spacing: 0.024 },
+                }],
+            })
+        }
+        fn drive_compliance(&self, _theta: &[f64], _j: usize) -> f64 {
+            1e-4
+        }
+        fn transmission_dynamics(&self, _theta: &[f64]) -> Option<TransmissionDynamics> {
+            Some(TransmissionDynamics {
+                mass: DMatrix::from_element(1, 1, 0.01),
+                compliance: vec![1e-4],
+                damping: vec![5.0],
+                windup_rate: vec![0.0],
+                load_stiffness: None,
+            })
+        }
+        fn play_dynamics(
+            &self,
+            _theta: &[f64],
+            q: &[f64],
+            _qd: &[f64],
+            _qdd: &[f64],
+        ) -> Option<Vec<PlayDynamics>> {
+            Some(vec![PlayDynamics {
+                z_i: Vector3::x(),
+                z_j: Vector3::y(),
+                play: UniversalPlay { ball_spacing: 0.024 },
+                reaction: [0.0, 0.0, load(q[0]), 0.0],
+                torque_by_offset: [vec![0.0], vec![0.0], vec![TAU_PER_M], vec![0.0]],
+                torque_by_offset_acceleration: [vec![0.0], vec![0.0], vec![0.0], vec![0.0]],
+                reaction_by_offset: [[0.0; 4]; 4],
+                reaction_by_offset_acceleration: [
+                    [1.0, 0.0, 0.0, 0.0],
+                    [0.0, 1.0, 0.0, 0.0],
+                    [0.0, 0.0, 1.0, 0.0],
+                    [0.0, 0.0, 0.0, 1e-4],
+                ],
+                reaction_by_drive: vec![[0.0; 4]],
+                reaction_by_drive_acceleration: vec![[0.0; 4]],
+            }])
+        }
+        fn play_sites(&self) -> Vec<String> {
+            vec!["F".into()]
+        }
+    }
+
+    /// Asked to (the re-linearised pass, [`LibraryOptions::dynamic_play_clearance`]), the
+    /// radial-play candidate gets drive-torque rows from the reduced dynamic play model: where
+    /// the load has held its sign for a while, the joint sits against its wall, 2h + F/k from
+    /// the centre (each trunnion pair takes half the shift along n; the four balls' stiffness
+    /// along n is k), and the drive reads T_e times that — per metre of clearance, the column.
+    /// The load reverses and the column with it. Without the option the candidate moves the
+    /// tracker only; the tracker rows are the same either way, and axial play gets no torque
+    /// rows.
+    #[test]
+    fn the_re_linearised_radial_play_reads_the_reduced_dynamic_model_in_the_torques() {
+        let h = 5e-6;
+        let n = 1001;
+        let t: Vec<f64> = (0..n).map(|i| 0.002 * i as f64).collect();
+        let w = std::f64::consts::PI;
+        let q: Vec<f64> = t.iter().map(|t| 0.3 * (w * t).cos()).collect();
+        let d = MotionData {
+            name: "carried".into(),
+            t: t.clone(),
+            q: vec![q.clone()],
+            qd: vec![t.iter().map(|t| -0.3 * w * (w * t).sin()).collect()],
+            qdd: vec![t.iter().map(|t| -0.3 * w * w * (w * t).cos()).collect()],
+            qdd_noise: vec![],
+            tau: vec![vec![0.0; n]],
+            y: vec![q],
+        };
+        let mut opts = LibraryOptions {
+            play_load_scales: vec![5.0],
+            ..LibraryOptions::default()
+        };
+        let cands = library(&Carried, &opts);
+        let radial = cands
+            .iter()
+            .position(|c| c.name.starts_with("radial clearance in joint F"))
+            .expect("a radial play candidate");
+        let axial = cands
+            .iter()
+            .position(|c| c.name.starts_with("axial play in joint F"))
+            .expect("an axial play candidate");
+        let (quasi_static, _) = columns(&cands, &d, &Carried, &opts);
+        opts.dynamic_play_clearance = Some(h);
+        let (dynamic, _) = columns(&cands, &d, &Carried, &opts);
+        // Rows: the torque's samples, then the tracker's.
+        let torque = |cols: &Vec<Vec<Vec<f64>>>, c: usize| cols[c][0][..n].to_vec();
+        let tracker = |cols: &Vec<Vec<Vec<f64>>>, c: usize| cols[c][0][n..].to_vec();
+        assert!(torque(&quasi_static, radial).iter().all(|v| *v == 0.0));
+        assert!(torque(&dynamic, axial).iter().all(|v| *v == 0.0));
+        assert_eq!(tracker(&quasi_static, radial), tracker(&dynamic, radial));
+        assert!(tracker(&dynamic, radial).iter().any(|v| *v != 0.0));
+        let wall = TAU_PER_M * (2.0 * h + 200.0 / BALL_CONTACT.stiffness) / h;
+        let col = torque(&dynamic, radial);
+        // At t = 0.4 s (load +200 N since the start) and t = 1 s (−200 N since 0.5 s).
+        for (i, expected) in [(200, -wall), (500, wall)] {
+            assert!(
+                (col[i] - expected).abs() < 0.01 * wall,
+                "t = {} s: column {} N·m/m, the wall gives {expected}",
+                t[i],
+                col[i]
+            );
+        }
     }
 }

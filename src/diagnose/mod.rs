@@ -10,13 +10,13 @@
 //! | `mechanism.rs` | any mechanism built with the multibody API as a nominal model: declared sensors (encoder placement, trackers), joints with play |
 //! | `mr2120.rs` | the MR2120's multibody nominal model (the diagnosis' nominal for the MR2120) |
 //! | `transmission.rs` | the drive transmissions' wind-up dynamics: one Newmark integrator for the nominal model's wind-up and the candidates' linear response to a joint-side torque |
-//! | `play_dynamics.rs` | a reduced dynamic model of a universal joint's play along a recording (the drives' transmissions and the joint's play coordinates, linearised about the nominal, the trunnion balls' contact nonlinear): what the quasi-static play candidates leave out |
+//! | `play_dynamics.rs` | a reduced dynamic model of a universal joint's play along a recording (the drives' transmissions and the joint's play coordinates, linearised about the nominal, the trunnion balls' contact nonlinear): what the quasi-static play candidates leave out; the diagnosis' play-dynamics check refits its selection with it |
 //! | `data.rs` | measured motion and torques of one recording, checked against the model |
 //! | `candidates.rs` | the library of candidate physics and their regressors |
 //! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
 //! | `locate.rs` | significant residual windows tied to the mechanism's state |
 //! | `adequacy.rs` | after the selection: is what remains noise (noise ratio, whiteness, windows that stay significant, explained fraction per channel), uncertainties that include the misfit, unstable estimates; its module doc states the statistics |
-//! | `run.rs` | the entry points [`diagnose`] and [`diagnose_recordings`]: noise floors, localisation, held-out check |
+//! | `run.rs` | the entry points [`diagnose`] and [`diagnose_recordings`]: noise floors, localisation, held-out check, the play-dynamics check |
 //! | `options.rs` | [`DiagnoseOptions`], every tunable of the diagnosis |
 //! | `outcome.rs` | [`Diagnosis`] and its parts (ranking, steps, estimates, confounded pairs, channel fits) |
 //! | `error.rs` | [`DiagnoseError`]: why a diagnosis cannot run |

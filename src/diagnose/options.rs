@@ -32,6 +32,11 @@ pub struct DiagnoseOptions {
     /// model already contains (name, value). Residuals are taken as if from the nominal
     /// model (r + Σ value·column), so estimates are totals and any effect can still drop out.
     pub shift: Vec<(String, f64)>,
+    /// After the selection, refit it with the first selected radial play's drive torques
+    /// from the reduced dynamic play model, to say how much of what remains is the play's
+    /// dynamics ([`Diagnosis::play_dynamics`](super::Diagnosis)). Costs the play's
+    /// derivatives at every sample (several inverse dynamics per play joint).
+    pub play_dynamics: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -47,6 +52,7 @@ impl Default for DiagnoseOptions {
             reweight: true,
             relinearize: true,
             shift: vec![],
+            play_dynamics: true,
         }
     }
 }

@@ -157,6 +157,7 @@ pub struct Diagnosis {
     pub steps: Vec<Step>,
     /// Selected effects, in order.
     pub selected: Vec<String>,
+
     /// The selected effects whose estimates are all stable (see the `adequacy` module): the
     /// physics the diagnosis claims as found. The others only soak up model error.
     pub found: Vec<String>,
@@ -182,6 +183,9 @@ pub struct Diagnosis {
     pub unexplained: bool,
     /// Whether what remains after the fit is noise: per channel ratios, whiteness, windows.
     pub adequacy: Adequacy,
+    /// How much of what remains the found radial play's dynamics explain (`None` when no
+    /// radial play was selected, or the model has no play dynamics).
+    pub play_dynamics: Option<PlayDynamicsCheck>,
     /// One-paragraph verdict.
     pub verdict: String,
     /// Leave-one-recording-out residual RMS of the final model on the fit recordings, in
@@ -194,6 +198,37 @@ pub struct Diagnosis {
     /// Held-out residual traces.
     #[serde(skip)]
     pub traces: Vec<ResidualTrace>,
+}
+
+/// The selection of a diagnosis refitted with its first radial play's drive torques from a
+/// reduced dynamic model of the joint in its clearance ([`super::play_dynamics`]) taken at the
+/// play's estimate: how much of what the quasi-static play leaves is the play's dynamics. It
+/// does not change the diagnosis.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlayDynamicsCheck {
+    /// The play (candidate name).
+    pub candidate: String,
+    /// The clearance the reduced model was taken at: the diagnosis' estimate, m.
+    pub clearance: f64,
+    /// The play's clearance refitted with the dynamic drive-torque rows, m (`None` if the
+    /// refit dropped it).
+    pub refit_clearance: Option<f64>,
+    /// What the refit kept of the selection.
+    pub selected: Vec<String>,
+    /// Per channel, the residual over the noise floor (adequacy basis) without and with the
+    /// play's dynamics.
+    pub channels: Vec<PlayDynamicsChannel>,
+}
+
+/// One channel of a [`PlayDynamicsCheck`].
+#[derive(Debug, Clone, Serialize)]
+pub struct PlayDynamicsChannel {
+    /// Channel.
+    pub channel: String,
+    /// Residual RMS over the noise floor after the diagnosis' fit.
+    pub noise_ratio_without: f64,
+    /// The same with the play's dynamics in the drive torques.
+    pub noise_ratio_with: f64,
 }
 
 impl Diagnosis {

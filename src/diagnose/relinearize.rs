@@ -10,13 +10,13 @@ use super::outcome::Diagnosis;
 use super::verdict::verdict_text;
 
 /// The model moved by the first pass's estimates, and the moved (candidate, value) pairs
-/// (the linearisation point, `DiagnoseOptions::shift`); `None` if no estimate moves the
-/// model.
+/// (the linearisation point, `DiagnoseOptions::shift`; empty if no estimate moves the
+/// model, which is then the nominal one).
 pub(super) fn shift<'a>(
     model: &'a dyn InverseDynamicsModel,
     first: &Diagnosis,
     cands: &[Candidate],
-) -> Option<(Shifted<'a>, Vec<(String, f64)>)> {
+) -> (Shifted<'a>, Vec<(String, f64)>) {
     let mut delta = vec![0.0; model.parameters().len()];
     let mut q_offset = vec![0.0; model.joints()];
     let mut moved: Vec<(String, f64)> = vec![];
@@ -40,15 +40,47 @@ pub(super) fn shift<'a>(
         }
         moved.push((c.name.clone(), e.value));
     }
-    if moved.is_empty() {
-        return None;
-    }
     let shifted = Shifted {
         inner: model,
         delta,
         q_offset,
     };
-    Some((shifted, moved))
+    (shifted, moved)
+}
+
+/// The radial play a finished diagnosis selected first (candidate name) and its estimate
+/// (m), for [`LibraryOptions::dynamic_play_clearance`](super::candidates::LibraryOptions);
+/// `None` if it selected none with a positive estimate, or the model has no play sites or
+/// no compliant transmission (the reduced dynamic play model winds them up).
+pub(super) fn dynamic_play_clearance(
+    model: &dyn InverseDynamicsModel,
+    d: &Diagnosis,
+    cands: &[Candidate],
+) -> Option<(String, f64)> {
+    use super::candidates::PlayDirection;
+    let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta, j) != 0.0);
+    if model.play_sites().is_empty() || !compliant {
+        return None;
+    }
+    d.selected.iter().find_map(|name| {
+        let c = cands.iter().find(|c| &c.name == name)?;
+        if !matches!(
+            c.effect,
+            Effect::Play {
+                direction: PlayDirection::Radial,
+                ..
+            }
+        ) {
+            return None;
+        }
+        d.estimates
+            .iter()
+            .find(|e| &e.candidate == name)
+            .map(|e| e.value)
+            .filter(|h| *h > 0.0 && h.is_finite())
+            .map(|h| (name.clone(), h))
+    })
 }
 
 /// The second pass (`second`, at the shifted point) reported against the nominal model:

@@ -157,6 +157,9 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             a.unstable.join("; ")
         );
     }
+    if let Some(c) = &d.play_dynamics {
+        let _ = writeln!(m, "- {}", super::verdict::play_dynamics_check(c).trim());
+    }
     let _ = writeln!(m);
 }
 

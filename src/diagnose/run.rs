@@ -1,6 +1,7 @@
 //! The entry points: [`diagnose`] on prepared motion data (noise floors, localisation, the
-//! selection, estimates, confounding and the held-out check, then one re-linearisation) and
-//! [`diagnose_recordings`] on recordings, which first chooses the differentiation window.
+//! selection, estimates, confounding and the held-out check, then one re-linearisation and,
+//! when a radial play was selected, the play-dynamics check) and [`diagnose_recordings`] on
+//! recordings, which first chooses the differentiation window.
 
 use super::adequacy::{self, BasisResidual};
 use super::candidates::library;
@@ -9,7 +10,7 @@ use super::error::DiagnoseError;
 use super::locate::{locate, tagged_windows, StateScales};
 use super::model::InverseDynamicsModel;
 use super::options::DiagnoseOptions;
-use super::outcome::{ChannelFit, Diagnosis, ResidualTrace};
+use super::outcome::{ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, ResidualTrace};
 use super::recording::{Recording, MIN_SAMPLES};
 use super::relinearize;
 use super::residuals::{prepare, Prepared};
@@ -153,14 +154,19 @@ fn diagnose_folds(
     }
     // Shift the model by the selected parameter and sensor-offset estimates.
     let cands = library(model, &opts.library);
-    let Some((shifted, moved)) = relinearize::shift(model, &first, &cands) else {
+    let (shifted, moved) = relinearize::shift(model, &first, &cands);
+    if moved.is_empty() {
+        // Nothing to re-linearise; the play-dynamics check still runs.
+        let mut d = first;
+        d.play_dynamics = play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, &mut progress)?;
+        d.verdict = verdict_text(model, &d, &cands);
         progress("done", 1.0);
-        return Ok(first);
-    };
+        return Ok(d);
+    }
     let mut o2 = opts.clone();
     o2.relinearize = false;
     o2.shift = moved;
-    let second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.5 * f))?;
+    let second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.4 * f))?;
     let mut d = relinearize::against_nominal(model, first, second, &cands);
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
     adequacy::refresh(&mut d);
@@ -170,9 +176,68 @@ fn diagnose_folds(
         .filter_map(|n| cands.iter().position(|c| &c.name == n))
         .collect();
     d.friction = super::equivalents::joint_friction(model, &set, &cands, &d.estimates);
+    d.play_dynamics = play_dynamics_check(model, &shifted, &d, fit, holdout, &o2, &cands, &mut progress)?;
     d.verdict = verdict_text(model, &d, &cands);
     progress("done", 1.0);
     Ok(d)
+}
+
+/// How much of what remains the found play's dynamics explain: when the diagnosis selected a
+/// radial play of a joint, its selection refitted (the same candidates, at the same
+/// linearisation point `opts.shift`, on the model moved there, `moved`) with that play's
+/// drive torques from the reduced dynamic play model ([`super::play_dynamics`]) at its
+/// estimate ([`LibraryOptions::dynamic_play_clearance`](super::candidates::LibraryOptions)).
+/// It does not change the diagnosis: the dynamic columns cannot tell the two joints of a leg
+/// apart (measured, README), the quasi-static tracker rows can. `None` when off
+/// ([`DiagnoseOptions::play_dynamics`]), when no radial play was selected, or when the refit
+/// fails.
+#[allow(clippy::too_many_arguments)]
+fn play_dynamics_check(
+    model: &dyn InverseDynamicsModel,
+    moved: &dyn InverseDynamicsModel,
+    d: &Diagnosis,
+    fit: &[MotionData],
+    holdout: &[MotionData],
+    opts: &DiagnoseOptions,
+    cands: &[super::candidates::Candidate],
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<Option<PlayDynamicsCheck>, DiagnoseError> {
+    if !opts.play_dynamics {
+        return Ok(None);
+    }
+    let Some((candidate, h)) = relinearize::dynamic_play_clearance(model, d, cands) else {
+        return Ok(None);
+    };
+    progress("play dynamics", 0.9);
+    let mut o3 = opts.clone();
+    o3.relinearize = false;
+    o3.library.only = d.selected.clone();
+    o3.library.dynamic_play_clearance = Some(h);
+    // A check that cannot run (a refit the data do not support) leaves the diagnosis as it is.
+    let Ok(refit) = diagnose_once(moved, fit, holdout, &o3, |_, _| {}) else {
+        return Ok(None);
+    };
+    let refit_clearance = refit
+        .estimates
+        .iter()
+        .find(|e| e.candidate == candidate)
+        .map(|e| e.value);
+    Ok(Some(PlayDynamicsCheck {
+        candidate,
+        clearance: h,
+        refit_clearance,
+        selected: refit.selected.clone(),
+        channels: d
+            .channels
+            .iter()
+            .zip(&refit.channels)
+            .map(|(a, b)| PlayDynamicsChannel {
+                channel: a.channel.clone(),
+                noise_ratio_without: a.noise_ratio_after,
+                noise_ratio_with: b.noise_ratio_after,
+            })
+            .collect(),
+    }))
 }
 
 /// Each joint's typical speed in the fit recordings: the 95th percentile of |q̇| (rad/s or
@@ -375,6 +440,7 @@ fn diagnose_once(
         no_significant_mismatch: adequacy::no_significant_mismatch(&found, adequacy.unexplained),
         found,
         selected,
+        play_dynamics: None,
         estimates,
         correlations,
         confounded,
@@ -430,7 +496,12 @@ pub fn diagnose_recordings(
                 "choosing the differentiation window",
                 k as f64 / windows.len() as f64 * 0.5,
             );
-            let d = diagnose(model, &load(fit, w)?, &[], opts, |_, _| {})?;
+            // (The play-dynamics check does not move the cross-validated error.)
+            let o = DiagnoseOptions {
+                play_dynamics: false,
+                ..opts.clone()
+            };
+            let d = diagnose(model, &load(fit, w)?, &[], &o, |_, _| {})?;
             scores.push((w, d.cv_rms_noise_units));
         }
     }

@@ -10,7 +10,7 @@ use super::candidates::Candidate;
 use super::format::number;
 use super::locate::Location;
 use super::model::InverseDynamicsModel;
-use super::outcome::{ChannelFit, Confound, Diagnosis, Estimate};
+use super::outcome::{ChannelFit, Confound, Diagnosis, Estimate, PlayDynamicsCheck};
 
 /// The verdict of a finished diagnosis (after its estimates were moved back to the nominal
 /// model).
@@ -29,7 +29,11 @@ pub(super) fn verdict_text(model: &dyn InverseDynamicsModel, d: &Diagnosis, cand
         &d.confounded,
         &d.location,
         &d.adequacy,
-    )
+    ) + &d
+        .play_dynamics
+        .as_ref()
+        .map(play_dynamics_check)
+        .unwrap_or_default()
 }
 
 /// The verdict of a selection `set` (indices into `cands`).
@@ -234,6 +238,44 @@ fn play_dynamics(
     ))
 }
 
+/// The verdict's closing sentence on a [`PlayDynamicsCheck`] (also the report's): with the
+/// found play's dynamics in the drive torques, the residual over the noise of every channel
+/// that moved by more than 5 %, and the play's refitted clearance.
+pub(super) fn play_dynamics_check(c: &PlayDynamicsCheck) -> String {
+    let moved: Vec<String> = c
+        .channels
+        .iter()
+        .filter(|x| (x.noise_ratio_with - x.noise_ratio_without).abs() > 0.05 * x.noise_ratio_without)
+        .map(|x| {
+            format!(
+                "{} {:.1}× → {:.1}×",
+                x.channel, x.noise_ratio_without, x.noise_ratio_with
+            )
+        })
+        .collect();
+    let refit = c
+        .refit_clearance
+        .map(|h| format!("refitted so, the play reads {:.2} µm", h * 1e6))
+        .unwrap_or_else(|| "refitted so, the play drops out".into());
+    let better = c
+        .channels
+        .iter()
+        .any(|x| x.noise_ratio_with < 0.95 * x.noise_ratio_without);
+    if moved.is_empty() || !better {
+        return format!(
+            " The reduced dynamic play model for the {}, taken at its estimate ({:.2} µm) in the drive torques with the selection refitted, does not explain what remains ({refit}).",
+            c.candidate,
+            c.clearance * 1e6
+        );
+    }
+    format!(
+        " With the drive torques of the reduced dynamic play model for the {}, taken at its estimate ({:.2} µm) with the selection refitted, the residual over the noise goes {}: that much of what remains is the play's dynamics, which no quasi-static candidate expresses ({refit}; the dynamic model cannot tell the two joints of a leg apart, so it does not change the diagnosis).",
+        c.candidate,
+        c.clearance * 1e6,
+        moved.join(", ")
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -321,6 +363,38 @@ mod tests {
         assert!(play_dynamics(&[0], &cands, &weak, &yes).is_none());
         let at_noise = adequacy("load reversal in drive A", 9.2, false);
         assert!(play_dynamics(&[0], &cands, &at_noise, &yes).is_none());
+    }
+
+    /// The play-dynamics check's sentence names the channels it moved with both ratios and
+    /// the refitted clearance, and says so when the dynamics explain nothing.
+    #[test]
+    fn the_verdict_says_how_much_the_plays_dynamics_explain() {
+        use crate::diagnose::outcome::PlayDynamicsChannel;
+        let ch = |channel: &str, without: f64, with: f64| PlayDynamicsChannel {
+            channel: channel.into(),
+            noise_ratio_without: without,
+            noise_ratio_with: with,
+        };
+        let check = PlayDynamicsCheck {
+            candidate: "radial clearance in joint F (load scale 5 N)".into(),
+            clearance: 6.47e-6,
+            refit_clearance: Some(3.39e-6),
+            selected: vec![],
+            channels: vec![ch("drive A torque", 6.6, 3.4), ch("platform y", 1.13, 1.14)],
+        };
+        let t = play_dynamics_check(&check);
+        assert!(t.contains("6.47 µm"), "{t}");
+        assert!(t.contains("drive A torque 6.6× → 3.4×"), "{t}");
+        assert!(!t.contains("platform y"), "{t}");
+        assert!(t.contains("3.39 µm"), "{t}");
+        let none = PlayDynamicsCheck {
+            channels: vec![ch("drive A torque", 6.6, 6.7)],
+            refit_clearance: None,
+            ..check
+        };
+        let t = play_dynamics_check(&none);
+        assert!(t.contains("does not explain what remains"), "{t}");
+        assert!(t.contains("drops out"), "{t}");
     }
 
     /// A selected effect that many candidates fit as well gets its three closest named (the
