@@ -994,7 +994,8 @@ mod tests {
     use super::*;
     use crate::contact::play::UniversalPlay;
     use crate::diagnose::model::{ModelParameter, PlayData};
-    use nalgebra::{DMatrix, Vector3};
+    use crate::diagnose::play_dynamics::fixtures;
+    use nalgebra::Vector3;
 
     /// Torque on the drive per metre of the joint's shift along z, N·m/m.
     const TAU_PER_M: f64 = 1000.0;
@@ -1064,13 +1065,7 @@ mod tests {
             1e-4
         }
         fn transmission_dynamics(&self, _theta: &[f64]) -> Option<TransmissionDynamics> {
-            Some(TransmissionDynamics {
-                mass: DMatrix::from_element(1, 1, 0.01),
-                compliance: vec![1e-4],
-                damping: vec![5.0],
-                windup_rate: vec![0.0],
-                load_stiffness: None,
-            })
+            Some(fixtures::one_drive())
         }
         fn play_dynamics(
             &self,
@@ -1079,23 +1074,7 @@ mod tests {
             _qd: &[f64],
             _qdd: &[f64],
         ) -> Option<Vec<PlayDynamics>> {
-            Some(vec![PlayDynamics {
-                z_i: Vector3::x(),
-                z_j: Vector3::y(),
-                play: UniversalPlay { ball_spacing: 0.024 },
-                reaction: [0.0, 0.0, load(q[0]), 0.0],
-                torque_by_offset: [vec![0.0], vec![0.0], vec![TAU_PER_M], vec![0.0]],
-                torque_by_offset_acceleration: [vec![0.0], vec![0.0], vec![0.0], vec![0.0]],
-                reaction_by_offset: [[0.0; 4]; 4],
-                reaction_by_offset_acceleration: [
-                    [1.0, 0.0, 0.0, 0.0],
-                    [0.0, 1.0, 0.0, 0.0],
-                    [0.0, 0.0, 1.0, 0.0],
-                    [0.0, 0.0, 0.0, 1e-4],
-                ],
-                reaction_by_drive: vec![[0.0; 4]],
-                reaction_by_drive_acceleration: vec![[0.0; 4]],
-            }])
+            Some(vec![fixtures::hanging_joint(load(q[0]), TAU_PER_M)])
         }
         fn play_sites(&self) -> Vec<String> {
             vec!["F".into()]

@@ -337,22 +337,17 @@ pub fn respond(
     out
 }
 
+/// Test fixtures: one compliant drive carrying a joint of 1 kg (side j) on axes x and y,
+/// n = z, loaded along z, whose shift along z moves the drive's torque.
 #[cfg(test)]
-mod tests {
+pub(crate) mod fixtures {
     use super::*;
     use crate::contact::play::UniversalPlay;
 
-    /// One drive, a joint whose side j weighs 1 kg and hangs on it: axes x and y, n = z. The
-    /// nominal joint holds side j up with 200 N; with play, side j sits 2h lower (each pair
-    /// takes half the drop) plus 200 N over the four balls' stiffness along n (4·k·¼ = k),
-    /// and the drive's torque follows by T_e. Reversed, the load sends it across the play to
-    /// the other wall, without blowing up on the way.
-    #[test]
-    fn a_hanging_joint_sits_on_its_wall_and_crosses_the_play_when_the_load_reverses() {
-        let h = 5e-6;
-        let k = BALL_CONTACT.stiffness;
-        let tau_per_m = 1000.0;
-        let dynamics = |load: f64| PlayDynamics {
+    /// The joint under `load` N along z, the drive's torque moving by `tau_per_m` N·m per m
+    /// of its shift along z; 1 kg on each shift coordinate, 1e-4 kg·m² on the tilt.
+    pub(crate) fn hanging_joint(load: f64, tau_per_m: f64) -> PlayDynamics {
+        PlayDynamics {
             z_i: Vector3::x(),
             z_j: Vector3::y(),
             play: UniversalPlay { ball_spacing: 0.024 },
@@ -368,14 +363,37 @@ mod tests {
             ],
             reaction_by_drive: vec![[0.0; 4]],
             reaction_by_drive_acceleration: vec![[0.0; 4]],
-        };
-        let transmission = TransmissionDynamics {
+        }
+    }
+
+    /// The drive: 0.01 kg·m² on 1e-4 rad/(N·m), damped by 5 N·m·s/rad.
+    pub(crate) fn one_drive() -> TransmissionDynamics {
+        TransmissionDynamics {
             mass: DMatrix::from_element(1, 1, 0.01),
             compliance: vec![1e-4],
             damping: vec![5.0],
             windup_rate: vec![0.0],
             load_stiffness: None,
-        };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One drive, a joint whose side j weighs 1 kg and hangs on it: axes x and y, n = z. The
+    /// nominal joint holds side j up with 200 N; with play, side j sits 2h lower (each pair
+    /// takes half the drop) plus 200 N over the four balls' stiffness along n (4·k·¼ = k),
+    /// and the drive's torque follows by T_e. Reversed, the load sends it across the play to
+    /// the other wall, without blowing up on the way.
+    #[test]
+    fn a_hanging_joint_sits_on_its_wall_and_crosses_the_play_when_the_load_reverses() {
+        let h = 5e-6;
+        let k = BALL_CONTACT.stiffness;
+        let tau_per_m = 1000.0;
+        let dynamics = |load: f64| fixtures::hanging_joint(load, tau_per_m);
+        let transmission = fixtures::one_drive();
         let (up, down) = (dynamics(200.0), dynamics(-200.0));
         let samples: Vec<Option<PlaySample>> = (0..400)
             .map(|i| {
