@@ -33,7 +33,7 @@
 //! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) |
 //! | clearance h at a site (e.g. the joints of a leg) | h·∂y/∂s·tanh(F/F_c), F the site's load |
 //! | play h of a universal joint, radial or axial ([`crate::contact::play`]) | h·∂y/∂(shift, tilt)·(the shift toward the joint's load per unit clearance, over load scale F_c) |
-//! | the same radial play, re-linearised pass | drive torques too: h·Δτ(h_ref)/h_ref, Δτ the reduced dynamic play model's response ([`super::play_dynamics`]) at the first pass's estimate h_ref ([`LibraryOptions::dynamic_play_clearance`]) |
+//! | the same radial play, in the play-dynamics check | drive torques too: h·Δτ(h_ref)/h_ref, Δτ the reduced dynamic play model's response ([`super::play_dynamics`]) at the diagnosis' estimate h_ref ([`LibraryOptions::dynamic_play_clearance`]) |
 //! | output-sensor offset | o_k on output k |
 //! | output-sensor delay | −d·dy_k/dt on output k |
 use super::data::{Channel, MotionData};
@@ -73,9 +73,9 @@ pub struct LibraryOptions {
     /// from the reduced dynamic play model ([`play_dynamics`](super::play_dynamics)): the
     /// secant response(h_ref)/h_ref, so a fitted h near h_ref reproduces the model's
     /// response at that clearance (the contact is nonlinear in h). `None` (the default): the
-    /// play candidates have tracker rows only, the quasi-static shift. Set by the
-    /// re-linearisation to the first pass's estimate when it selected a radial play; needs a
-    /// model with [`play_dynamics`](InverseDynamicsModel::play_dynamics) and
+    /// play candidates have tracker rows only, the quasi-static shift. Set by the diagnosis'
+    /// play-dynamics check to the estimate of the radial play it selected; needs a model
+    /// with [`play_dynamics`](InverseDynamicsModel::play_dynamics) and
     /// [`transmission_dynamics`](InverseDynamicsModel::transmission_dynamics).
     pub dynamic_play_clearance: Option<f64>,
     /// Only these candidates (exact names), if any: a fixed selection refitted.
@@ -1081,7 +1081,7 @@ mod tests {
         }
     }
 
-    /// Asked to (the re-linearised pass, [`LibraryOptions::dynamic_play_clearance`]), the
+    /// Asked to (the play-dynamics check, [`LibraryOptions::dynamic_play_clearance`]), the
     /// radial-play candidate gets drive-torque rows from the reduced dynamic play model: where
     /// the load has held its sign for a while, the joint sits against its wall, 2h + F/k from
     /// the centre (each trunnion pair takes half the shift along n; the four balls' stiffness
@@ -1090,7 +1090,7 @@ mod tests {
     /// tracker only; the tracker rows are the same either way, and axial play gets no torque
     /// rows.
     #[test]
-    fn the_re_linearised_radial_play_reads_the_reduced_dynamic_model_in_the_torques() {
+    fn a_radial_play_with_dynamic_rows_reads_the_reduced_model_in_the_torques() {
         let h = 5e-6;
         let n = 1001;
         let t: Vec<f64> = (0..n).map(|i| 0.002 * i as f64).collect();
