@@ -416,6 +416,21 @@ impl Analysis {
         -(4.0 * d2 - d1) / 3.0
     }
 
+    /// The bodies' mass matrix in the velocity coordinates (per body: its mass on the three
+    /// translations, its inertia on the three rotations), kg and kg·m².
+    fn mass_matrix(model: &Mechanism) -> DMatrix<f64> {
+        let bodies = &model.bodies().bodies;
+        let mut m = DMatrix::zeros(6 * bodies.len(), 6 * bodies.len());
+        for (b, body) in bodies.iter().enumerate() {
+            for c in 0..3 {
+                m[(6 * b + c, 6 * b + c)] = body.mass;
+            }
+            m.view_mut((6 * b + 3, 6 * b + 3), (3, 3))
+                .copy_from(&body.inertia);
+        }
+        m
+    }
+
     /// Acceleration analysis: solves [M Bᵀ; B 0]·[ẇ; λ] = [Q; γ] at (q, w, t). Returns
     /// (ẇ, λ). With a driven mechanism (no free degrees of freedom) λ of the drivers are the
     /// actuator loads: inverse dynamics.
@@ -454,14 +469,10 @@ impl Analysis {
         let (bm, _) = Self::velocity_system(&data.ev);
         let n = 6 * lay.bodies();
         let mut k = DMatrix::zeros(n + lay.constraints(), n + lay.constraints());
+        k.view_mut((0, 0), (n, n)).copy_from(&Self::mass_matrix(model));
         let mut rhs = DVector::zeros(n + lay.constraints());
         for (b, body) in model.bodies().bodies.iter().enumerate() {
             let st = &data.ev.states[b];
-            for c in 0..3 {
-                k[(6 * b + c, 6 * b + c)] = body.mass;
-            }
-            k.view_mut((6 * b + 3, 6 * b + 3), (3, 3))
-                .copy_from(&body.inertia);
             let gyro = st.omega.cross(&(body.inertia * st.omega));
             let ld = &data.ev.loads[b];
             for c in 0..3 {
@@ -538,14 +549,7 @@ impl Analysis {
         data.ev.eval_constraints(t);
         let (bm, _) = Self::velocity_system(&data.ev);
         let n = 6 * lay.bodies();
-        let mut mass = DMatrix::zeros(n, n);
-        for (b, body) in model.bodies().bodies.iter().enumerate() {
-            for c in 0..3 {
-                mass[(6 * b + c, 6 * b + c)] = body.mass;
-            }
-            mass.view_mut((6 * b + 3, 6 * b + 3), (3, 3))
-                .copy_from(&body.inertia);
-        }
+        let mass = Self::mass_matrix(model);
         let singular = || ModelError::Output(format!("singular acceleration system at t = {t} s"));
         if nc == n {
             let (lu, lut) = (bm.clone().lu(), bm.transpose().lu());
