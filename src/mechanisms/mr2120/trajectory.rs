@@ -14,7 +14,7 @@ use crate::multibody::{
 };
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// Duration of the trajectory M1 → M2 → M3, s (it reaches M3 at this time).
 pub const DURATION: f64 = TRAJECTORY_T_M3;
@@ -45,11 +45,25 @@ pub fn drive_laws(g: &Geometry) -> [MotionLaw; 3] {
     std::array::from_fn(|i| {
         let g = *g;
         let zl = platform_law();
+        // The last evaluation, keyed by the bits of t: the integrator evaluates the drives at
+        // one t many times (every residual and Jacobian of a step's Newton iterations, value
+        // and rate separately), and each evaluation solves the inverse kinematics. A busy
+        // lock (another thread evaluating the same law) just skips the memo.
+        let memo = Mutex::new((f64::NAN.to_bits(), [f64::NAN; 3]));
         MotionLaw::Custom(Arc::new(move |t| {
+            if let Ok(m) = memo.try_lock() {
+                if m.0 == t.to_bits() {
+                    return m.1;
+                }
+            }
             let [z, zd, zdd] = zl.eval(t);
             let [q, dq, ddq] =
                 inverse_z_derivatives(&g, i, Vector3::new(0.0, 0.0, z)).unwrap_or([f64::NAN; 3]);
-            [q, dq * zd, ddq * zd * zd + dq * zdd]
+            let out = [q, dq * zd, ddq * zd * zd + dq * zdd];
+            if let Ok(mut m) = memo.try_lock() {
+                *m = (t.to_bits(), out);
+            }
+            out
         }))
     })
 }
