@@ -939,6 +939,7 @@ mod declared_sensors {
             .with_play(vec![PlaySite {
                 joint: "pivot".into(),
                 play: lash::contact::play::UniversalPlay { ball_spacing: 0.024 },
+                cross_mass: 0.05,
             }])
             .unwrap_err();
         assert!(e.to_string().contains("only the play of universal joints"), "{e}");

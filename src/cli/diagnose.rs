@@ -91,6 +91,10 @@ pub struct Args {
     /// remains is the play's dynamics; costs the play's derivatives at every sample).
     #[arg(long)]
     no_play_dynamics: bool,
+    /// Keep the play candidates quasi-static in the re-linearised pass (by default their
+    /// drive torques come from the reduced dynamic play model at the first pass's estimate).
+    #[arg(long)]
+    quasi_static_play: bool,
     /// Print the diagnosis as JSON.
     #[arg(long)]
     json: bool,
@@ -211,6 +215,7 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     let held = load(&holdout_files)?;
     let mut opts = DiagnoseOptions {
         play_dynamics: !a.no_play_dynamics,
+        dynamic_play_selection: !a.quasi_static_play,
         ..DiagnoseOptions::default()
     };
     opts.library.exclude = a

@@ -169,6 +169,9 @@ pub struct PlaySite {
     pub joint: String,
     /// Its play geometry (bearing spacing).
     pub play: UniversalPlay,
+    /// Mass of its cross, kg (in the nominal model it is part of a link; the reduced play
+    /// model lets it move between the joint's sides).
+    pub cross_mass: f64,
 }
 
 struct Built {
@@ -1429,6 +1432,7 @@ impl InverseDynamicsModel for MechanismModel {
                         z_i: *z_i,
                         z_j: *z_j,
                         play: self.play[k].play,
+                        cross_mass: self.play[k].cross_mass,
                         reaction: *lam,
                         torque_by_offset: std::array::from_fn(|c| {
                             off(c)[..nj].iter().map(|v| sign(c) * v).collect()

@@ -99,6 +99,9 @@ pub struct PlayDynamics {
     pub z_j: Vector3<f64>,
     /// The play geometry.
     pub play: crate::contact::play::UniversalPlay,
+    /// The joint's cross (kg): its own mass, which the reduced play model moves between the
+    /// joint's sides (the nominal model carries it in a link).
+    pub cross_mass: f64,
     /// Λ at the sample, N along x, y, z, then N·m about n: the inverse dynamics' at the arms'
     /// motion (the encoders' less the transmissions' wind-up, where the model carries one).
     pub reaction: [f64; 4],

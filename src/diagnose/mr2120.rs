@@ -198,6 +198,7 @@ pub fn mr2120_model(g: &Geometry, mp: &MassProperties) -> Result<MechanismModel,
         .map(|j| PlaySite {
             joint: (*j).into(),
             play,
+            cross_mass: mp0.cross,
         })
         .collect();
     let series = (0..3)

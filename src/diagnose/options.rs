@@ -37,6 +37,14 @@ pub struct DiagnoseOptions {
     /// dynamics ([`Diagnosis::play_dynamics`](super::Diagnosis)). Costs the play's
     /// derivatives at every sample (several inverse dynamics per play joint).
     pub play_dynamics: bool,
+    /// In the re-linearised pass, the radial-play candidates predict the drive torques with
+    /// the reduced dynamic play model ([`super::play_dynamics`]) at the first pass's estimate
+    /// of the first radial play it selected
+    /// ([`LibraryOptions::dynamic_play_clearance`](super::candidates::LibraryOptions)), so the
+    /// selection sees the play's dynamics (the joint crossing its clearance, the drives'
+    /// ringing) and not only where the load holds the joint. The play-dynamics check then has
+    /// nothing to add and is skipped. Costs the play's derivatives at every sample.
+    pub dynamic_play_selection: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -53,6 +61,7 @@ impl Default for DiagnoseOptions {
             relinearize: true,
             shift: vec![],
             play_dynamics: true,
+            dynamic_play_selection: true,
         }
     }
 }

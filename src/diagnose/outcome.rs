@@ -186,6 +186,11 @@ pub struct Diagnosis {
     /// How much of what remains the found radial play's dynamics explain (`None` when no
     /// radial play was selected, or the model has no play dynamics).
     pub play_dynamics: Option<PlayDynamicsCheck>,
+    /// The radial clearance (m) at which the selection's play candidates took their drive
+    /// torques from the reduced dynamic play model
+    /// ([`DiagnoseOptions::dynamic_play_selection`](super::DiagnoseOptions)); `None` when they
+    /// were quasi-static.
+    pub dynamic_play_reference: Option<f64>,
     /// One-paragraph verdict.
     pub verdict: String,
     /// Leave-one-recording-out residual RMS of the final model on the fit recordings, in

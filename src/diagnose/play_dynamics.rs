@@ -3,49 +3,59 @@
 //! clearance when its load changes, and the ringing of the drives that excites.
 //!
 //! The unknowns are small deviations from the nominal motion: the drives' wind-up δw (one per
-//! drive, rad or m) and the joint's four play coordinates e = (shift of side j from side i
-//! along base x, y, z in m; tilt of side j about n = z_i × z_j in rad). The mechanics are
-//! linearised about the nominal model at each sample ([`PlayDynamics`],
-//! [`TransmissionDynamics`]); the contact of the play stays nonlinear:
+//! drive, rad or m), the joint's four play coordinates e = (shift of side j from side i
+//! along base x, y, z in m; tilt of side j about n = z_i × z_j in rad) and the cross's pose
+//! from side i, c (m) and ω (rad), base frame. The mechanics are linearised about the nominal
+//! model at each sample ([`PlayDynamics`], [`TransmissionDynamics`]); the contact of the play
+//! stays nonlinear:
 //!
 //! ```text
 //! M_d·δẅ − T_ë·ë + D·δẇ + (K + S)·δw − T_e·e = 0            the drives
-//! −A_ẅ·δẅ + A_ë·ë − A_w·δw + A_e·e = Λ_c(e, ė) − Λ           the joint
+//! −A_ẅ·δẅ + A_ë·ë − A_w·δw + A_e·e = Λ_c(e, ė; c, ω) − Λ     the joint
+//! m_x·c̈ = F_c,   J_x·ω̈ = M_c                                 the cross
 //! ```
 //!
 //! with T_e, T_ë the joint-side torques' derivatives by the play coordinates and their
 //! accelerations, A_e, A_ë, A_w, A_ẅ the joint's generalised reaction's by the same and by the
 //! arms' positions and accelerations (an arm lags its encoder by δw), Λ the reaction the
 //! nominal (ideal) joint carries and Λ_c what the joint's contacts give: the reaction the
-//! motion asks of the joint must be what its contacts give — nothing inside the play.
+//! motion asks of the joint must be what its contacts give — nothing inside the play. F_c,
+//! M_c: the balls' force and moment on the cross.
 //!
-//! **Contacts**: the four trunnion balls, two per pair a ball spacing s apart, each in a bore
-//! with radial clearance h, on a linear penalty law ([`BallContact`]: stiffness on the
-//! penetration, damping on its rate, never pulling; the same damping along the bore's wall
-//! while in contact). The cross is rigid between its pairs:
-//! each pair takes half the shift along n and half the tilt, all the shift across its own axis
-//! within the plane of the other, so the balls of the side-i pair (axis z_i) sit at
-//! (e·z_j ± (s/4)·φ, ½·e·n) in their bores' plane, those of the side-j pair at
-//! (e·z_i ∓ (s/4)·φ, ½·e·n). Axial play is not modelled. This is not the contact law of the
-//! suite's truths (Hertz balls with Hunt–Crossley damping, a cross with its own mass, the
-//! whole 63-DOF model): it is a model of the same geometry, reduced.
+//! **The cross is a body** ([`PlayDynamics::cross_mass`]; the inertia of two perpendicular
+//! rods of length s, as the suite's truths give it): each of its four balls sits in a bore
+//! of its own side — a side-i ball at ±(s/2)·z_i moves by c + ω × (±(s/2)·z_i) in its bore,
+//! a side-j ball at ±(s/2)·z_j by (c − e) + (ω − φ·n) × (±(s/2)·z_j) — so all four can
+//! carry load at once, as the truth's do. (Until 2026-11-27 the cross was placed kinematically,
+//! half the shift along n and half the tilt per pair: then at most three balls could touch,
+//! and under a steady load the joint flipped between two sets of them — a rattle of its own
+//! where the truth stays loaded.)
+//!
+//! **Contacts**: per ball a radial contact in a bore with radial clearance h and an axial one
+//! on the bore's end at zero play (the cross rides each pair's trunnions axially), on a
+//! linear penalty law ([`BallContact`]: stiffness on the penetration, damping on its rate,
+//! never pulling; the same damping along the bore's wall while in radial contact). Axial play
+//! is not modelled. This is not the contact law of the suite's truths (Hertz balls with
+//! Hunt–Crossley damping, the whole 63-DOF model): it is a model of the same geometry,
+//! reduced.
 //!
 //! **Outputs**: the torque sensors read K·δw + D·δẇ more.
 //!
 //! **Integration**: semi-implicit (symplectic) Euler over substeps of each sample interval,
 //! the matrices held at the interval's end, the substep a tenth of the period of the fastest
-//! mode with every ball in contact. A recording's first sample, and the first after a
-//! gap longer than [`transmission::MAX_GAP`](super::transmission::MAX_GAP) or a sample without
-//! the model's data, starts quasi-statically: the joint against the wall its nominal reaction
-//! pushes it to ([`UniversalPlay::shift`](crate::contact::play::UniversalPlay::shift)), the
-//! transmissions wound up by the torques that shift asks for.
+//! mode with every ball in contact (the cross's own, ≈ 0.1 ms for 50 g on 1e8 N/m). A
+//! recording's first sample, and the first after a gap longer than
+//! [`transmission::MAX_GAP`](super::transmission::MAX_GAP) or a sample without the model's
+//! data, starts quasi-statically: the joint against the wall its nominal reaction pushes it to
+//! ([`UniversalPlay::shift`](crate::contact::play::UniversalPlay::shift)), then Newton's
+//! method on the statics of the joint, its cross and the transmissions.
 //!
-//! Measured on the suite's truth (README, "What the play leaves in the torques"): with 6 µm of
-//! radial clearance in joint F, on the shaken recording of the suite's design, it takes the
-//! play's effect on the drive torques from 11.2 to 3.9 torque-noise units RMS over the record
-//! (drive A): the torque swing after the load peak near the direct singularity and the rattle
-//! while the joint is nearly unloaded, in amplitude and, for a few periods, in phase. Where the
-//! truth's effect is about one noise unit it adds about as much of its own.
+//! Measured on the suite's truth (README, "What the play leaves in the torques"; example
+//! `play_dynamics`): with 6 µm of radial clearance in joint F, the play's effect on drive A's
+//! torque, RMS over the record in torque-noise units, and what the model leaves of it: 11.2 →
+//! 3.9 on the shaken recording 5 (the torque swing after the load peak near the direct
+//! singularity and the rattle while the joint is nearly unloaded), 4.2 → 2.7 on recording 3,
+//! and on the four gentle recordings 2.35 → 1.31, 1.00 → 0.37, 0.98 → 0.79, 0.49 → 0.04.
 
 use super::model::PlayDynamics;
 use super::transmission::{TransmissionDynamics, MAX_GAP};
@@ -66,11 +76,13 @@ pub struct BallContact {
 /// K = 1.12e11 N/m^1.5 from [`crate::contact::stiffness::ball_in_bore`], so F/δ = 0.85e8 N/m
 /// at 50 N, 1.08e8 at 100 N, 1.55e8 at 300 N), and 2e3 N·s/m, a tenth of critical for a
 /// kilogram on it, across and along the wall. Chosen, not fitted. Measured in the example
-/// (joint F, 6 µm, torque-noise units RMS over the record, drive A): damping only across the
-/// wall leaves the joint rocking along its walls in quiet stretches (gentle recording 6: the
-/// effect 0.49, left 1.18; along the wall too: 0.68); 2e4 N·s/m quiets that (0.33) but damps
-/// the rattle (shaken recording 5: 3.9 → 5.7 left); 1e9 N/m did worse in the loaded window
-/// and 1e7 N/m diverged (both before the reactions followed the arms).
+/// with the cross placed kinematically (before it was a body; joint F, 6 µm, torque-noise
+/// units RMS over the record, drive A): damping only across the wall left the joint rocking
+/// along its walls in quiet stretches (gentle recording 6: the effect 0.49, left 1.18; along
+/// the wall too: 0.68); 2e4 N·s/m quieted that (0.33) but damped the rattle (shaken
+/// recording 5: 3.9 → 5.7 left); 1e9 N/m did worse in the loaded window and 1e7 N/m diverged
+/// (both before the reactions followed the arms). With the cross a body, recording 6 is left
+/// at 0.04 with these values.
 pub const BALL_CONTACT: BallContact = BallContact {
     stiffness: 1e8,
     damping: 2e3,
@@ -95,51 +107,121 @@ pub struct PlayResponse {
     pub torque: Vec<f64>,
     /// The play coordinates e: shift along base x, y, z (m), tilt about n (rad).
     pub offset: [f64; 4],
+    /// The bore wall's normal force on each ball (side i's two, then side j's), N.
+    pub radial_forces: [f64; 4],
 }
 
-/// The four balls' displacement maps: per ball, the two rows of J_b (ball displacement in
-/// its bore's plane per play coordinate).
-fn ball_maps(p: &PlayDynamics) -> Option<[[[f64; 4]; 2]; 4]> {
+/// Play and cross coordinates per joint: e (shift x, y, z; tilt about n), then the cross's
+/// translation c (x, y, z) and rotation ω (about x, y, z) from side i, base frame.
+const NP: usize = 10;
+/// Where the cross's coordinates start.
+const CROSS: usize = 4;
+
+/// One contact of a trunnion ball: radial (two rows: the ball centre's displacement from its
+/// bore's axis in the bore's plane) or axial (one row: its travel towards the bore's end).
+#[derive(Debug, Clone, Copy)]
+enum Contact {
+    Radial([[f64; NP]; 2]),
+    Axial([f64; NP]),
+}
+
+/// The balls' contacts as linear maps of the coordinates (play, then cross). The cross frame
+/// is u1 = z_i, u2 = z_j (made normal to u1), u3 = u1 × u2 = n. A side-i ball at ±(s/2)·u1
+/// on the cross sits in a bore of side i: its displacement is c + ω × (±(s/2)·u1); a side-j
+/// ball at ±(s/2)·u2 sits in a bore of side j, which moved by e and turned by φ about u3: its
+/// displacement is (c − e) + (ω − φ·u3) × (±(s/2)·u2).
+fn contacts(p: &PlayDynamics) -> Option<[Contact; 8]> {
     let u1 = p.z_i.try_normalize(1e-12)?;
     let u2 = (p.z_j - u1 * p.z_j.dot(&u1)).try_normalize(1e-12)?;
     let u3 = u1.cross(&u2);
-    let q = p.play.ball_spacing / 4.0;
-    let row = |u: &Vector3<f64>, f: f64, tilt: f64| [f * u.x, f * u.y, f * u.z, tilt];
-    Some([
-        [row(&u2, 1.0, q), row(&u3, 0.5, 0.0)],
-        [row(&u2, 1.0, -q), row(&u3, 0.5, 0.0)],
-        [row(&u1, 1.0, -q), row(&u3, 0.5, 0.0)],
-        [row(&u1, 1.0, q), row(&u3, 0.5, 0.0)],
-    ])
+    let q = p.play.ball_spacing / 2.0;
+    // A row: a·e_shift + b·φ + c_row·c + w_row·ω.
+    let row = |e: &Vector3<f64>, phi: f64, c: &Vector3<f64>, w: &Vector3<f64>| {
+        let mut r = [0.0; NP];
+        for k in 0..3 {
+            r[k] = e[k];
+            r[CROSS + k] = c[k];
+            r[CROSS + 3 + k] = w[k];
+        }
+        r[3] = phi;
+        r
+    };
+    let z = Vector3::zeros();
+    let mut out = [Contact::Axial([0.0; NP]); 8];
+    for (b, sign) in [1.0, -1.0].into_iter().enumerate() {
+        // Side i: (c·u2 ± q·ω·u3, c·u3 ∓ q·ω·u2); axial ±c·u1.
+        out[b] = Contact::Radial([
+            row(&z, 0.0, &u2, &(u3 * (sign * q))),
+            row(&z, 0.0, &u3, &(u2 * (-sign * q))),
+        ]);
+        out[4 + b] = Contact::Axial(row(&z, 0.0, &(u1 * sign), &z));
+        // Side j: ((c−e)·u1 ∓ q·(ω·u3 − φ), (c−e)·u3 ± q·ω·u1); axial ±(c−e)·u2.
+        out[2 + b] = Contact::Radial([
+            row(&(-u1), sign * q, &u1, &(u3 * (-sign * q))),
+            row(&(-u3), 0.0, &u3, &(u1 * (sign * q))),
+        ]);
+        out[6 + b] = Contact::Axial(row(&(u2 * -sign), 0.0, &(u2 * sign), &z));
+    }
+    Some(out)
 }
 
-/// Λ_c: the generalised load of the balls' contacts at (e, ė) for radial clearance `h`.
-fn contact_load(maps: &[[[f64; 4]; 2]; 4], e: &[f64], ed: &[f64], h: f64, c: &BallContact) -> [f64; 4] {
-    let mut out = [0.0; 4];
-    for jb in maps {
-        let at = |x: &[f64], r: usize| (0..4).map(|k| jb[r][k] * x[k]).sum::<f64>();
-        let (b, bd) = ([at(e, 0), at(e, 1)], [at(ed, 0), at(ed, 1)]);
-        let r = b[0].hypot(b[1]);
-        if r > h {
+fn dot(r: &[f64; NP], x: &[f64]) -> f64 {
+    r.iter().zip(x).map(|(a, b)| a * b).sum()
+}
+
+/// The generalised load of one contact at (x, ẋ) (play and cross coordinates) for radial
+/// clearance `h` (axial stop 0), added to `out`; returns the ball's normal force (N).
+fn contact_load_one(k: &Contact, x: &[f64], xd: &[f64], h: f64, c: &BallContact, out: &mut [f64; NP]) -> f64 {
+    match k {
+        Contact::Radial(jb) => {
+            let (b, bd) = (
+                [dot(&jb[0], x), dot(&jb[1], x)],
+                [dot(&jb[0], xd), dot(&jb[1], xd)],
+            );
+            let r = b[0].hypot(b[1]);
+            if r <= h {
+                return 0.0;
+            }
             // Normal: the penalty and its damping, never pulling; tangential (along the
             // bore's wall): the same damping, while in contact.
             let (nb, tb) = ([b[0] / r, b[1] / r], [-b[1] / r, b[0] / r]);
             let f = (-c.stiffness * (r - h) - c.damping * (bd[0] * nb[0] + bd[1] * nb[1])).min(0.0);
             let ft = -c.damping * (bd[0] * tb[0] + bd[1] * tb[1]);
-            for (k, o) in out.iter_mut().enumerate() {
-                *o += f * (nb[0] * jb[0][k] + nb[1] * jb[1][k]) + ft * (tb[0] * jb[0][k] + tb[1] * jb[1][k]);
+            for (kk, o) in out.iter_mut().enumerate() {
+                *o += f * (nb[0] * jb[0][kk] + nb[1] * jb[1][kk])
+                    + ft * (tb[0] * jb[0][kk] + tb[1] * jb[1][kk]);
             }
+            -f
         }
+        Contact::Axial(row) => {
+            let d = dot(row, x);
+            if d <= 0.0 {
+                return 0.0;
+            }
+            let f = (-c.stiffness * d - c.damping * dot(row, xd)).min(0.0);
+            for (kk, o) in out.iter_mut().enumerate() {
+                *o += f * row[kk];
+            }
+            -f
+        }
+    }
+}
+
+/// Λ_c and the cross's load: the generalised load of the balls' contacts at (x, ẋ).
+fn contact_load(ks: &[Contact; 8], x: &[f64], xd: &[f64], h: f64, c: &BallContact) -> [f64; NP] {
+    let mut out = [0.0; NP];
+    for k in ks {
+        contact_load_one(k, x, xd, h, c, &mut out);
     }
     out
 }
 
-/// The system's matrices at one sample: mass, stiffness (drives then play coordinates) and
-/// the drives' dampings.
+/// The system's matrices at one sample: mass, stiffness (drives, play coordinates, then the
+/// cross) and the drives' dampings.
 fn matrices(s: &PlaySample) -> Option<(DMatrix<f64>, DMatrix<f64>, DVector<f64>)> {
     let (p, td) = (s.play, s.transmission);
     let nj = td.compliance.len();
-    let n = nj + 4;
+    let n = nj + NP;
     if td.mass.shape() != (nj, nj)
         || p.reaction_by_drive.len() != nj
         || p.reaction_by_drive_acceleration.len() != nj
@@ -171,6 +253,22 @@ fn matrices(s: &PlaySample) -> Option<(DMatrix<f64>, DMatrix<f64>, DVector<f64>)
             kk[(nj + r, nj + c)] = p.reaction_by_offset[c][r];
         }
     }
+    // The cross: its mass, and two perpendicular rods' inertia (s/2 either side) about u1,
+    // u2, twice that about u3.
+    let u1 = p.z_i.try_normalize(1e-12)?;
+    let u2 = (p.z_j - u1 * p.z_j.dot(&u1)).try_normalize(1e-12)?;
+    let u3 = u1.cross(&u2);
+    let (sp, cross_mass) = (p.play.ball_spacing, p.cross_mass);
+    let rod = cross_mass / 2.0 * sp * sp / 12.0;
+    let frame = nalgebra::Matrix3::from_columns(&[u1, u2, u3]);
+    let inertia =
+        frame * nalgebra::Matrix3::from_diagonal(&Vector3::new(rod, rod, 2.0 * rod)) * frame.transpose();
+    for r in 0..3 {
+        mm[(nj + CROSS + r, nj + CROSS + r)] = cross_mass;
+        for c in 0..3 {
+            mm[(nj + CROSS + 3 + r, nj + CROSS + 3 + c)] = inertia[(r, c)];
+        }
+    }
     let mut damping = DVector::zeros(n);
     for a in 0..nj {
         damping[a] = td.damping[a];
@@ -182,29 +280,38 @@ fn matrices(s: &PlaySample) -> Option<(DMatrix<f64>, DMatrix<f64>, DVector<f64>)
         .then_some((mm, kk, damping))
 }
 
+/// Σ JᵀJ over the contacts' rows, on the play and cross coordinates.
+fn contact_gram(ks: &[Contact; 8], n: usize) -> DMatrix<f64> {
+    let nj = n - NP;
+    let mut jtj = DMatrix::zeros(n, n);
+    let mut add = |row: &[f64; NP]| {
+        for r in 0..NP {
+            for c in 0..NP {
+                jtj[(nj + r, nj + c)] += row[r] * row[c];
+            }
+        }
+    };
+    for k in ks {
+        match k {
+            Contact::Radial(jb) => jb.iter().for_each(&mut add),
+            Contact::Axial(row) => add(row),
+        }
+    }
+    jtj
+}
+
 /// Substeps for one sample interval of `h` s: a tenth of the period of the fastest mode
-/// with every ball in contact (the largest eigenvalue of M⁻¹·(K + K_c), K_c = k·Σ J_bᵀJ_b),
+/// with every ball in contact (the largest eigenvalue of M⁻¹·(K + K_c), K_c = k·Σ JᵀJ),
 /// and the contacts' damping resolved (dt·λ_max(M⁻¹·C_c) ≤ 0.5); at least 1, at most
 /// 100 000. None if the mass matrix is not positive definite.
 fn substeps(
     mass: &DMatrix<f64>,
     stiffness: &DMatrix<f64>,
-    maps: &[[[f64; 4]; 2]; 4],
+    ks: &[Contact; 8],
     contact: &BallContact,
     h: f64,
 ) -> Option<usize> {
-    let n = mass.nrows();
-    let nj = n - 4;
-    let mut jtj = DMatrix::zeros(n, n);
-    for jb in maps {
-        for row in jb {
-            for r in 0..4 {
-                for c in 0..4 {
-                    jtj[(nj + r, nj + c)] += row[r] * row[c];
-                }
-            }
-        }
-    }
+    let jtj = contact_gram(ks, mass.nrows());
     let sym = |m: &DMatrix<f64>| (m + m.transpose()) * 0.5;
     let l = sym(mass).cholesky()?.l();
     let linv = l.try_inverse()?;
@@ -218,43 +325,53 @@ fn substeps(
     Some(((h / dt).ceil() as usize).clamp(1, 100_000))
 }
 
-/// The static state at sample `s`: KK·x = [0; Λ_c(e, 0) − Λ] by Newton's method (minimum-norm
-/// steps) from the joint against the wall its nominal reaction pushes it to, the
-/// transmissions wound up by the torques that asks for.
+/// The static state at sample `s`: KK·x = [0; Λ_c(x, 0) − Λ; cross load] by Newton's method
+/// (minimum-norm steps) from the joint against the wall its nominal reaction pushes it to
+/// (the cross half-way, turned by half the tilt), the transmissions wound up by the torques
+/// that asks for.
 fn static_start(
     s: &PlaySample,
     kk: &DMatrix<f64>,
-    maps: &[[[f64; 4]; 2]; 4],
+    ks: &[Contact; 8],
     h: f64,
     contact: &BallContact,
 ) -> Option<DVector<f64>> {
     let p = s.play;
     let nj = s.transmission.compliance.len();
     let n = p.z_i.cross(&p.z_j).try_normalize(1e-12)?;
+    let u1 = p.z_i.try_normalize(1e-12)?;
     let force = Vector3::new(p.reaction[0], p.reaction[1], p.reaction[2]);
     let shift = p.play.shift(&p.z_i, &p.z_j, &force, &(n * p.reaction[3]), 1e-6);
     // A tenth beyond the wall, so that the loaded balls start in contact (Newton's method
     // sees no stiffness inside the play).
     let start = 1.1 * h;
-    let mut x = DVector::zeros(nj + 4);
-    x[nj] = start * shift.radial_translation.x;
-    x[nj + 1] = start * shift.radial_translation.y;
-    x[nj + 2] = start * shift.radial_translation.z;
-    x[nj + 3] = start * shift.radial_tilt;
-    let zero = [0.0; 4];
+    let e = shift.radial_translation * start;
+    let phi = shift.radial_tilt * start;
+    // The cross moves with side j across u1 (it rides side j's trunnions axially), with side
+    // i along u1, and half-way along n.
+    let c = e - u1 * e.dot(&u1) - n * (0.5 * e.dot(&n));
+    let mut x = DVector::zeros(nj + NP);
+    for k in 0..3 {
+        x[nj + k] = e[k];
+        x[nj + CROSS + k] = c[k];
+        x[nj + CROSS + 3 + k] = 0.5 * phi * n[k];
+    }
+    x[nj + 3] = phi;
+    let zero = [0.0; NP];
     let residual = |x: &DVector<f64>| {
-        let lc = contact_load(maps, &x.as_slice()[nj..], &zero, h, contact);
+        let lc = contact_load(ks, &x.as_slice()[nj..], &zero, h, contact);
         let mut r = kk * x;
-        for k in 0..4 {
-            r[nj + k] -= lc[k] - p.reaction[k];
+        for k in 0..NP {
+            r[nj + k] -= lc[k] - if k < 4 { p.reaction[k] } else { 0.0 };
         }
         r
     };
-    for _ in 0..30 {
+    for _ in 0..100 {
         let r = residual(&x);
         let mut jac = kk.clone();
-        for c in 0..4 {
-            let step = 1e-9 * h.max(1e-9) / if c == 3 { p.play.ball_spacing } else { 1.0 };
+        for c in 0..NP {
+            let rotation = c == 3 || c >= CROSS + 3;
+            let step = 1e-9 * h.max(1e-9) / if rotation { p.play.ball_spacing } else { 1.0 };
             let mut xp = x.clone();
             xp[nj + c] += step;
             let dr = (residual(&xp) - &r) / step;
@@ -264,13 +381,28 @@ fn static_start(
         // shift of a ball on its wall is free to first order), so the Jacobian may be
         // singular there; the minimum-norm step leaves those coordinates where they are.
         let tol = 1e-12 * jac.amax();
-        let dx = jac.svd(true, true).solve(&r, tol).ok()?;
+        let mut dx = jac.svd(true, true).solve(&r, tol).ok()?;
+        // No step moves a ball by more than the clearance: where the balls lose contact the
+        // Jacobian loses their stiffness, and a full step would fly off.
+        let reach = (0..NP)
+            .map(|c| {
+                let rotation = c == 3 || c >= CROSS + 3;
+                dx[nj + c].abs() * if rotation { p.play.ball_spacing / 2.0 } else { 1.0 }
+            })
+            .fold(0.0, f64::max);
+        let limit = h.max(1e-9);
+        if reach > limit {
+            dx *= limit / reach;
+        }
         x -= &dx;
-        if dx.rows(nj, 4).amax() < 1e-9 * h.max(1e-12) {
+        if reach < 1e-9 * limit {
             break;
         }
     }
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    // Converged: the joint's and the cross's loads balance to a millionth of the load.
+    let load = p.reaction.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+    let r = residual(&x);
+    (x.iter().all(|v| v.is_finite()) && r.rows(nj, NP).amax() <= 1e-6 * load).then_some(x)
 }
 
 /// The reduced play model along one recording's samples (in time order; None where the
@@ -289,7 +421,7 @@ pub fn respond(
             state = None;
             continue;
         };
-        let (Some((mm, kk, damping)), Some(maps)) = (matrices(s), ball_maps(s.play)) else {
+        let (Some((mm, kk, damping)), Some(ks)) = (matrices(s), contacts(s.play)) else {
             state = None;
             continue;
         };
@@ -301,23 +433,23 @@ pub fn respond(
         let reaction = s.play.reaction;
         let next = match state.take() {
             Some((t0, mut x, mut v)) if s.t > t0 && s.t - t0 <= MAX_GAP => {
-                let Some(n_sub) = substeps(&mm, &kk, &maps, contact, s.t - t0) else {
+                let Some(n_sub) = substeps(&mm, &kk, &ks, contact, s.t - t0) else {
                     continue;
                 };
                 let dt = (s.t - t0) / n_sub as f64;
                 for _ in 0..n_sub {
-                    let lc = contact_load(&maps, &x.as_slice()[nj..], &v.as_slice()[nj..], h, contact);
+                    let lc = contact_load(&ks, &x.as_slice()[nj..], &v.as_slice()[nj..], h, contact);
                     let mut rhs = -(&kk * &x) - damping.component_mul(&v);
-                    for r in 0..4 {
-                        rhs[nj + r] += lc[r] - reaction[r];
+                    for r in 0..NP {
+                        rhs[nj + r] += lc[r] - if r < 4 { reaction[r] } else { 0.0 };
                     }
                     v += &minv * rhs * dt;
                     x += &v * dt;
                 }
                 (x, v)
             }
-            _ => match static_start(s, &kk, &maps, h, contact) {
-                Some(x) => (x, DVector::zeros(nj + 4)),
+            _ => match static_start(s, &kk, &ks, h, contact) {
+                Some(x) => (x, DVector::zeros(nj + NP)),
                 None => continue,
             },
         };
@@ -331,6 +463,17 @@ pub fn respond(
                 .map(|a| k[a] * x[a] + s.transmission.damping[a] * v[a])
                 .collect(),
             offset: [x[nj], x[nj + 1], x[nj + 2], x[nj + 3]],
+            radial_forces: std::array::from_fn(|b| {
+                let mut sink = [0.0; NP];
+                contact_load_one(
+                    &ks[b],
+                    &x.as_slice()[nj..],
+                    &v.as_slice()[nj..],
+                    h,
+                    contact,
+                    &mut sink,
+                )
+            }),
         });
         state = Some((s.t, x, v));
     }
@@ -351,6 +494,7 @@ pub(crate) mod fixtures {
             z_i: Vector3::x(),
             z_j: Vector3::y(),
             play: UniversalPlay { ball_spacing: 0.024 },
+            cross_mass: 0.05,
             reaction: [0.0, 0.0, load, 0.0],
             torque_by_offset: [vec![0.0], vec![0.0], vec![tau_per_m], vec![0.0]],
             torque_by_offset_acceleration: [vec![0.0], vec![0.0], vec![0.0], vec![0.0]],
@@ -428,5 +572,57 @@ mod tests {
         assert!((last.torque[0] + tau_per_m * sits).abs() < 1e-2 * (tau_per_m * sits).abs());
         let widest = r.iter().flatten().map(|x| x.offset[2].abs()).fold(0.0, f64::max);
         assert!(widest < 2.0 * h + 5.0 * 200.0 / k, "{widest}");
+    }
+
+    /// Both trunnion pairs carry the joint's load in series, through the cross: pressed by
+    /// Λ = (0, 60, 80) N (axes x and y, n = z), the side-i pair (bores along x) carries the
+    /// whole 100 N across its axis, 50 N per ball along −(0.6, 0.8); the side-j pair (bores
+    /// along y) the 80 N along n, 40 N per ball, and the 60 N along y on one axial end. Side j
+    /// then sits below side i by both pairs' displacements added: along n by
+    /// 0.8·(h + 50/k) plus h + 40/k, along y by 0.6·(h + 50/k) plus 60/k. (Statics of the cross, not the model's
+    /// maps; a cross placed half-way between its sides could not load both pairs so.)
+    #[test]
+    fn the_crosss_two_pairs_carry_the_load_in_series_all_four_balls_on_their_walls() {
+        let (h, k) = (5e-6, BALL_CONTACT.stiffness);
+        let mut joint = fixtures::hanging_joint(80.0, 0.0);
+        joint.reaction = [0.0, 60.0, 80.0, 0.0];
+        let transmission = fixtures::one_drive();
+        let samples: Vec<Option<PlaySample>> = (0..200)
+            .map(|i| {
+                Some(PlaySample {
+                    t: 0.002 * i as f64,
+                    play: &joint,
+                    transmission: &transmission,
+                })
+            })
+            .collect();
+        let r = respond(&samples, h, &BALL_CONTACT);
+        for at in [&r[0], &r[199]] {
+            let at = at.as_ref().unwrap();
+            for (ball, expected) in at.radial_forces.iter().zip([50.0, 50.0, 40.0, 40.0]) {
+                assert!(
+                    (ball - expected).abs() < 0.02 * expected,
+                    "{:?}",
+                    at.radial_forces
+                );
+            }
+            let along_n = -(0.8 * (h + 50.0 / k) + h + 40.0 / k);
+            let along_y = -(0.6 * (h + 50.0 / k) + 60.0 / k);
+            assert!(
+                (at.offset[2] - along_n).abs() < 0.02 * along_n.abs(),
+                "{:?}",
+                at.offset
+            );
+            assert!(
+                (at.offset[1] - along_y).abs() < 0.02 * along_y.abs(),
+                "{:?}",
+                at.offset
+            );
+            assert!(
+                at.offset[0].abs() < 0.02 * h && at.offset[3].abs() < 0.02 * h / 0.024,
+                "{:?}",
+                at.offset
+            );
+        }
     }
 }

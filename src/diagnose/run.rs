@@ -166,6 +166,10 @@ fn diagnose_folds(
     let mut o2 = opts.clone();
     o2.relinearize = false;
     o2.shift = moved;
+    if opts.dynamic_play_selection {
+        o2.library.dynamic_play_clearance =
+            relinearize::dynamic_play_clearance(model, &first, &cands).map(|(_, h)| h);
+    }
     let second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.4 * f))?;
     let mut d = relinearize::against_nominal(model, first, second, &cands);
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
@@ -176,7 +180,9 @@ fn diagnose_folds(
         .filter_map(|n| cands.iter().position(|c| &c.name == n))
         .collect();
     d.friction = super::equivalents::joint_friction(model, &set, &cands, &d.estimates);
-    d.play_dynamics = play_dynamics_check(model, &shifted, &d, fit, holdout, &o2, &cands, &mut progress)?;
+    if d.dynamic_play_reference.is_none() {
+        d.play_dynamics = play_dynamics_check(model, &shifted, &d, fit, holdout, &o2, &cands, &mut progress)?;
+    }
     d.verdict = verdict_text(model, &d, &cands);
     progress("done", 1.0);
     Ok(d)
@@ -423,6 +429,7 @@ fn diagnose_once(
         &confounded,
         &location,
         &adequacy,
+        opts.library.dynamic_play_clearance.is_some(),
     );
     let friction = super::equivalents::joint_friction(model, &set, &prep.cands, &estimates);
     progress("done", 1.0);
@@ -441,6 +448,7 @@ fn diagnose_once(
         found,
         selected,
         play_dynamics: None,
+        dynamic_play_reference: opts.library.dynamic_play_clearance,
         estimates,
         correlations,
         confounded,

@@ -29,6 +29,7 @@ pub(super) fn verdict_text(model: &dyn InverseDynamicsModel, d: &Diagnosis, cand
         &d.confounded,
         &d.location,
         &d.adequacy,
+        d.dynamic_play_reference.is_some(),
     ) + &d
         .play_dynamics
         .as_ref()
@@ -36,7 +37,8 @@ pub(super) fn verdict_text(model: &dyn InverseDynamicsModel, d: &Diagnosis, cand
         .unwrap_or_default()
 }
 
-/// The verdict of a selection `set` (indices into `cands`).
+/// The verdict of a selection `set` (indices into `cands`); `dynamic_play`: the play
+/// candidates took their drive torques from the reduced dynamic play model.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn verdict(
     model: &dyn InverseDynamicsModel,
@@ -47,6 +49,7 @@ pub(super) fn verdict(
     confounded: &[Confound],
     location: &Location,
     adequacy: &Adequacy,
+    dynamic_play: bool,
 ) -> String {
     let mut s = opening(adequacy, !set.is_empty());
     if set.is_empty() {
@@ -116,7 +119,7 @@ pub(super) fn verdict(
         s.push_str(&found.join("; "));
         s.push_str(". ");
     }
-    if let Some(t) = play_dynamics(set, cands, adequacy, &stable) {
+    if let Some(t) = play_dynamics(set, cands, adequacy, &stable, dynamic_play) {
         s.push_str(&t);
     }
     if !unstable.is_empty() {
@@ -204,6 +207,7 @@ fn play_dynamics(
     cands: &[Candidate],
     adequacy: &Adequacy,
     stable: &dyn Fn(usize) -> bool,
+    dynamic: bool,
 ) -> Option<String> {
     use super::candidates::Effect;
     let play: Vec<&str> = set
@@ -231,10 +235,15 @@ fn play_dynamics(
     if play.is_empty() || at_reversals.is_empty() {
         return None;
     }
+    let model = if dynamic {
+        "the reduced dynamic play model of {} (in the selection) does not capture in full"
+    } else {
+        "the quasi-static play of {} leaves out"
+    };
     Some(format!(
-        "What the found play does not explain comes at load reversals — {}: the joint crossing its clearance when its load reverses and what that excites (an impact, the ringing of the drives' transmissions), which the quasi-static play of {} leaves out. ",
+        "What the found play does not explain comes at load reversals — {}: the joint crossing its clearance when its load reverses and what that excites (an impact, the ringing of the drives' transmissions), which {}. ",
         at_reversals.join(", "),
-        play.join(" and ")
+        model.replace("{}", &play.join(" and "))
     ))
 }
 
@@ -348,21 +357,31 @@ mod tests {
         ];
         let yes = |_: usize| true;
         let at_reversal = adequacy("load reversal in drive A", 9.2, true);
-        let t = play_dynamics(&[0], &cands, &at_reversal, &yes).expect("a sentence");
+        let t = play_dynamics(&[0], &cands, &at_reversal, &yes, false).expect("a sentence");
         assert!(
             t.contains("drive A torque (9.2× at load reversal in drive A)"),
             "{t}"
         );
         assert!(t.contains("radial clearance in joint F"), "{t}");
         assert!(t.contains("ringing of the drives' transmissions"), "{t}");
-        assert!(play_dynamics(&[1], &cands, &at_reversal, &yes).is_none());
-        assert!(play_dynamics(&[0], &cands, &at_reversal, &|_| false).is_none());
+        assert!(
+            t.contains("quasi-static play of radial clearance in joint F"),
+            "{t}"
+        );
+        // With the play's dynamics in the selection, the sentence says so.
+        let t = play_dynamics(&[0], &cands, &at_reversal, &yes, true).expect("a sentence");
+        assert!(
+            t.contains("reduced dynamic play model of radial clearance in joint F (in the selection)"),
+            "{t}"
+        );
+        assert!(play_dynamics(&[1], &cands, &at_reversal, &yes, false).is_none());
+        assert!(play_dynamics(&[0], &cands, &at_reversal, &|_| false, false).is_none());
         let elsewhere = adequacy("acceleration peak of drive A", 9.2, true);
-        assert!(play_dynamics(&[0], &cands, &elsewhere, &yes).is_none());
+        assert!(play_dynamics(&[0], &cands, &elsewhere, &yes, false).is_none());
         let weak = adequacy("load reversal in drive A", 2.0, true);
-        assert!(play_dynamics(&[0], &cands, &weak, &yes).is_none());
+        assert!(play_dynamics(&[0], &cands, &weak, &yes, false).is_none());
         let at_noise = adequacy("load reversal in drive A", 9.2, false);
-        assert!(play_dynamics(&[0], &cands, &at_noise, &yes).is_none());
+        assert!(play_dynamics(&[0], &cands, &at_noise, &yes, false).is_none());
     }
 
     /// The play-dynamics check's sentence names the channels it moved with both ratios and
