@@ -160,6 +160,13 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
     if let Some(c) = &d.play_dynamics {
         let _ = writeln!(m, "- {}", super::verdict::play_dynamics_check(c).trim());
     }
+    if let Some(h) = d.dynamic_play_reference {
+        let _ = writeln!(
+            m,
+            "- The radial-play candidates' drive torques: the reduced dynamic play model at a clearance of {:.2} µm (the first pass's estimate), scaled in proportion to each candidate's clearance.",
+            h * 1e6
+        );
+    }
     let _ = writeln!(m);
 }
 
