@@ -104,6 +104,14 @@ pub struct ClearanceUniversal {
     pub cross: BodyHandle,
 }
 
+/// Principal inertia (kg·m²) of a universal joint's cross of mass `cross_mass` (kg) whose
+/// trunnion balls sit `ball_spacing` (m) apart: two perpendicular rods of that length, about
+/// the side-i axis, the side-j axis and their normal.
+pub fn cross_inertia(cross_mass: f64, ball_spacing: f64) -> Vector3<f64> {
+    let rod = cross_mass / 2.0 * ball_spacing * ball_spacing / 12.0;
+    Vector3::new(rod, rod, 2.0 * rod)
+}
+
 /// Adds a universal joint with clearance at base-frame `point` between sides i and j: a cross
 /// body (mass `cross_mass`, kg) whose trunnions along `axis_i` sit in two sockets on side i
 /// and whose trunnions along `axis_j` sit in two sockets on side j (paper Fig. 6). Each
@@ -131,8 +139,7 @@ pub fn universal_with_clearance(
     let frame = Matrix3::from_columns(&[ai, aj, ai.cross(&aj)]);
     // A cross of four rods of half-length s/2: inertia of two perpendicular rods.
     let s = design.ball_spacing;
-    let rod = cross_mass / 2.0 * s * s / 12.0;
-    let inertia = Matrix3::from_diagonal(&Vector3::new(rod, rod, 2.0 * rod));
+    let inertia = Matrix3::from_diagonal(&cross_inertia(cross_mass, s));
     let cross = mech.add_body(
         RigidBody::new(format!("cross {name}"), cross_mass, inertia)
             .at(point)

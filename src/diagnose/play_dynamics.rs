@@ -117,6 +117,13 @@ const NP: usize = 10;
 /// Where the cross's coordinates start.
 const CROSS: usize = 4;
 
+/// The cross frame: u1 = z_i, u2 = z_j made normal to u1, u3 = u1 × u2 = n (unit, base frame).
+fn cross_frame(p: &PlayDynamics) -> Option<[Vector3<f64>; 3]> {
+    let u1 = p.z_i.try_normalize(1e-12)?;
+    let u2 = (p.z_j - u1 * p.z_j.dot(&u1)).try_normalize(1e-12)?;
+    Some([u1, u2, u1.cross(&u2)])
+}
+
 /// One contact of a trunnion ball: radial (two rows: the ball centre's displacement from its
 /// bore's axis in the bore's plane) or axial (one row: its travel towards the bore's end).
 #[derive(Debug, Clone, Copy)]
@@ -131,9 +138,7 @@ enum Contact {
 /// ball at ±(s/2)·u2 sits in a bore of side j, which moved by e and turned by φ about u3: its
 /// displacement is (c − e) + (ω − φ·u3) × (±(s/2)·u2).
 fn contacts(p: &PlayDynamics) -> Option<[Contact; 8]> {
-    let u1 = p.z_i.try_normalize(1e-12)?;
-    let u2 = (p.z_j - u1 * p.z_j.dot(&u1)).try_normalize(1e-12)?;
-    let u3 = u1.cross(&u2);
+    let [u1, u2, u3] = cross_frame(p)?;
     let q = p.play.ball_spacing / 2.0;
     // A row: a·e_shift + b·φ + c_row·c + w_row·ω.
     let row = |e: &Vector3<f64>, phi: f64, c: &Vector3<f64>, w: &Vector3<f64>| {
@@ -255,14 +260,10 @@ fn matrices(s: &PlaySample) -> Option<(DMatrix<f64>, DMatrix<f64>, DVector<f64>)
     }
     // The cross: its mass, and two perpendicular rods' inertia (s/2 either side) about u1,
     // u2, twice that about u3.
-    let u1 = p.z_i.try_normalize(1e-12)?;
-    let u2 = (p.z_j - u1 * p.z_j.dot(&u1)).try_normalize(1e-12)?;
-    let u3 = u1.cross(&u2);
-    let (sp, cross_mass) = (p.play.ball_spacing, p.cross_mass);
-    let rod = cross_mass / 2.0 * sp * sp / 12.0;
-    let frame = nalgebra::Matrix3::from_columns(&[u1, u2, u3]);
-    let inertia =
-        frame * nalgebra::Matrix3::from_diagonal(&Vector3::new(rod, rod, 2.0 * rod)) * frame.transpose();
+    let frame = nalgebra::Matrix3::from_columns(&cross_frame(p)?);
+    let principal = crate::contact::joints::cross_inertia(p.cross_mass, p.play.ball_spacing);
+    let inertia = frame * nalgebra::Matrix3::from_diagonal(&principal) * frame.transpose();
+    let cross_mass = p.cross_mass;
     for r in 0..3 {
         mm[(nj + CROSS + r, nj + CROSS + r)] = cross_mass;
         for c in 0..3 {
@@ -338,8 +339,7 @@ fn static_start(
 ) -> Option<DVector<f64>> {
     let p = s.play;
     let nj = s.transmission.compliance.len();
-    let n = p.z_i.cross(&p.z_j).try_normalize(1e-12)?;
-    let u1 = p.z_i.try_normalize(1e-12)?;
+    let [u1, _, n] = cross_frame(p)?;
     let force = Vector3::new(p.reaction[0], p.reaction[1], p.reaction[2]);
     let shift = p.play.shift(&p.z_i, &p.z_j, &force, &(n * p.reaction[3]), 1e-6);
     // A tenth beyond the wall, so that the loaded balls start in contact (Newton's method
