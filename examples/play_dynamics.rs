@@ -3,12 +3,16 @@
 //! (the 63-DOF-style model with Hertz trunnion bearings in one joint, with and without
 //! clearance, noise-free), and the play's effect on the drive torques — the difference of the
 //! two — set beside what the reduced model, linearised about the nominal multibody model,
-//! predicts for the same clearance. Prints the RMS per drive and time window in torque-noise
-//! units and writes plots.
+//! predicts for the same play: its response with the play less without (as the axial-play
+//! candidates use it) and, in parentheses over the whole record, its response alone (as the
+//! radial-play candidates use it: the truth's balls fit their bores without radial
+//! clearance, a much stiffer contact than the model's). Prints the RMS per drive and time
+//! window in torque-noise units and writes plots.
 //!
 //! ```text
-//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m] [recording 1-6] [out dir] [ball stiffness N/m] [ball damping N·s/m]
+//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m] [ball damping N·s/m]
 //! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics
+//! cargo run --release --example play_dynamics -- D 0,1e-5 5 out/play-dynamics-axial
 //! ```
 //! (about a minute: two truth simulations and the nominal model's play derivatives at every
 //! sample).
@@ -16,7 +20,7 @@
 use lash::contact::BearingDesign;
 use lash::diagnose::model::InverseDynamicsModel;
 use lash::diagnose::mr2120::mr2120_model;
-use lash::diagnose::play_dynamics::{respond, BallContact, PlaySample, BALL_CONTACT};
+use lash::diagnose::play_dynamics::{respond, BallContact, JointPlay, PlaySample, BALL_CONTACT};
 use lash::diagnose::suite::{lumped::excitation, SuiteOptions};
 use lash::mechanisms::mr2120::clearance::LUBRICATED_DAMPING;
 use lash::mechanisms::mr2120::record::RecordOptions;
@@ -34,7 +38,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         .iter()
         .position(|j| *j == name)
         .ok_or_else(|| format!("joint '{name}': one of D, E, F, P, Q, R"))?;
-    let h: f64 = args.get(1).map(|s| s.parse()).transpose()?.unwrap_or(6e-6);
+    let (h, h_a): (f64, f64) = match args.get(1).map(|s| s.split_once(',')) {
+        None => (6e-6, 0.0),
+        Some(None) => (args[1].parse()?, 0.0),
+        Some(Some((r, a))) => (r.parse()?, a.parse()?),
+    };
     let recording: usize = args.get(2).map(|s| s.parse()).transpose()?.unwrap_or(5);
     if !(1..=6).contains(&recording) {
         return Err(format!("recording {recording}: 1 to 6").into());
@@ -62,12 +70,12 @@ fn main() -> Result<(), Box<dyn Error>> {
         ..suite.record
     };
     let path = excitation(suite.seed, recording - 1);
-    let truth = |clearance: f64| {
+    let truth = |radial: f64, axial: f64| {
         let mut spec = TruthSpec::nominal();
-        spec.joints[joint] = Some(BearingDesign::mr2120(clearance, 0.0, LUBRICATED_DAMPING));
+        spec.joints[joint] = Some(BearingDesign::mr2120(radial, axial, LUBRICATED_DAMPING));
         simulate_run(&spec, &path, &ropts)
     };
-    let (tight, loose) = (truth(0.0)?, truth(h)?);
+    let (tight, loose) = (truth(0.0, 0.0)?, truth(h, h_a)?);
 
     // The nominal model along the commanded motion (the encoders read the motors, which follow
     // their command in both truths).
@@ -107,7 +115,30 @@ fn main() -> Result<(), Box<dyn Error>> {
             })
         })
         .collect();
-    let reduced = respond(&samples, h, &contact);
+    // The play's effect in the reduced model, as in the truth: with the play less without
+    // (the balls' own compliance is in both).
+    let clock = std::time::Instant::now();
+    let loose_model = respond(
+        &samples,
+        &JointPlay {
+            radial: h,
+            axial: h_a,
+        },
+        &contact,
+    );
+    let tight_model = respond(&samples, &JointPlay::default(), &contact);
+    eprintln!(
+        "the reduced model: {:.2} s for two runs",
+        clock.elapsed().as_secs_f64()
+    );
+    let reduced: Vec<Option<Vec<f64>>> = loose_model
+        .iter()
+        .zip(&tight_model)
+        .map(|(a, b)| {
+            let (a, b) = (a.as_ref()?, b.as_ref()?);
+            Some(a.torque.iter().zip(&b.torque).map(|(x, y)| x - y).collect())
+        })
+        .collect();
 
     // Side by side, in torque-noise units.
     let sigma = ropts.noise.torque;
@@ -119,15 +150,16 @@ fn main() -> Result<(), Box<dyn Error>> {
         (0.6, t[n - 1] + 1e-9),
     ];
     println!(
-        "joint {name}, radial clearance {:.1} µm, recording {recording}, balls {:e} N/m and {:e} N·s/m: the play's effect on the drive torques \
+        "joint {name}, radial clearance {:.1} µm, axial play {:.1} µm, recording {recording}, balls {:e} N/m and {:e} N·s/m: the play's effect on the drive torques \
          (truth with clearance − without) and what the reduced model leaves of it, RMS in torque-noise units ({sigma} N·m)",
         h * 1e6,
+        h_a * 1e6,
         contact.stiffness,
         contact.damping
     );
     for (k, drive) in ["A", "B", "C"].iter().enumerate() {
         let effect = |i: usize| loose.tau[k][i] - tight.tau[k][i];
-        let model_at = |i: usize| reduced[i].as_ref().map(|r| r.torque[k]);
+        let model_at = |i: usize| reduced[i].as_ref().map(|r| r[k]);
         let mut line = format!("  drive {drive}:");
         for (w0, w1) in windows {
             let (mut s0, mut s1, mut m) = (0.0, 0.0, 0usize);
@@ -141,6 +173,19 @@ fn main() -> Result<(), Box<dyn Error>> {
             let rms = |s: f64| (s / m.max(1) as f64).sqrt() / sigma;
             line.push_str(&format!("  {w0:.2}–{w1:.2} s: {:.2} → {:.2}", rms(s0), rms(s1)));
         }
+        // Beside it, the model's response with the play alone (its balls' compliance not
+        // taken out), as the radial-play candidates use it.
+        let (mut s1, mut m) = (0.0, 0usize);
+        for i in (0..n).filter(|&i| t[i] >= 0.6) {
+            if let Some(x) = loose_model[i].as_ref() {
+                s1 += (effect(i) - x.torque[k]).powi(2);
+                m += 1;
+            }
+        }
+        line.push_str(&format!(
+            "  (response with the play alone: {:.2})",
+            (s1 / m.max(1) as f64).sqrt() / sigma
+        ));
         println!("{line}");
         let points = |f: &dyn Fn(usize) -> Option<f64>| -> Vec<(f64, f64)> {
             (0..n)
@@ -150,8 +195,9 @@ fn main() -> Result<(), Box<dyn Error>> {
         };
         LineChart {
             title: format!(
-                "drive {drive} torque: the play of joint {name} ({:.1} µm), recording {recording}",
-                h * 1e6
+                "drive {drive} torque: the play of joint {name} ({:.1} µm radial, {:.1} µm axial), recording {recording}",
+                h * 1e6,
+                h_a * 1e6
             ),
             x_label: "t [s]".into(),
             y_label: "N·m".into(),

@@ -33,12 +33,12 @@
 //! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) |
 //! | clearance h at a site (e.g. the joints of a leg) | h·∂y/∂s·tanh(F/F_c), F the site's load |
 //! | play h of a universal joint, radial or axial ([`crate::contact::play`]) | h·∂y/∂(shift, tilt)·(the shift toward the joint's load per unit clearance, over load scale F_c) |
-//! | the same radial play, in the play-dynamics check | drive torques too: h·Δτ(h_ref)/h_ref, Δτ the reduced dynamic play model's response ([`super::play_dynamics`]) at the diagnosis' estimate h_ref ([`LibraryOptions::dynamic_play_clearance`]) |
+//! | the same play, with its dynamics (the selection's second pass, or the play-dynamics check) | drive torques too: h·Δτ(h_ref)/h_ref, Δτ the reduced dynamic play model's response ([`super::play_dynamics`]) at a reference play h_ref of the same direction ([`LibraryOptions::dynamic_play_clearance`], [`LibraryOptions::dynamic_axial_play`]) |
 //! | output-sensor offset | o_k on output k |
 //! | output-sensor delay | −d·dy_k/dt on output k |
 use super::data::{Channel, MotionData};
 use super::model::{InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily, PlayDynamics};
-use super::play_dynamics::{respond, PlayResponse, PlaySample, BALL_CONTACT};
+use super::play_dynamics::{respond, JointPlay, PlayResponse, PlaySample, BALL_CONTACT};
 use super::signal::derivative;
 use super::transmission::{self, TransmissionDynamics};
 use serde::Serialize;
@@ -72,12 +72,19 @@ pub struct LibraryOptions {
     /// Radial clearance h_ref (m) at which the radial-play candidates take drive-torque rows
     /// from the reduced dynamic play model ([`play_dynamics`](super::play_dynamics)): the
     /// secant response(h_ref)/h_ref, so a fitted h near h_ref reproduces the model's
-    /// response at that clearance (the contact is nonlinear in h). `None` (the default): the
-    /// play candidates have tracker rows only, the quasi-static shift. Set by the diagnosis'
-    /// play-dynamics check to the estimate of the radial play it selected; needs a model
+    /// response at that clearance (the contact is nonlinear in h). `None` (the
+    /// default): the play candidates have tracker rows only, the quasi-static shift. Set by
+    /// the diagnosis' second pass or its play-dynamics check to the estimate of the radial
+    /// play it selected; needs a model
     /// with [`play_dynamics`](InverseDynamicsModel::play_dynamics) and
     /// [`transmission_dynamics`](InverseDynamicsModel::transmission_dynamics).
     pub dynamic_play_clearance: Option<f64>,
+    /// Axial play h_a,ref (m, total) at which the axial-play candidates take drive-torque
+    /// rows from the reduced dynamic play model without radial clearance: the secant
+    /// (response(h_a,ref) − response(0))/h_a,ref (the balls' radial compliance, which a ball
+    /// that fits its bore does not have, taken out), as
+    /// [`dynamic_play_clearance`](Self::dynamic_play_clearance) does for the radial ones.
+    pub dynamic_axial_play: Option<f64>,
     /// Only these candidates (exact names), if any: a fixed selection refitted.
     pub only: Vec<String>,
 }
@@ -167,6 +174,7 @@ impl Default for LibraryOptions {
             speed_scales: vec![],
             exclude: vec![],
             dynamic_play_clearance: None,
+            dynamic_axial_play: None,
             only: vec![],
         }
     }
@@ -527,22 +535,22 @@ pub fn columns(
     // recording again, so a model with internal dynamics answers at each sample's state;
     // only when outputs are recorded or a transmission is compliant).
     let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta0, j) != 0.0);
-    // The reduced dynamic play model's data, only where its torque rows are asked for.
-    let play_reference = opts
-        .dynamic_play_clearance
-        .filter(|h| *h > 0.0 && h.is_finite())
-        .filter(|_| {
-            chans.iter().any(|c| matches!(c, Channel::Torque(_)))
-                && cands.iter().any(|c| {
-                    matches!(
-                        c.effect,
-                        Effect::Play {
-                            direction: PlayDirection::Radial,
-                            ..
-                        }
-                    )
-                })
-        });
+    // The reduced dynamic play model's data, only where its torque rows are asked for: the
+    // reference play per direction (radial, axial).
+    let has_torques = chans.iter().any(|c| matches!(c, Channel::Torque(_)));
+    let reference_for = |reference: Option<f64>, dir: PlayDirection| {
+        reference.filter(|h| *h > 0.0 && h.is_finite()).filter(|_| {
+            has_torques
+                && cands
+                    .iter()
+                    .any(|c| matches!(c.effect, Effect::Play { direction, .. } if direction == dir))
+        })
+    };
+    let play_references = [
+        reference_for(opts.dynamic_play_clearance, PlayDirection::Radial),
+        reference_for(opts.dynamic_axial_play, PlayDirection::Axial),
+    ];
+    let play_reference = play_references.iter().find_map(|x| *x);
     let mut sens: Vec<Option<OutputSensitivities>> = vec![];
     let mut dynamics: Vec<Option<TransmissionDynamics>> = vec![];
     let mut play_dyn: Vec<Option<Vec<PlayDynamics>>> = vec![];
@@ -567,27 +575,51 @@ pub fn columns(
             dynamics.push(td);
         }
     }
-    // Per play site, the reduced dynamic play model's response at h_ref along the recording.
-    let play_response: Vec<std::cell::OnceCell<Vec<Option<PlayResponse>>>> = model
-        .play_sites()
-        .iter()
-        .map(|_| std::cell::OnceCell::new())
-        .collect();
-    let response_of = |site: usize, h: f64| -> Option<&Vec<Option<PlayResponse>>> {
-        let cell = play_response.get(site)?;
-        Some(cell.get_or_init(|| {
-            let samples: Vec<Option<PlaySample>> = (0..n)
-                .map(|i| match (play_dyn.get(i)?, dynamics.get(i)?) {
-                    (Some(p), Some(transmission)) => Some(PlaySample {
-                        t: d.t[i],
-                        play: p.get(site)?,
-                        transmission,
-                    }),
-                    _ => None,
+    // Per play site and direction, the play's effect on the drive torques in the reduced
+    // dynamic play model at the reference play along the recording. Radial: its response
+    // (the balls' compliance comes with the clearance: a ball that fits its bore is a
+    // conformal, much stiffer contact). Axial, where the radial clearance is zero: its
+    // response with the play less its response without, which takes out the balls' radial
+    // compliance that a ball fitting its bore does not have (measured, README).
+    let run = |site: usize, play: &JointPlay| -> Vec<Option<PlayResponse>> {
+        let samples: Vec<Option<PlaySample>> = (0..n)
+            .map(|i| match (play_dyn.get(i)?, dynamics.get(i)?) {
+                (Some(p), Some(transmission)) => Some(PlaySample {
+                    t: d.t[i],
+                    play: p.get(site)?,
+                    transmission,
+                }),
+                _ => None,
+            })
+            .collect();
+        respond(&samples, play, &BALL_CONTACT)
+    };
+    type TorqueSeries = Vec<Option<Vec<f64>>>;
+    let sites = model.play_sites().len();
+    let tight: Vec<std::cell::OnceCell<Vec<Option<PlayResponse>>>> =
+        (0..sites).map(|_| Default::default()).collect();
+    let play_effect: Vec<[std::cell::OnceCell<TorqueSeries>; 2]> =
+        (0..sites).map(|_| Default::default()).collect();
+    let response_of = |site: usize, direction: PlayDirection| -> Option<(f64, &TorqueSeries)> {
+        let (slot, play) = match direction {
+            PlayDirection::Radial => (0, JointPlay::radial(play_references[0]?)),
+            PlayDirection::Axial => (1, JointPlay::axial(play_references[1]?)),
+        };
+        let effect = play_effect.get(site)?[slot].get_or_init(|| {
+            let with = run(site, &play);
+            if direction == PlayDirection::Radial {
+                return with.into_iter().map(|a| Some(a?.torque)).collect();
+            }
+            let without = tight[site].get_or_init(|| run(site, &JointPlay::default()));
+            with.iter()
+                .zip(without)
+                .map(|(a, b)| {
+                    let (a, b) = (a.as_ref()?, b.as_ref()?);
+                    Some(a.torque.iter().zip(&b.torque).map(|(x, y)| x - y).collect())
                 })
-                .collect();
-            respond(&samples, h, &BALL_CONTACT)
-        }))
+                .collect()
+        });
+        Some((play.radial + play.axial, effect))
     };
     let dynamic = dynamics.iter().any(|x| x.is_some());
     let arm_rate: Vec<Vec<f64>> = (0..model.joints())
@@ -818,15 +850,13 @@ pub fn columns(
                         0.0
                     }
                 });
-                // The drive torques: the reduced dynamic model's secant at h_ref.
-                if let (PlayDirection::Radial, Some(h)) = (direction, play_reference) {
-                    if let Some(response) = response_of(site, h) {
-                        for (i, x) in response.iter().enumerate() {
-                            let Some(x) = x else { continue };
-                            for (a, v) in x.torque.iter().enumerate() {
-                                if let Some(r) = torque_row(a) {
-                                    col[r * n + i] = if v.is_finite() { v / h } else { 0.0 };
-                                }
+                // The drive torques: the reduced dynamic model's secant at the reference play.
+                if let Some((h, effect)) = response_of(site, direction) {
+                    for (i, x) in effect.iter().enumerate() {
+                        let Some(x) = x else { continue };
+                        for (a, v) in x.iter().enumerate() {
+                            if let Some(r) = torque_row(a) {
+                                col[r * n + i] = if v.is_finite() { v / h } else { 0.0 };
                             }
                         }
                     }
@@ -1085,10 +1115,11 @@ mod tests {
     /// radial-play candidate gets drive-torque rows from the reduced dynamic play model: where
     /// the load has held its sign for a while, the joint sits against its wall, 2h + F/k from
     /// the centre (each trunnion pair takes half the shift along n; the four balls' stiffness
-    /// along n is k), and the drive reads T_e times that — per metre of clearance, the column.
-    /// The load reverses and the column with it. Without the option the candidate moves the
-    /// tracker only; the tracker rows are the same either way, and axial play gets no torque
-    /// rows.
+    /// along n is k), and the drive reads T_e times that — per metre of clearance, the column. The load reverses and the column with it. Without
+    /// the option the candidate moves the tracker only; the tracker rows are the same either
+    /// way, and axial play gets no torque rows until asked to
+    /// ([`LibraryOptions::dynamic_axial_play`]): then, the load being across both trunnion
+    /// axes, its effect — with the play less without — is nil.
     #[test]
     fn a_radial_play_with_dynamic_rows_reads_the_reduced_model_in_the_torques() {
         let h = 5e-6;
@@ -1140,5 +1171,15 @@ mod tests {
                 col[i]
             );
         }
+        let h_a = 2.0 * h;
+        opts.dynamic_axial_play = Some(h_a);
+        let (both, _) = columns(&cands, &d, &Carried, &opts);
+        assert_eq!(torque(&both, radial), col);
+        let col = torque(&both, axial);
+        assert!(
+            col.iter().all(|v| v.abs() < 1e-3 * wall),
+            "largest {}",
+            col.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+        );
     }
 }

@@ -191,6 +191,9 @@ pub struct Diagnosis {
     /// ([`DiagnoseOptions::dynamic_play_selection`](super::DiagnoseOptions)); `None` when they
     /// were quasi-static.
     pub dynamic_play_reference: Option<f64>,
+    /// The axial play (m, total) at which the axial-play candidates took theirs; `None`
+    /// when they were quasi-static.
+    pub dynamic_axial_play_reference: Option<f64>,
     /// One-paragraph verdict.
     pub verdict: String,
     /// Leave-one-recording-out residual RMS of the final model on the fit recordings, in

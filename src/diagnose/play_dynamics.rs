@@ -31,11 +31,11 @@
 //! and under a steady load the joint flipped between two sets of them — a rattle of its own
 //! where the truth stays loaded.)
 //!
-//! **Contacts**: per ball a radial contact in a bore with radial clearance h and an axial one
-//! on the bore's end at zero play (the cross rides each pair's trunnions axially), on a
-//! linear penalty law ([`BallContact`]: stiffness on the penetration, damping on its rate,
-//! never pulling; the same damping along the bore's wall while in radial contact). Axial play
-//! is not modelled. This is not the contact law of the suite's truths (Hertz balls with
+//! **Contacts** ([`JointPlay`]): per ball a radial contact in a bore with radial clearance h
+//! and an axial one on the bore's end, h_a/2 away at the centre of a pair's axial play h_a,
+//! on a linear penalty law ([`BallContact`]: stiffness on the penetration, damping on its
+//! rate, never pulling; the same damping along the bore's wall while in radial contact).
+//! This is not the contact law of the suite's truths (Hertz balls with
 //! Hunt–Crossley damping, the whole 63-DOF model): it is a model of the same geometry,
 //! reduced.
 //!
@@ -87,6 +87,41 @@ pub const BALL_CONTACT: BallContact = BallContact {
     stiffness: 1e8,
     damping: 2e3,
 };
+
+/// A joint's play in the reduced model: the radial clearance of each trunnion ball in its
+/// bore and the axial play of each trunnion pair between its bores' ends (total, ±half
+/// either way), as [`BearingDesign`](crate::contact::BearingDesign) defines them. Units: m.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct JointPlay {
+    /// Radial clearance h (the ball centre may move h off its bore's axis), m.
+    pub radial: f64,
+    /// Axial play h_a (total; the cross may move ±h_a/2 along a pair's axis), m.
+    pub axial: f64,
+}
+
+impl JointPlay {
+    /// Radial clearance only.
+    pub fn radial(h: f64) -> Self {
+        Self {
+            radial: h,
+            axial: 0.0,
+        }
+    }
+
+    /// Axial play only.
+    pub fn axial(h_a: f64) -> Self {
+        Self {
+            radial: 0.0,
+            axial: h_a,
+        }
+    }
+
+    /// The larger of the radial clearance and half the axial play, at least 1 nm: the scale
+    /// of a ball's travel in the play, m.
+    fn scale(&self) -> f64 {
+        self.radial.max(0.5 * self.axial).max(1e-9)
+    }
+}
 
 /// One sample of a recording for the reduced play model: its time and the nominal model's
 /// linearisation there.
@@ -174,9 +209,18 @@ fn dot(r: &[f64; NP], x: &[f64]) -> f64 {
     r.iter().zip(x).map(|(a, b)| a * b).sum()
 }
 
-/// The generalised load of one contact at (x, ẋ) (play and cross coordinates) for radial
-/// clearance `h` (axial stop 0), added to `out`; returns the ball's normal force (N).
-fn contact_load_one(k: &Contact, x: &[f64], xd: &[f64], h: f64, c: &BallContact, out: &mut [f64; NP]) -> f64 {
+/// The generalised load of one contact at (x, ẋ) (play and cross coordinates) for the
+/// joint's `play` (radial clearance; axial stop at half the axial play), added to `out`;
+/// returns the ball's normal force (N).
+fn contact_load_one(
+    k: &Contact,
+    x: &[f64],
+    xd: &[f64],
+    play: &JointPlay,
+    c: &BallContact,
+    out: &mut [f64; NP],
+) -> f64 {
+    let h = play.radial;
     match k {
         Contact::Radial(jb) => {
             let (b, bd) = (
@@ -199,7 +243,7 @@ fn contact_load_one(k: &Contact, x: &[f64], xd: &[f64], h: f64, c: &BallContact,
             -f
         }
         Contact::Axial(row) => {
-            let d = dot(row, x);
+            let d = dot(row, x) - 0.5 * play.axial;
             if d <= 0.0 {
                 return 0.0;
             }
@@ -213,10 +257,10 @@ fn contact_load_one(k: &Contact, x: &[f64], xd: &[f64], h: f64, c: &BallContact,
 }
 
 /// Λ_c and the cross's load: the generalised load of the balls' contacts at (x, ẋ).
-fn contact_load(ks: &[Contact; 8], x: &[f64], xd: &[f64], h: f64, c: &BallContact) -> [f64; NP] {
+fn contact_load(ks: &[Contact; 8], x: &[f64], xd: &[f64], play: &JointPlay, c: &BallContact) -> [f64; NP] {
     let mut out = [0.0; NP];
     for k in ks {
-        contact_load_one(k, x, xd, h, c, &mut out);
+        contact_load_one(k, x, xd, play, c, &mut out);
     }
     out
 }
@@ -327,29 +371,34 @@ fn substeps(
 }
 
 /// The static state at sample `s`: KK·x = [0; Λ_c(x, 0) − Λ; cross load] by Newton's method
-/// (minimum-norm steps) from the joint against the wall its nominal reaction pushes it to
-/// (the cross half-way, turned by half the tilt), the transmissions wound up by the torques
-/// that asks for.
+/// (minimum-norm steps) from the joint against the walls and ends its nominal reaction
+/// pushes it to (the cross half-way across n, turned by half the tilt), the transmissions
+/// wound up by the torques that asks for.
 fn static_start(
     s: &PlaySample,
     kk: &DMatrix<f64>,
     ks: &[Contact; 8],
-    h: f64,
+    play: &JointPlay,
     contact: &BallContact,
 ) -> Option<DVector<f64>> {
     let p = s.play;
     let nj = s.transmission.compliance.len();
-    let [u1, _, n] = cross_frame(p)?;
+    let [u1, u2, n] = cross_frame(p)?;
     let force = Vector3::new(p.reaction[0], p.reaction[1], p.reaction[2]);
     let shift = p.play.shift(&p.z_i, &p.z_j, &force, &(n * p.reaction[3]), 1e-6);
-    // A tenth beyond the wall, so that the loaded balls start in contact (Newton's method
-    // sees no stiffness inside the play).
-    let start = 1.1 * h;
-    let e = shift.radial_translation * start;
-    let phi = shift.radial_tilt * start;
-    // The cross moves with side j across u1 (it rides side j's trunnions axially), with side
-    // i along u1, and half-way along n.
-    let c = e - u1 * e.dot(&u1) - n * (0.5 * e.dot(&n));
+    // A tenth beyond the walls and ends, so that the loaded balls start in contact
+    // (Newton's method sees no stiffness inside the play).
+    // (Without radial clearance, a tenth of the axial play's half, or of a nanometre.)
+    let beyond = 1.1 * play.radial + 0.1 * play.scale();
+    let radial = shift.radial_translation * beyond;
+    let phi = shift.radial_tilt * beyond;
+    // The axial shift per pair: the cross along u1 from side i, side j along u2 from the cross.
+    let axial = shift.axial_translation * (1.1 * play.axial + 0.2 * play.scale());
+    let (axial_i, axial_j) = (axial.dot(&u1), axial.dot(&u2));
+    let e = radial + u1 * axial_i + u2 * axial_j;
+    // Radially the cross moves with side j across u1 (it rides side j's trunnions axially),
+    // with side i along u1, and half-way along n.
+    let c = radial - u1 * radial.dot(&u1) - n * (0.5 * radial.dot(&n)) + u1 * axial_i;
     let mut x = DVector::zeros(nj + NP);
     for k in 0..3 {
         x[nj + k] = e[k];
@@ -359,19 +408,21 @@ fn static_start(
     x[nj + 3] = phi;
     let zero = [0.0; NP];
     let residual = |x: &DVector<f64>| {
-        let lc = contact_load(ks, &x.as_slice()[nj..], &zero, h, contact);
+        let lc = contact_load(ks, &x.as_slice()[nj..], &zero, play, contact);
         let mut r = kk * x;
         for k in 0..NP {
             r[nj + k] -= lc[k] - if k < 4 { p.reaction[k] } else { 0.0 };
         }
         r
     };
+    // The load (N, or N·m), and how far it presses the balls.
+    let load = p.reaction.iter().fold(1.0f64, |m, v| m.max(v.abs()));
     for _ in 0..100 {
         let r = residual(&x);
         let mut jac = kk.clone();
         for c in 0..NP {
             let rotation = c == 3 || c >= CROSS + 3;
-            let step = 1e-9 * h.max(1e-9) / if rotation { p.play.ball_spacing } else { 1.0 };
+            let step = 1e-9 * play.scale() / if rotation { p.play.ball_spacing } else { 1.0 };
             let mut xp = x.clone();
             xp[nj + c] += step;
             let dr = (residual(&xp) - &r) / step;
@@ -382,15 +433,16 @@ fn static_start(
         // singular there; the minimum-norm step leaves those coordinates where they are.
         let tol = 1e-12 * jac.amax();
         let mut dx = jac.svd(true, true).solve(&r, tol).ok()?;
-        // No step moves a ball by more than the clearance: where the balls lose contact the
-        // Jacobian loses their stiffness, and a full step would fly off.
+        // No step moves a ball by more than the clearance (or, without play, than the load
+        // presses it): where the balls lose contact the Jacobian loses their stiffness, and a
+        // full step would fly off.
         let reach = (0..NP)
             .map(|c| {
                 let rotation = c == 3 || c >= CROSS + 3;
                 dx[nj + c].abs() * if rotation { p.play.ball_spacing / 2.0 } else { 1.0 }
             })
             .fold(0.0, f64::max);
-        let limit = h.max(1e-9);
+        let limit = play.scale().max(load / contact.stiffness);
         if reach > limit {
             dx *= limit / reach;
         }
@@ -400,17 +452,16 @@ fn static_start(
         }
     }
     // Converged: the joint's and the cross's loads balance to a millionth of the load.
-    let load = p.reaction.iter().fold(1.0f64, |m, v| m.max(v.abs()));
     let r = residual(&x);
     (x.iter().all(|v| v.is_finite()) && r.rows(nj, NP).amax() <= 1e-6 * load).then_some(x)
 }
 
 /// The reduced play model along one recording's samples (in time order; None where the
-/// nominal model gave no data, which restarts it) for radial clearance `h` (m). None at the
+/// nominal model gave no data, which restarts it) for the joint's `play`. None at the
 /// samples without data or where a matrix is singular.
 pub fn respond(
     samples: &[Option<PlaySample<'_>>],
-    h: f64,
+    play: &JointPlay,
     contact: &BallContact,
 ) -> Vec<Option<PlayResponse>> {
     let mut out = vec![None; samples.len()];
@@ -438,7 +489,7 @@ pub fn respond(
                 };
                 let dt = (s.t - t0) / n_sub as f64;
                 for _ in 0..n_sub {
-                    let lc = contact_load(&ks, &x.as_slice()[nj..], &v.as_slice()[nj..], h, contact);
+                    let lc = contact_load(&ks, &x.as_slice()[nj..], &v.as_slice()[nj..], play, contact);
                     let mut rhs = -(&kk * &x) - damping.component_mul(&v);
                     for r in 0..NP {
                         rhs[nj + r] += lc[r] - if r < 4 { reaction[r] } else { 0.0 };
@@ -448,7 +499,7 @@ pub fn respond(
                 }
                 (x, v)
             }
-            _ => match static_start(s, &kk, &ks, h, contact) {
+            _ => match static_start(s, &kk, &ks, play, contact) {
                 Some(x) => (x, DVector::zeros(nj + NP)),
                 None => continue,
             },
@@ -469,7 +520,7 @@ pub fn respond(
                     &ks[b],
                     &x.as_slice()[nj..],
                     &v.as_slice()[nj..],
-                    h,
+                    play,
                     contact,
                     &mut sink,
                 )
@@ -548,7 +599,7 @@ mod tests {
                 })
             })
             .collect();
-        let r = respond(&samples, h, &BALL_CONTACT);
+        let r = respond(&samples, &JointPlay::radial(h), &BALL_CONTACT);
         let sits = -2.0 * h - 200.0 / k;
         let first = r[0].as_ref().unwrap();
         assert!(
@@ -574,6 +625,69 @@ mod tests {
         assert!(widest < 2.0 * h + 5.0 * 200.0 / k, "{widest}");
     }
 
+    /// Without play the joint hangs on its balls' stiffness alone: 200 N / k below the centre.
+    #[test]
+    fn without_play_a_hanging_joint_sits_on_its_balls_compliance() {
+        let joint = fixtures::hanging_joint(200.0, 0.0);
+        let transmission = fixtures::one_drive();
+        let samples: Vec<Option<PlaySample>> = (0..50)
+            .map(|i| {
+                Some(PlaySample {
+                    t: 0.002 * i as f64,
+                    play: &joint,
+                    transmission: &transmission,
+                })
+            })
+            .collect();
+        let r = respond(&samples, &JointPlay::default(), &BALL_CONTACT);
+        let sits = -200.0 / BALL_CONTACT.stiffness;
+        for at in [&r[0], &r[49]] {
+            let at = at.as_ref().expect("a response");
+            assert!((at.offset[2] - sits).abs() < 0.02 * sits.abs(), "{:?}", at.offset);
+        }
+    }
+
+    /// Axial play: pressed by 60 N along z_i = x, the cross sits against one end of side
+    /// i's pair (h_a/2 and 60 N on one ball's end) and side j's pair carries the force across
+    /// its axis (y) on both balls, 30 N each, with no radial clearance: side j sits
+    /// h_a/2 + 60/k + 30/k away along −x. Reversed, it crosses the axial play to the other end.
+    #[test]
+    fn a_joint_pressed_along_a_trunnion_axis_sits_against_the_end_of_its_axial_play() {
+        let (h_a, k) = (1e-5, BALL_CONTACT.stiffness);
+        let mut push = fixtures::hanging_joint(0.0, 0.0);
+        push.reaction = [60.0, 0.0, 0.0, 0.0];
+        let mut pull = push.clone();
+        pull.reaction = [-60.0, 0.0, 0.0, 0.0];
+        let transmission = fixtures::one_drive();
+        let samples: Vec<Option<PlaySample>> = (0..400)
+            .map(|i| {
+                Some(PlaySample {
+                    t: 0.002 * i as f64,
+                    play: if i < 200 { &push } else { &pull },
+                    transmission: &transmission,
+                })
+            })
+            .collect();
+        let r = respond(&samples, &JointPlay::axial(h_a), &BALL_CONTACT);
+        let sits = -(0.5 * h_a + 90.0 / k);
+        for (at, sign) in [(&r[0], 1.0), (&r[199], 1.0), (&r[399], -1.0)] {
+            let at = at.as_ref().unwrap();
+            assert!(
+                (at.offset[0] - sign * sits).abs() < 0.02 * sits.abs(),
+                "{:?}",
+                at.offset
+            );
+            assert!(
+                at.offset[1].abs() < 0.02 * sits.abs() && at.offset[2].abs() < 0.02 * sits.abs(),
+                "{:?}",
+                at.offset
+            );
+            for ball in &at.radial_forces[2..] {
+                assert!((ball - 30.0).abs() < 0.6, "{:?}", at.radial_forces);
+            }
+        }
+    }
+
     /// Both trunnion pairs carry the joint's load in series, through the cross: pressed by
     /// Λ = (0, 60, 80) N (axes x and y, n = z), the side-i pair (bores along x) carries the
     /// whole 100 N across its axis, 50 N per ball along −(0.6, 0.8); the side-j pair (bores
@@ -596,7 +710,7 @@ mod tests {
                 })
             })
             .collect();
-        let r = respond(&samples, h, &BALL_CONTACT);
+        let r = respond(&samples, &JointPlay::radial(h), &BALL_CONTACT);
         for at in [&r[0], &r[199]] {
             let at = at.as_ref().unwrap();
             for (ball, expected) in at.radial_forces.iter().zip([50.0, 50.0, 40.0, 40.0]) {

@@ -57,7 +57,34 @@ pub(super) fn dynamic_play_clearance(
     d: &Diagnosis,
     cands: &[Candidate],
 ) -> Option<(String, f64)> {
+    first_play(model, d, cands, super::candidates::PlayDirection::Radial)
+}
+
+/// The reference plays, radial and axial (m), at which the second pass's play candidates
+/// take their drive torques from the reduced dynamic play model
+/// ([`LibraryOptions::dynamic_play_clearance`](super::candidates::LibraryOptions) and
+/// `dynamic_axial_play`): per direction the estimate of the first play of that direction
+/// the first pass selected, else the other direction's (so both directions' candidates
+/// carry their dynamics into the selection once a play has been found); `(None, None)` when
+/// it selected none, or the model cannot run the reduced model.
+pub(super) fn dynamic_play_references(
+    model: &dyn InverseDynamicsModel,
+    d: &Diagnosis,
+    cands: &[Candidate],
+) -> (Option<f64>, Option<f64>) {
     use super::candidates::PlayDirection;
+    let radial = first_play(model, d, cands, PlayDirection::Radial).map(|(_, h)| h);
+    let axial = first_play(model, d, cands, PlayDirection::Axial).map(|(_, h)| h);
+    (radial.or(axial), axial.or(radial))
+}
+
+/// The first play of `direction` the diagnosis selected, with its positive estimate (m).
+fn first_play(
+    model: &dyn InverseDynamicsModel,
+    d: &Diagnosis,
+    cands: &[Candidate],
+    direction: super::candidates::PlayDirection,
+) -> Option<(String, f64)> {
     let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
     let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta, j) != 0.0);
     if model.play_sites().is_empty() || !compliant {
@@ -65,13 +92,7 @@ pub(super) fn dynamic_play_clearance(
     }
     d.selected.iter().find_map(|name| {
         let c = cands.iter().find(|c| &c.name == name)?;
-        if !matches!(
-            c.effect,
-            Effect::Play {
-                direction: PlayDirection::Radial,
-                ..
-            }
-        ) {
+        if !matches!(c.effect, Effect::Play { direction: dir, .. } if dir == direction) {
             return None;
         }
         d.estimates

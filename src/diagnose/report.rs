@@ -167,6 +167,13 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             h * 1e6
         );
     }
+    if let Some(h) = d.dynamic_axial_play_reference {
+        let _ = writeln!(
+            m,
+            "- The axial-play candidates' drive torques: the reduced dynamic play model at an axial play of {:.2} µm (the first pass's estimate of a play), scaled in proportion to each candidate's play.",
+            h * 1e6
+        );
+    }
     let _ = writeln!(m);
 }
 

@@ -167,8 +167,8 @@ fn diagnose_folds(
     o2.relinearize = false;
     o2.shift = moved;
     if opts.dynamic_play_selection {
-        o2.library.dynamic_play_clearance =
-            relinearize::dynamic_play_clearance(model, &first, &cands).map(|(_, h)| h);
+        (o2.library.dynamic_play_clearance, o2.library.dynamic_axial_play) =
+            relinearize::dynamic_play_references(model, &first, &cands);
     }
     let second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.4 * f))?;
     let mut d = relinearize::against_nominal(model, first, second, &cands);
@@ -180,7 +180,7 @@ fn diagnose_folds(
         .filter_map(|n| cands.iter().position(|c| &c.name == n))
         .collect();
     d.friction = super::equivalents::joint_friction(model, &set, &cands, &d.estimates);
-    if d.dynamic_play_reference.is_none() {
+    if d.dynamic_play_reference.is_none() && d.dynamic_axial_play_reference.is_none() {
         d.play_dynamics = play_dynamics_check(model, &shifted, &d, fit, holdout, &o2, &cands, &mut progress)?;
     }
     d.verdict = verdict_text(model, &d, &cands);
@@ -429,7 +429,7 @@ fn diagnose_once(
         &confounded,
         &location,
         &adequacy,
-        opts.library.dynamic_play_clearance.is_some(),
+        opts.library.dynamic_play_clearance.is_some() || opts.library.dynamic_axial_play.is_some(),
     );
     let friction = super::equivalents::joint_friction(model, &set, &prep.cands, &estimates);
     progress("done", 1.0);
@@ -449,6 +449,7 @@ fn diagnose_once(
         selected,
         play_dynamics: None,
         dynamic_play_reference: opts.library.dynamic_play_clearance,
+        dynamic_axial_play_reference: opts.library.dynamic_axial_play,
         estimates,
         correlations,
         confounded,

@@ -29,7 +29,7 @@ pub(super) fn verdict_text(model: &dyn InverseDynamicsModel, d: &Diagnosis, cand
         &d.confounded,
         &d.location,
         &d.adequacy,
-        d.dynamic_play_reference.is_some(),
+        d.dynamic_play_reference.is_some() || d.dynamic_axial_play_reference.is_some(),
     ) + &d
         .play_dynamics
         .as_ref()
