@@ -37,14 +37,23 @@ pub struct DiagnoseOptions {
     /// dynamics ([`Diagnosis::play_dynamics`](super::Diagnosis)). Costs the play's
     /// derivatives at every sample (several inverse dynamics per play joint).
     pub play_dynamics: bool,
-    /// In the re-linearised pass, the radial-play candidates predict the drive torques with
-    /// the reduced dynamic play model ([`super::play_dynamics`]) at the first pass's estimate
-    /// of the first radial play it selected
-    /// ([`LibraryOptions::dynamic_play_clearance`](super::candidates::LibraryOptions)), so the
-    /// selection sees the play's dynamics (the joint crossing its clearance, the drives'
-    /// ringing) and not only where the load holds the joint. The play-dynamics check then has
-    /// nothing to add and is skipped. Costs the play's derivatives at every sample.
+    /// In the re-linearised pass, the play candidates predict the drive torques with the
+    /// reduced dynamic play model ([`super::play_dynamics`]) at the first pass's estimate of
+    /// the first play it selected of the same direction, radial or axial, else of the other
+    /// ([`LibraryOptions::dynamic_play_clearance`](super::candidates::LibraryOptions),
+    /// `dynamic_axial_play`), so the selection sees the play's dynamics (the joint crossing
+    /// its clearance, the drives' ringing) and not only where the load holds the joint. The
+    /// re-linearised pass runs when the first pass selected a play even if no parameter
+    /// moves the model. The play-dynamics check then has nothing to add and is skipped.
+    /// Costs the play's derivatives at every sample.
     pub dynamic_play_selection: bool,
+    /// The balls' contact dampings (N·s/m) tried in the reduced dynamic play model when the
+    /// play's dynamics are in the selection: the re-linearised pass runs once per damping and
+    /// keeps the one with the smallest leave-one-recording-out error
+    /// ([`Diagnosis::dynamic_play_damping`](super::Diagnosis)). How fast a joint's rattle dies
+    /// is not known beforehand (a dry or a lubricated joint); the default brackets 1 % and 10 %
+    /// of critical for a kilogram on the model's 1e8 N/m.
+    pub play_contact_dampings: Vec<f64>,
 }
 
 impl Default for DiagnoseOptions {
@@ -62,6 +71,7 @@ impl Default for DiagnoseOptions {
             shift: vec![],
             play_dynamics: true,
             dynamic_play_selection: true,
+            play_contact_dampings: vec![200.0, 2000.0],
         }
     }
 }

@@ -194,6 +194,14 @@ pub struct Diagnosis {
     /// The axial play (m, total) at which the axial-play candidates took theirs; `None`
     /// when they were quasi-static.
     pub dynamic_axial_play_reference: Option<f64>,
+    /// The balls' contact damping (N·s/m) the reduced dynamic play model took in the
+    /// selection, chosen by cross-validation among
+    /// [`DiagnoseOptions::play_contact_dampings`](super::DiagnoseOptions); `None` when the
+    /// play candidates were quasi-static.
+    pub dynamic_play_damping: Option<f64>,
+    /// Each damping tried (N·s/m) and the selection's leave-one-recording-out RMS with it
+    /// (noise units).
+    pub dynamic_play_damping_cv: Vec<(f64, f64)>,
     /// One-paragraph verdict.
     pub verdict: String,
     /// Leave-one-recording-out residual RMS of the final model on the fit recordings, in

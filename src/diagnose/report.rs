@@ -167,6 +167,18 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             h * 1e6
         );
     }
+    if let Some(c) = d.dynamic_play_damping {
+        let tried: Vec<String> = d
+            .dynamic_play_damping_cv
+            .iter()
+            .map(|(c, cv)| format!("{c} N s/m: {cv:.3}"))
+            .collect();
+        let _ = writeln!(
+            m,
+            "- The reduced dynamic play model's contact damping: {c} N s/m, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}).",
+            if tried.is_empty() { "one value given".into() } else { tried.join(", ") }
+        );
+    }
     if let Some(h) = d.dynamic_axial_play_reference {
         let _ = writeln!(
             m,

@@ -11,6 +11,7 @@ use super::locate::{locate, tagged_windows, StateScales};
 use super::model::InverseDynamicsModel;
 use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, ResidualTrace};
+use super::play_dynamics::BALL_CONTACT;
 use super::recording::{Recording, MIN_SAMPLES};
 use super::relinearize;
 use super::residuals::{prepare, Prepared};
@@ -155,7 +156,14 @@ fn diagnose_folds(
     // Shift the model by the selected parameter and sensor-offset estimates.
     let cands = library(model, &opts.library);
     let (shifted, moved) = relinearize::shift(model, &first, &cands);
-    if moved.is_empty() {
+    // The plays' dynamics in the selection: the reference plays from the first pass.
+    let references = if opts.dynamic_play_selection {
+        relinearize::dynamic_play_references(model, &first, &cands)
+    } else {
+        (None, None)
+    };
+    let dynamic = references.0.is_some() || references.1.is_some();
+    if moved.is_empty() && !dynamic {
         // Nothing to re-linearise; the play-dynamics check still runs.
         let mut d = first;
         d.play_dynamics = play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, &mut progress)?;
@@ -166,11 +174,34 @@ fn diagnose_folds(
     let mut o2 = opts.clone();
     o2.relinearize = false;
     o2.shift = moved;
-    if opts.dynamic_play_selection {
-        (o2.library.dynamic_play_clearance, o2.library.dynamic_axial_play) =
-            relinearize::dynamic_play_references(model, &first, &cands);
+    (o2.library.dynamic_play_clearance, o2.library.dynamic_axial_play) = references;
+    // With the play's dynamics: once per contact damping, the smallest cross-validated
+    // error kept.
+    let dampings: Vec<Option<f64>> = if dynamic && !opts.play_contact_dampings.is_empty() {
+        opts.play_contact_dampings.iter().map(|c| Some(*c)).collect()
+    } else {
+        vec![o2.library.play_contact_damping]
+    };
+    let share = 0.4 / dampings.len() as f64;
+    let mut pass = |k: usize| {
+        let mut o = o2.clone();
+        o.library.play_contact_damping = dampings[k];
+        diagnose_once(&shifted, fit, holdout, &o, |s, f| {
+            progress(s, 0.5 + share * (k as f64 + f))
+        })
+    };
+    let mut second = pass(0)?;
+    let mut tried = vec![(dampings[0], second.cv_rms_noise_units)];
+    for k in 1..dampings.len() {
+        let d = pass(k)?;
+        tried.push((dampings[k], d.cv_rms_noise_units));
+        if d.cv_rms_noise_units < second.cv_rms_noise_units {
+            second = d;
+        }
     }
-    let second = diagnose_once(&shifted, fit, holdout, &o2, |s, f| progress(s, 0.5 + 0.4 * f))?;
+    if dynamic {
+        second.dynamic_play_damping_cv = tried.into_iter().filter_map(|(c, cv)| Some((c?, cv))).collect();
+    }
     let mut d = relinearize::against_nominal(model, first, second, &cands);
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
     adequacy::refresh(&mut d);
@@ -450,6 +481,10 @@ fn diagnose_once(
         play_dynamics: None,
         dynamic_play_reference: opts.library.dynamic_play_clearance,
         dynamic_axial_play_reference: opts.library.dynamic_axial_play,
+        dynamic_play_damping: (opts.library.dynamic_play_clearance.is_some()
+            || opts.library.dynamic_axial_play.is_some())
+        .then(|| opts.library.play_contact_damping.unwrap_or(BALL_CONTACT.damping)),
+        dynamic_play_damping_cv: vec![],
         estimates,
         correlations,
         confounded,
