@@ -577,6 +577,23 @@ pub(crate) mod fixtures {
 mod tests {
     use super::*;
 
+    /// `n` samples 2 ms apart, the joint at sample i `play(i)`.
+    fn every_2_ms<'a>(
+        n: usize,
+        play: impl Fn(usize) -> &'a PlayDynamics,
+        transmission: &'a TransmissionDynamics,
+    ) -> Vec<Option<PlaySample<'a>>> {
+        (0..n)
+            .map(|i| {
+                Some(PlaySample {
+                    t: 0.002 * i as f64,
+                    play: play(i),
+                    transmission,
+                })
+            })
+            .collect()
+    }
+
     /// One drive, a joint whose side j weighs 1 kg and hangs on it: axes x and y, n = z. The
     /// nominal joint holds side j up with 200 N; with play, side j sits 2h lower (each pair
     /// takes half the drop) plus 200 N over the four balls' stiffness along n (4·k·¼ = k),
@@ -590,15 +607,7 @@ mod tests {
         let dynamics = |load: f64| fixtures::hanging_joint(load, tau_per_m);
         let transmission = fixtures::one_drive();
         let (up, down) = (dynamics(200.0), dynamics(-200.0));
-        let samples: Vec<Option<PlaySample>> = (0..400)
-            .map(|i| {
-                Some(PlaySample {
-                    t: 0.002 * i as f64,
-                    play: if i < 200 { &up } else { &down },
-                    transmission: &transmission,
-                })
-            })
-            .collect();
+        let samples = every_2_ms(400, |i| if i < 200 { &up } else { &down }, &transmission);
         let r = respond(&samples, &JointPlay::radial(h), &BALL_CONTACT);
         let sits = -2.0 * h - 200.0 / k;
         let first = r[0].as_ref().unwrap();
@@ -630,15 +639,7 @@ mod tests {
     fn without_play_a_hanging_joint_sits_on_its_balls_compliance() {
         let joint = fixtures::hanging_joint(200.0, 0.0);
         let transmission = fixtures::one_drive();
-        let samples: Vec<Option<PlaySample>> = (0..50)
-            .map(|i| {
-                Some(PlaySample {
-                    t: 0.002 * i as f64,
-                    play: &joint,
-                    transmission: &transmission,
-                })
-            })
-            .collect();
+        let samples = every_2_ms(50, |_| &joint, &transmission);
         let r = respond(&samples, &JointPlay::default(), &BALL_CONTACT);
         let sits = -200.0 / BALL_CONTACT.stiffness;
         for at in [&r[0], &r[49]] {
@@ -659,15 +660,7 @@ mod tests {
         let mut pull = push.clone();
         pull.reaction = [-60.0, 0.0, 0.0, 0.0];
         let transmission = fixtures::one_drive();
-        let samples: Vec<Option<PlaySample>> = (0..400)
-            .map(|i| {
-                Some(PlaySample {
-                    t: 0.002 * i as f64,
-                    play: if i < 200 { &push } else { &pull },
-                    transmission: &transmission,
-                })
-            })
-            .collect();
+        let samples = every_2_ms(400, |i| if i < 200 { &push } else { &pull }, &transmission);
         let r = respond(&samples, &JointPlay::axial(h_a), &BALL_CONTACT);
         let sits = -(0.5 * h_a + 90.0 / k);
         for (at, sign) in [(&r[0], 1.0), (&r[199], 1.0), (&r[399], -1.0)] {
@@ -701,15 +694,7 @@ mod tests {
         let mut joint = fixtures::hanging_joint(80.0, 0.0);
         joint.reaction = [0.0, 60.0, 80.0, 0.0];
         let transmission = fixtures::one_drive();
-        let samples: Vec<Option<PlaySample>> = (0..200)
-            .map(|i| {
-                Some(PlaySample {
-                    t: 0.002 * i as f64,
-                    play: &joint,
-                    transmission: &transmission,
-                })
-            })
-            .collect();
+        let samples = every_2_ms(200, |_| &joint, &transmission);
         let r = respond(&samples, &JointPlay::radial(h), &BALL_CONTACT);
         for at in [&r[0], &r[199]] {
             let at = at.as_ref().unwrap();
