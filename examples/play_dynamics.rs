@@ -171,6 +171,11 @@ fn main() -> Result<(), Box<dyn Error>> {
                 }
             }
             let rms = |s: f64| (s / m.max(1) as f64).sqrt() / sigma;
+            if m == 0 {
+                // (The reduced model gave no response in the window: nothing compared.)
+                line.push_str(&format!("  {w0:.2}–{w1:.2} s: no samples compared"));
+                continue;
+            }
             line.push_str(&format!("  {w0:.2}–{w1:.2} s: {:.2} → {:.2}", rms(s0), rms(s1)));
         }
         // Beside it, the model's response with the play alone (its balls' compliance not
