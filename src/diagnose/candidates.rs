@@ -609,9 +609,14 @@ pub fn columns(
     let play_effect: Vec<[std::cell::OnceCell<TorqueSeries>; 2]> =
         (0..sites).map(|_| Default::default()).collect();
     let response_of = |site: usize, direction: PlayDirection| -> Option<(f64, &TorqueSeries)> {
-        let (slot, play) = match direction {
-            PlayDirection::Radial => (0, JointPlay::radial(play_references[0]?)),
-            PlayDirection::Axial => (1, JointPlay::axial(play_references[1]?)),
+        let slot = match direction {
+            PlayDirection::Radial => 0,
+            PlayDirection::Axial => 1,
+        };
+        let reference = play_references[slot]?;
+        let play = match direction {
+            PlayDirection::Radial => JointPlay::radial(reference),
+            PlayDirection::Axial => JointPlay::axial(reference),
         };
         let effect = play_effect.get(site)?[slot].get_or_init(|| {
             let with = run(site, &play);
@@ -627,7 +632,7 @@ pub fn columns(
                 })
                 .collect()
         });
-        Some((play.radial + play.axial, effect))
+        Some((reference, effect))
     };
     let dynamic = dynamics.iter().any(|x| x.is_some());
     let arm_rate: Vec<Vec<f64>> = (0..model.joints())
@@ -1123,9 +1128,10 @@ mod tests {
     /// radial-play candidate gets drive-torque rows from the reduced dynamic play model: where
     /// the load has held its sign for a while, the joint sits against its wall, 2h + F/k from
     /// the centre (each trunnion pair takes half the shift along n; the four balls' stiffness
-    /// along n is k), and the drive reads T_e times that — per metre of clearance, the column. The load reverses and the column with it. Without
-    /// the option the candidate moves the tracker only; the tracker rows are the same either
-    /// way, and axial play gets no torque rows until asked to
+    /// along n is k), and the drive reads T_e times that — per metre of clearance, the
+    /// column. The load reverses and the column with it. Without the option the candidate
+    /// moves the tracker only; the tracker rows are the same either way, and axial play gets
+    /// no torque rows until asked to
     /// ([`LibraryOptions::dynamic_axial_play`]): then, the load being across both trunnion
     /// axes, its effect — with the play less without — is nil.
     #[test]
