@@ -6,8 +6,11 @@
 //! predicts for the same play: its response with the play less without (as the axial-play
 //! candidates use it) and, in parentheses over the whole record, its response alone (as the
 //! radial-play candidates use it: the truth's balls fit their bores without radial
-//! clearance, a much stiffer contact than the model's). Prints the RMS per drive and time
-//! window in torque-noise units and writes plots.
+//! clearance, a much stiffer contact than the model's). Then the same for the tracker (the
+//! platform centre): the truth's effect against the reduced model's (its play coordinates
+//! and extra wind-up through the nominal model's output sensitivities; with the play less
+//! without in parentheses) and the quasi-static shift at load scales of 1, 5 and 20 N.
+//! Prints the RMS per channel and time window in noise units and writes plots.
 //!
 //! ```text
 //! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m] [ball damping N·s/m]
@@ -20,7 +23,9 @@
 use lash::contact::BearingDesign;
 use lash::diagnose::model::InverseDynamicsModel;
 use lash::diagnose::mr2120::mr2120_model;
-use lash::diagnose::play_dynamics::{respond, BallContact, JointPlay, PlaySample, BALL_CONTACT};
+use lash::diagnose::play_dynamics::{
+    respond, BallContact, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
+};
 use lash::diagnose::suite::{lumped::excitation, SuiteOptions};
 use lash::mechanisms::mr2120::clearance::LUBRICATED_DAMPING;
 use lash::mechanisms::mr2120::record::RecordOptions;
@@ -90,6 +95,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let t = &tight.t;
     let n = t.len();
     let mut lin = Vec::with_capacity(n);
+    let mut sens = Vec::with_capacity(n);
     let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
     for i in 0..n {
         let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
@@ -99,6 +105,12 @@ fn main() -> Result<(), Box<dyn Error>> {
             .map(|j| (tight.qd[j][b] - tight.qd[j][a]) / (t[b] - t[a]))
             .collect();
         model.evaluate_at(t[i], &theta, &q, &qd, &qdd, &mut tau, &mut y);
+        // (Before the play's derivatives, which perturb the model's cached sample.)
+        sens.push(
+            model
+                .output_sensitivities(&theta, &q, &qd, &qdd, &y)
+                .and_then(|mut s| (site < s.play.len()).then(|| s.play.swap_remove(site))),
+        );
         let play = model
             .play_dynamics(&theta, &q, &qd, &qdd)
             .and_then(|mut s| (site < s.len()).then(|| s.swap_remove(site)));
@@ -220,6 +232,138 @@ fn main() -> Result<(), Box<dyn Error>> {
         }
         .save(&out.join(format!("drive-{}", drive.to_lowercase())))?;
     }
-    println!("plots: {}/drive-{{a,b,c}}.png / .svg", out.display());
+
+    // The tracker: the play's effect on the platform centre (truth with clearance − without)
+    // against the quasi-static play candidates' prediction (the joint where its nominal load
+    // pushes it, smoothed over a load scale) and the reduced dynamic model's (its play
+    // coordinates and its transmissions' extra wind-up, through the nominal model's output
+    // sensitivities), in tracker-noise units.
+    // −∂y/∂q_j along the recording (the arm lagging its encoder), central differences of the
+    // whole model, its wind-up included (as the candidates take them).
+    let walk = |shift: Option<(usize, f64)>| -> Vec<[f64; 3]> {
+        let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
+        (0..n)
+            .map(|i| {
+                let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+                let mut q: Vec<f64> = (0..3).map(|j| tight.q[j][i]).collect();
+                if let Some((j, h)) = shift {
+                    q[j] += h;
+                }
+                let qd: Vec<f64> = (0..3).map(|j| tight.qd[j][i]).collect();
+                let qdd: Vec<f64> = (0..3)
+                    .map(|j| (tight.qd[j][b] - tight.qd[j][a]) / (t[b] - t[a]))
+                    .collect();
+                model.evaluate_at(t[i], &theta, &q, &qd, &qdd, &mut tau, &mut y);
+                [y[0], y[1], y[2]]
+            })
+            .collect()
+    };
+    let step = 1e-6;
+    let lag: Vec<Vec<[f64; 3]>> = (0..3)
+        .map(|j| {
+            let (plus, minus) = (walk(Some((j, -step))), walk(Some((j, step))));
+            plus.iter()
+                .zip(&minus)
+                .map(|(a, b)| std::array::from_fn(|c| (a[c] - b[c]) / (2.0 * step)))
+                .collect()
+        })
+        .collect();
+    let sigma_y = ropts.noise.tracker;
+    let axis = ["x", "y", "z"];
+    let quasi_static = |i: usize, c: usize, load_scale: f64| -> Option<f64> {
+        let p = sens[i].as_ref()?;
+        let sh = p.play.shift(&p.z_i, &p.z_j, &p.force, &p.moment, load_scale);
+        Some(
+            h * ((0..3)
+                .map(|a| p.dy_dshift[a][c] * sh.radial_translation[a])
+                .sum::<f64>()
+                + p.dy_dtilt[c] * sh.radial_tilt)
+                + h_a
+                    * (0..3)
+                        .map(|a| p.dy_dshift[a][c] * sh.axial_translation[a])
+                        .sum::<f64>(),
+        )
+    };
+    let tracker_of = |r: &[Option<PlayResponse>], i: usize, c: usize| -> Option<f64> {
+        let p = sens[i].as_ref()?;
+        let r = r[i].as_ref()?;
+        Some(
+            (0..3).map(|a| p.dy_dshift[a][c] * r.offset[a]).sum::<f64>()
+                + p.dy_dtilt[c] * r.offset[3]
+                + (0..3).map(|j| r.windup[j] * lag[j][i][c]).sum::<f64>(),
+        )
+    };
+    let dynamic = |i: usize, c: usize| tracker_of(&loose_model, i, c);
+    let dynamic_less_without =
+        |i: usize, c: usize| Some(tracker_of(&loose_model, i, c)? - tracker_of(&tight_model, i, c)?);
+    println!(
+        "the tracker (platform centre): the play's effect and what each prediction leaves of it, RMS in tracker-noise units ({sigma_y} m)"
+    );
+    for c in 0..3 {
+        let effect = |i: usize| loose.pose[c][i] - tight.pose[c][i];
+        let mut line = format!("  platform {}:", axis[c]);
+        for (w0, w1) in windows {
+            let rms = |f: &dyn Fn(usize) -> Option<f64>| {
+                let (mut s, mut m) = (0.0, 0usize);
+                for i in (0..n).filter(|&i| t[i] >= w0 && t[i] < w1) {
+                    if let (Some(x), Some(_)) = (f(i), dynamic(i, c)) {
+                        s += (effect(i) - x).powi(2);
+                        m += 1;
+                    }
+                }
+                (m > 0).then(|| (s / m as f64).sqrt() / sigma_y)
+            };
+            let Some(e) = rms(&|_| Some(0.0)) else {
+                line.push_str(&format!("  {w0:.2}–{w1:.2} s: no samples compared"));
+                continue;
+            };
+            let fmt = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.2}"));
+            line.push_str(&format!(
+                "  {w0:.2}–{w1:.2} s: {e:.2} → dynamic {} (less without {}), quasi-static 1/5/20 N {}/{}/{}",
+                fmt(rms(&|i| dynamic(i, c))),
+                fmt(rms(&|i| dynamic_less_without(i, c))),
+                fmt(rms(&|i| quasi_static(i, c, 1.0))),
+                fmt(rms(&|i| quasi_static(i, c, 5.0))),
+                fmt(rms(&|i| quasi_static(i, c, 20.0))),
+            ));
+        }
+        println!("{line}");
+        let points = |f: &dyn Fn(usize) -> Option<f64>| -> Vec<(f64, f64)> {
+            (0..n)
+                .filter(|&i| t[i] >= 0.6)
+                .filter_map(|i| f(i).map(|v| (t[i], v * 1e6)))
+                .collect()
+        };
+        LineChart {
+            title: format!(
+                "platform {}: the play of joint {name} ({:.1} µm radial, {:.1} µm axial), recording {recording}",
+                axis[c],
+                h * 1e6,
+                h_a * 1e6
+            ),
+            x_label: "t [s]".into(),
+            y_label: "µm".into(),
+            series: vec![
+                Series {
+                    name: "truth: with clearance − without".into(),
+                    points: points(&|i| Some(effect(i))),
+                },
+                Series {
+                    name: "reduced dynamic play model".into(),
+                    points: points(&|i| dynamic(i, c)),
+                },
+                Series {
+                    name: "quasi-static, 5 N load scale".into(),
+                    points: points(&|i| quasi_static(i, c, 5.0)),
+                },
+            ],
+            y_range: None,
+        }
+        .save(&out.join(format!("platform-{}", axis[c])))?;
+    }
+    println!(
+        "plots: {0}/drive-{{a,b,c}}.png / .svg, {0}/platform-{{x,y,z}}.png / .svg",
+        out.display()
+    );
     Ok(())
 }

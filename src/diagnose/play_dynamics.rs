@@ -140,6 +140,9 @@ pub struct PlaySample<'a> {
 pub struct PlayResponse {
     /// Change of each drive's sensed torque, K·δw + D·δẇ (N·m, or N).
     pub torque: Vec<f64>,
+    /// Change of each drive's transmission wind-up δw (rad, or m): the arm lags its encoder
+    /// by δw more than in the nominal model.
+    pub windup: Vec<f64>,
     /// The play coordinates e: shift along base x, y, z (m), tilt about n (rad).
     pub offset: [f64; 4],
     /// The bore wall's normal force on each ball (side i's two, then side j's), N.
@@ -513,6 +516,7 @@ pub fn respond(
             torque: (0..nj)
                 .map(|a| k[a] * x[a] + s.transmission.damping[a] * v[a])
                 .collect(),
+            windup: x.rows(0, nj).iter().copied().collect(),
             offset: [x[nj], x[nj + 1], x[nj + 2], x[nj + 3]],
             radial_forces: std::array::from_fn(|b| {
                 let mut sink = [0.0; NP];

@@ -202,19 +202,23 @@ fn diagnose_folds(
     if dynamic {
         second.dynamic_play_damping_cv = tried.into_iter().filter_map(|(c, cv)| Some((c?, cv))).collect();
     }
-    let mut d = relinearize::against_nominal(model, first, second, &cands);
+    // The second pass's own library (its play candidates may differ from the first's:
+    // `LibraryOptions::dynamic_play_tracker`).
+    let cands2 = library(model, &o2.library);
+    let mut d = relinearize::against_nominal(model, first, second, &cands2);
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
     adequacy::refresh(&mut d);
     let set: Vec<usize> = d
         .selected
         .iter()
-        .filter_map(|n| cands.iter().position(|c| &c.name == n))
+        .filter_map(|n| cands2.iter().position(|c| &c.name == n))
         .collect();
-    d.friction = super::equivalents::joint_friction(model, &set, &cands, &d.estimates);
+    d.friction = super::equivalents::joint_friction(model, &set, &cands2, &d.estimates);
     if d.dynamic_play_reference.is_none() && d.dynamic_axial_play_reference.is_none() {
-        d.play_dynamics = play_dynamics_check(model, &shifted, &d, fit, holdout, &o2, &cands, &mut progress)?;
+        d.play_dynamics =
+            play_dynamics_check(model, &shifted, &d, fit, holdout, &o2, &cands2, &mut progress)?;
     }
-    d.verdict = verdict_text(model, &d, &cands);
+    d.verdict = verdict_text(model, &d, &cands2);
     progress("done", 1.0);
     Ok(d)
 }
@@ -250,6 +254,8 @@ fn play_dynamics_check(
     o3.relinearize = false;
     o3.library.only = d.selected.clone();
     o3.library.dynamic_play_clearance = Some(h);
+    // (The check refits the same candidates, their quasi-static tracker rows included.)
+    o3.library.dynamic_play_tracker = false;
     // A check that cannot run (a refit the data do not support) leaves the diagnosis as it is.
     let Ok(refit) = diagnose_once(moved, fit, holdout, &o3, |_, _| {}) else {
         return Ok(None);
