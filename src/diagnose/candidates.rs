@@ -1375,5 +1375,23 @@ mod tests {
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(c, _)| *c);
         assert_eq!(d.dynamic_play_damping, best);
+        // The reference plays: the first pass's first; a second set only if the selection
+        // sized a play more than the factor away from it; the kept one cross-validates best.
+        let refs = &d.dynamic_play_reference_cv;
+        assert!(!refs.is_empty() && refs.len() <= 2, "{refs:?}");
+        if let [(r0, a0, _), (r1, a1, _)] = refs[..] {
+            let moved = |x: Option<f64>, y: Option<f64>| match (x, y) {
+                (Some(x), Some(y)) => {
+                    y > x * crate::diagnose::RESIZE_FACTOR || y < x / crate::diagnose::RESIZE_FACTOR
+                }
+                _ => false,
+            };
+            assert!(moved(r0, r1) || moved(a0, a1), "{refs:?}");
+        }
+        let kept = refs.iter().min_by(|a, b| a.2.total_cmp(&b.2)).expect("one");
+        assert_eq!(
+            (kept.0, kept.1),
+            (d.dynamic_play_reference, d.dynamic_axial_play_reference)
+        );
     }
 }

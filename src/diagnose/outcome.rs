@@ -202,6 +202,13 @@ pub struct Diagnosis {
     /// Each damping tried (N·s/m) and the selection's leave-one-recording-out RMS with it
     /// (noise units).
     pub dynamic_play_damping_cv: Vec<(f64, f64)>,
+    /// The reference plays tried at the kept damping — (radial clearance, axial play) in m,
+    /// `None` where that direction's candidates were quasi-static — and the selection's
+    /// leave-one-recording-out RMS with them (noise units): the first pass's estimates, then,
+    /// where the selection sized a play more than [`RESIZE_FACTOR`](super::RESIZE_FACTOR)
+    /// away from its reference, its estimates. The kept selection is the one with the
+    /// smallest. Empty when the play candidates were quasi-static.
+    pub dynamic_play_reference_cv: Vec<(Option<f64>, Option<f64>, f64)>,
     /// One-paragraph verdict.
     pub verdict: String,
     /// Leave-one-recording-out residual RMS of the final model on the fit recordings, in

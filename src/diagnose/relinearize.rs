@@ -78,6 +78,33 @@ pub(super) fn dynamic_play_references(
     (radial.or(axial), axial.or(radial))
 }
 
+/// How far (as a factor either way) a selected play's estimate may be from the reference
+/// play its candidate's columns were taken at before the selection is repeated at the
+/// estimate ([`Diagnosis::dynamic_play_reference_cv`]).
+pub const RESIZE_FACTOR: f64 = 1.25;
+
+/// New reference plays (radial, axial; m) when `d`, a selection made with the play
+/// candidates' columns at `references`, sized a play of some direction more than
+/// [`RESIZE_FACTOR`] away from that direction's reference: per direction the estimate of the
+/// first play of that direction it selected, else the reference it had. `None` when every
+/// selected play is within the factor (or none was selected).
+pub(super) fn resized_references(
+    model: &dyn InverseDynamicsModel,
+    d: &Diagnosis,
+    cands: &[Candidate],
+    references: (Option<f64>, Option<f64>),
+) -> Option<(Option<f64>, Option<f64>)> {
+    use super::candidates::PlayDirection;
+    let own = |direction| first_play(model, d, cands, direction).map(|(_, h)| h);
+    let (radial, axial) = (own(PlayDirection::Radial), own(PlayDirection::Axial));
+    let far = |reference: Option<f64>, estimate: Option<f64>| match (reference, estimate) {
+        (Some(r), Some(e)) => e > r * RESIZE_FACTOR || e < r / RESIZE_FACTOR,
+        _ => false,
+    };
+    (far(references.0, radial) || far(references.1, axial))
+        .then(|| (radial.or(references.0), axial.or(references.1)))
+}
+
 /// The first play of `direction` the diagnosis selected, with its positive estimate (m).
 fn first_play(
     model: &dyn InverseDynamicsModel,

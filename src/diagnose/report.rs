@@ -163,8 +163,9 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
     if let Some(h) = d.dynamic_play_reference {
         let _ = writeln!(
             m,
-            "- The radial-play candidates' drive torques: the reduced dynamic play model at a clearance of {:.2} µm (the first pass's estimate), scaled in proportion to each candidate's clearance.",
-            h * 1e6
+            "- The radial-play candidates' drive torques and tracker: the reduced dynamic play model at a clearance of {:.2} µm ({}), scaled in proportion to each candidate's clearance.",
+            h * 1e6,
+            reference_source(d)
         );
     }
     if let Some(c) = d.dynamic_play_damping {
@@ -182,11 +183,36 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
     if let Some(h) = d.dynamic_axial_play_reference {
         let _ = writeln!(
             m,
-            "- The axial-play candidates' drive torques: the reduced dynamic play model at an axial play of {:.2} µm (the first pass's estimate of a play), scaled in proportion to each candidate's play.",
-            h * 1e6
+            "- The axial-play candidates' drive torques and tracker: the reduced dynamic play model at an axial play of {:.2} µm ({}), scaled in proportion to each candidate's play.",
+            h * 1e6,
+            reference_source(d)
+        );
+    }
+    if d.dynamic_play_reference_cv.len() > 1 {
+        let um = |h: Option<f64>| h.map_or("quasi-static".to_string(), |h| format!("{:.2} µm", h * 1e6));
+        let tried: Vec<String> = d
+            .dynamic_play_reference_cv
+            .iter()
+            .map(|(r, a, cv)| format!("radial {}, axial {}: {cv:.3}", um(*r), um(*a)))
+            .collect();
+        let _ = writeln!(
+            m,
+            "- The reference plays, tried (leave-one-recording-out RMS in noise units): {}; the smallest kept.",
+            tried.join("; ")
         );
     }
     let _ = writeln!(m);
+}
+
+/// Where the reduced dynamic play model's reference plays came from, as a parenthesis.
+fn reference_source(d: &Diagnosis) -> &'static str {
+    let kept = |(r, a, _): &(Option<f64>, Option<f64>, f64)| {
+        *r == d.dynamic_play_reference && *a == d.dynamic_axial_play_reference
+    };
+    match d.dynamic_play_reference_cv.iter().position(kept) {
+        Some(k) if k > 0 => "the selection's own estimate of a play, after a pass at the first pass's",
+        _ => "the first pass's estimate of a play",
+    }
 }
 
 /// Writes the report into `dir` (created if needed); returns the Markdown path.

@@ -182,18 +182,20 @@ fn diagnose_folds(
     } else {
         vec![o2.library.play_contact_damping]
     };
-    let share = 0.4 / dampings.len() as f64;
-    let mut pass = |k: usize| {
+    // (One share of the progress per damping, and one for a pass at resized references.)
+    let share = 0.4 / (dampings.len() + usize::from(dynamic)) as f64;
+    let mut pass = |k: usize, damping: Option<f64>, refs: (Option<f64>, Option<f64>)| {
         let mut o = o2.clone();
-        o.library.play_contact_damping = dampings[k];
+        o.library.play_contact_damping = damping;
+        (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) = refs;
         diagnose_once(&shifted, fit, holdout, &o, |s, f| {
             progress(s, 0.5 + share * (k as f64 + f))
         })
     };
-    let mut second = pass(0)?;
+    let mut second = pass(0, dampings[0], references)?;
     let mut tried = vec![(dampings[0], second.cv_rms_noise_units)];
     for k in 1..dampings.len() {
-        let d = pass(k)?;
+        let d = pass(k, dampings[k], references)?;
         tried.push((dampings[k], d.cv_rms_noise_units));
         if d.cv_rms_noise_units < second.cv_rms_noise_units {
             second = d;
@@ -203,8 +205,26 @@ fn diagnose_folds(
         second.dynamic_play_damping_cv = tried.into_iter().filter_map(|(c, cv)| Some((c?, cv))).collect();
     }
     // The second pass's own library (its play candidates may differ from the first's:
-    // `LibraryOptions::dynamic_play_tracker`).
+    // `LibraryOptions::dynamic_play_tracker`; not with the references, see below).
     let cands2 = library(model, &o2.library);
+    // The play candidates' columns are secants, exact at their reference play only: where
+    // the kept pass sized a play far from its reference, once more at its estimates (the
+    // kept damping), kept if it cross-validates better.
+    if dynamic {
+        let resized = relinearize::resized_references(model, &second, &cands2, references);
+        second.dynamic_play_reference_cv = vec![(references.0, references.1, second.cv_rms_noise_units)];
+        if let Some(refs) = resized {
+            let mut d = pass(dampings.len(), second.dynamic_play_damping, refs)?;
+            let cv = d.cv_rms_noise_units;
+            let mut log = std::mem::take(&mut second.dynamic_play_reference_cv);
+            log.push((refs.0, refs.1, cv));
+            if cv < second.cv_rms_noise_units {
+                d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
+                second = d;
+            }
+            second.dynamic_play_reference_cv = log;
+        }
+    }
     let mut d = relinearize::against_nominal(model, first, second, &cands2);
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
     adequacy::refresh(&mut d);
@@ -491,6 +511,7 @@ fn diagnose_once(
             || opts.library.dynamic_axial_play.is_some())
         .then(|| opts.library.play_contact_damping.unwrap_or(BALL_CONTACT.damping)),
         dynamic_play_damping_cv: vec![],
+        dynamic_play_reference_cv: vec![],
         estimates,
         correlations,
         confounded,

@@ -190,12 +190,12 @@ pub fn cases() -> Vec<Case> {
         ),
         mk(
             "axial-D",
-            "10 µm axial play in the trunnion bearings of joint D (elbow of leg A)",
+            "4 µm axial play in the trunnion bearings of joint D (elbow of leg A)",
             Concealed,
-            |s| s.joints[0] = bearing(0.0, 1e-5),
+            |s| s.joints[0] = bearing(0.0, 4e-6),
             None,
             vec![
-                t("axial play in joint D", 1e-5, true),
+                t("axial play in joint D", 4e-6, true),
                 Truth::named("error in joint compliance along leg A"),
             ],
         ),
