@@ -169,6 +169,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         contact.stiffness,
         contact.damping
     );
+    let what = format!(
+        "the play of joint {name} ({:.1} µm radial, {:.1} µm axial), recording {recording}",
+        h * 1e6,
+        h_a * 1e6
+    );
     for (k, drive) in ["A", "B", "C"].iter().enumerate() {
         let effect = |i: usize| loose.tau[k][i] - tight.tau[k][i];
         let model_at = |i: usize| reduced[i].as_ref().map(|r| r[k]);
@@ -210,26 +215,13 @@ fn main() -> Result<(), Box<dyn Error>> {
                 .filter_map(|i| f(i).map(|v| (t[i], v)))
                 .collect()
         };
-        LineChart {
-            title: format!(
-                "drive {drive} torque: the play of joint {name} ({:.1} µm radial, {:.1} µm axial), recording {recording}",
-                h * 1e6,
-                h_a * 1e6
-            ),
-            x_label: "t [s]".into(),
-            y_label: "N·m".into(),
-            series: vec![
-                Series {
-                    name: "truth: with clearance − without".into(),
-                    points: points(&|i| Some(effect(i))),
-                },
-                Series {
-                    name: "reduced dynamic play model".into(),
-                    points: points(&model_at),
-                },
-            ],
-            y_range: None,
-        }
+        effect_chart(
+            format!("drive {drive} torque: {what}"),
+            "N·m",
+            points(&|i| Some(effect(i))),
+            points(&model_at),
+            vec![],
+        )
         .save(&out.join(format!("drive-{}", drive.to_lowercase())))?;
     }
 
@@ -334,31 +326,16 @@ fn main() -> Result<(), Box<dyn Error>> {
                 .filter_map(|i| f(i).map(|v| (t[i], v * 1e6)))
                 .collect()
         };
-        LineChart {
-            title: format!(
-                "platform {}: the play of joint {name} ({:.1} µm radial, {:.1} µm axial), recording {recording}",
-                axis[c],
-                h * 1e6,
-                h_a * 1e6
-            ),
-            x_label: "t [s]".into(),
-            y_label: "µm".into(),
-            series: vec![
-                Series {
-                    name: "truth: with clearance − without".into(),
-                    points: points(&|i| Some(effect(i))),
-                },
-                Series {
-                    name: "reduced dynamic play model".into(),
-                    points: points(&|i| dynamic(i, c)),
-                },
-                Series {
-                    name: "quasi-static, 5 N load scale".into(),
-                    points: points(&|i| quasi_static(i, c, 5.0)),
-                },
-            ],
-            y_range: None,
-        }
+        effect_chart(
+            format!("platform {}: {what}", axis[c]),
+            "µm",
+            points(&|i| Some(effect(i))),
+            points(&|i| dynamic(i, c)),
+            vec![Series {
+                name: "quasi-static, 5 N load scale".into(),
+                points: points(&|i| quasi_static(i, c, 5.0)),
+            }],
+        )
         .save(&out.join(format!("platform-{}", axis[c])))?;
     }
     println!(
@@ -366,4 +343,33 @@ fn main() -> Result<(), Box<dyn Error>> {
         out.display()
     );
     Ok(())
+}
+
+/// A chart of a play's effect over time: the truth's (with clearance − without), the reduced
+/// dynamic model's and any `more` series, in `unit`.
+fn effect_chart(
+    title: String,
+    unit: &str,
+    truth: Vec<(f64, f64)>,
+    model: Vec<(f64, f64)>,
+    more: Vec<Series>,
+) -> LineChart {
+    let mut series = vec![
+        Series {
+            name: "truth: with clearance − without".into(),
+            points: truth,
+        },
+        Series {
+            name: "reduced dynamic play model".into(),
+            points: model,
+        },
+    ];
+    series.extend(more);
+    LineChart {
+        title,
+        x_label: "t [s]".into(),
+        y_label: unit.into(),
+        series,
+        y_range: None,
+    }
 }
