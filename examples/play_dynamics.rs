@@ -97,13 +97,18 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut lin = Vec::with_capacity(n);
     let mut sens = Vec::with_capacity(n);
     let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
-    for i in 0..n {
+    // The encoders' motion at sample i: angles, rates, rates differenced.
+    let motion_at = |i: usize| {
         let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
         let q: Vec<f64> = (0..3).map(|j| tight.q[j][i]).collect();
         let qd: Vec<f64> = (0..3).map(|j| tight.qd[j][i]).collect();
         let qdd: Vec<f64> = (0..3)
             .map(|j| (tight.qd[j][b] - tight.qd[j][a]) / (t[b] - t[a]))
             .collect();
+        (q, qd, qdd)
+    };
+    for i in 0..n {
+        let (q, qd, qdd) = motion_at(i);
         model.evaluate_at(t[i], &theta, &q, &qd, &qdd, &mut tau, &mut y);
         // (Before the play's derivatives, which perturb the model's cached sample.)
         sens.push(
@@ -236,15 +241,10 @@ fn main() -> Result<(), Box<dyn Error>> {
         let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
         (0..n)
             .map(|i| {
-                let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
-                let mut q: Vec<f64> = (0..3).map(|j| tight.q[j][i]).collect();
+                let (mut q, qd, qdd) = motion_at(i);
                 if let Some((j, h)) = shift {
                     q[j] += h;
                 }
-                let qd: Vec<f64> = (0..3).map(|j| tight.qd[j][i]).collect();
-                let qdd: Vec<f64> = (0..3)
-                    .map(|j| (tight.qd[j][b] - tight.qd[j][a]) / (t[b] - t[a]))
-                    .collect();
                 model.evaluate_at(t[i], &theta, &q, &qd, &qdd, &mut tau, &mut y);
                 [y[0], y[1], y[2]]
             })

@@ -587,7 +587,15 @@ pub fn columns(
     // Output sensitivities and the transmissions' dynamics per sample (walking the
     // recording again, so a model with internal dynamics answers at each sample's state;
     // only when outputs are recorded or a transmission is compliant).
-    let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta0, j) != 0.0);
+    // The drives whose transmissions are compliant (their arms lag their encoders).
+    let compliant_drives: Vec<usize> = (0..model.joints())
+        .filter(|&j| model.drive_compliance(&theta0, j) != 0.0)
+        .collect();
+    let compliant = !compliant_drives.is_empty();
+    // Each output's row among the channels, if recorded.
+    let output_row: Vec<Option<usize>> = (0..model.outputs())
+        .map(|k| output_rows.iter().find(|(_, kk)| *kk == k).map(|(r, _)| *r))
+        .collect();
     // The reduced dynamic play model's data, only where its torque rows are asked for: the
     // reference play per direction (radial, axial).
     let has_torques = chans.iter().any(|c| matches!(c, Channel::Torque(_)));
@@ -769,9 +777,7 @@ pub fn columns(
         let mut c = vec![0.0; nc * n];
         if dynamic {
             let nj = model.joints();
-            let drives: Vec<usize> = (0..nj)
-                .filter(|&k| model.drive_compliance(&theta0, k) != 0.0)
-                .collect();
+            let drives = &compliant_drives;
             let response = transmission::joint_torque_response(&d.t, &dynamics, j, g);
             for (i, x) in response.iter().enumerate() {
                 let Some((w, wd)) = x else { continue };
@@ -782,7 +788,7 @@ pub fn columns(
                         c[r * n + i] = k[a] * w[a] + dy.damping[a] * wd[a];
                     }
                 }
-                for &b in &drives {
+                for &b in drives {
                     let l = lag_of(b);
                     for &(r, _) in &output_rows {
                         c[r * n + i] += w[b] * l[r * n + i];
@@ -908,15 +914,12 @@ pub fn columns(
                     if let Some((h, Some(r))) =
                         dynamic_effect.map(|(h, e)| (h, e.get(i).and_then(|x| x.as_ref())))
                     {
-                        let r_out = output_rows.iter().find(|(_, kk)| *kk == k).map(|(r, _)| *r);
                         let v = ((0..3).map(|c| p.dy_dshift[c][k] * r.offset[c]).sum::<f64>()
                             + p.dy_dtilt[k] * r.offset[3]
-                            + r_out.map_or(0.0, |ro| {
-                                r.windup
+                            + output_row[k].map_or(0.0, |ro| {
+                                compliant_drives
                                     .iter()
-                                    .enumerate()
-                                    .filter(|(b, _)| model.drive_compliance(&theta0, *b) != 0.0)
-                                    .map(|(b, w)| w * lag_of(b)[ro * n + i])
+                                    .filter_map(|&b| Some(r.windup.get(b)? * lag_of(b)[ro * n + i]))
                                     .sum::<f64>()
                             }))
                             / h;
