@@ -13,10 +13,15 @@
 //! Prints the RMS per channel and time window in noise units and writes plots.
 //!
 //! ```text
-//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m] [ball damping N·s/m]
+//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes]
 //! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics
 //! cargo run --release --example play_dynamics -- D 0,1e-5 5 out/play-dynamics-axial
+//! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics-relin 1e8 200 2.5,3.1 1
 //! ```
+//! The last: the reduced model with the play re-linearised
+//! ([`InverseDynamicsModel::play_dynamics_at`](lash::diagnose::model::InverseDynamicsModel::play_dynamics_at))
+//! about its own motion of the first pass at every sample in the plot window, once; the
+//! tracker's sensitivities stay the sample's (its prediction then mixes the two).
 //! (about a minute: two truth simulations and the nominal model's play derivatives at every
 //! sample).
 
@@ -65,6 +70,14 @@ fn main() -> Result<(), Box<dyn Error>> {
             .map(|s| s.parse())
             .transpose()?
             .unwrap_or(BALL_CONTACT.damping),
+    };
+    // Re-linearisation passes in the plot window (default none).
+    let passes: usize = args.get(7).map(|s| s.parse()).transpose()?.unwrap_or(0);
+    // The plots' time window, s (default from 0.6 s, after the start-up, to the end).
+    let (plot_from, plot_to): (f64, f64) = match args.get(6).map(|s| s.split_once(',')) {
+        None => (0.6, f64::INFINITY),
+        Some(Some((a, b))) => (a.parse()?, b.parse()?),
+        Some(None) => return Err(format!("plot window '{}': two times, s, as t0,t1", args[6]).into()),
     };
 
     // The truth, with and without clearance in the joint (a Hertz bearing both times).
@@ -129,6 +142,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 t,
                 play,
                 transmission,
+                about: None,
             })
         })
         .collect();
@@ -143,6 +157,47 @@ fn main() -> Result<(), Box<dyn Error>> {
         },
         &contact,
     );
+    let mut loose_model = loose_model;
+    // Re-linearised: the nominal model expanded about the last pass's motion of the play
+    // (its wind-up and play coordinates) at every sample of the plot window, `passes` times.
+    for pass in 0..passes {
+        let clock = std::time::Instant::now();
+        let mut points = vec![None; n];
+        for i in 0..n {
+            let (q, qd, qdd) = motion_at(i);
+            model.evaluate_at(t[i], &theta, &q, &qd, &qdd, &mut tau, &mut y);
+            if t[i] < plot_from || t[i] > plot_to {
+                continue;
+            }
+            if let Some(r) = &loose_model[i] {
+                points[i] = model.play_dynamics_at(&theta, &q, &qd, &qdd, site, &r.windup, r.offset);
+            }
+        }
+        let about: Vec<Option<PlaySample>> = samples
+            .iter()
+            .zip(&points)
+            .map(|(s, p)| {
+                s.map(|s| PlaySample {
+                    about: p.as_ref(),
+                    ..s
+                })
+            })
+            .collect();
+        loose_model = respond(
+            &about,
+            &JointPlay {
+                radial: h,
+                axial: h_a,
+            },
+            &contact,
+        );
+        eprintln!(
+            "re-linearisation pass {}: {} of {n} samples about the last pass's motion, {:.1} s",
+            pass + 1,
+            points.iter().flatten().count(),
+            clock.elapsed().as_secs_f64()
+        );
+    }
     let tight_model = respond(&samples, &JointPlay::default(), &contact);
     eprintln!(
         "the reduced model: {:.2} s for two runs",
@@ -216,7 +271,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         println!("{line}");
         let points = |f: &dyn Fn(usize) -> Option<f64>| -> Vec<(f64, f64)> {
             (0..n)
-                .filter(|&i| t[i] >= 0.6)
+                .filter(|&i| t[i] >= plot_from && t[i] <= plot_to)
                 .filter_map(|i| f(i).map(|v| (t[i], v)))
                 .collect()
         };
@@ -322,7 +377,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         println!("{line}");
         let points = |f: &dyn Fn(usize) -> Option<f64>| -> Vec<(f64, f64)> {
             (0..n)
-                .filter(|&i| t[i] >= 0.6)
+                .filter(|&i| t[i] >= plot_from && t[i] <= plot_to)
                 .filter_map(|i| f(i).map(|v| (t[i], v * 1e6)))
                 .collect()
         };

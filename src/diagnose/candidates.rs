@@ -653,6 +653,7 @@ pub fn columns(
                     t: d.t[i],
                     play: p.get(site)?,
                     transmission,
+                    about: None,
                 }),
                 _ => None,
             })

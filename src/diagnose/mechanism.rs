@@ -66,7 +66,7 @@
 use super::error::DiagnoseError;
 use super::model::{
     ColumnDefaults, DeclaredCandidate, InverseDynamicsModel, JointMotion, ModelParameter,
-    OutputSensitivities, PlayData, PlayDynamics,
+    OutputSensitivities, PlayData, PlayDynamics, PlayPoint,
 };
 use super::transmission::{self, TransmissionDynamics};
 use crate::contact::play::UniversalPlay;
@@ -198,6 +198,18 @@ struct Built {
     dynamic: Option<Windup>,
 }
 
+/// A point off a sample for [`MechanismModel::offset_differences_about`]: offsets of the
+/// perturbed constraint rows (m, or rad) and each arm's extra lag behind its encoder (rad,
+/// or m).
+struct OffsetBase {
+    offsets: Vec<f64>,
+    lag: Vec<f64>,
+}
+
+/// What [`MechanismModel::offset_differences_about`] returns: the columns, the torques and
+/// loads at the point, and at the sample (empty where the point is the sample).
+type OffsetColumns = (Vec<Vec<f64>>, Vec<f64>, Vec<f64>);
+
 /// The transmissions' wind-up state at one sample of a recording.
 #[derive(Debug, Clone)]
 struct Windup {
@@ -232,6 +244,11 @@ pub const CONTINUATION_STEP: f64 = 0.1;
 /// positions for [`InverseDynamicsModel::play_dynamics`] (m for a shift, rad for a tilt or
 /// an arm).
 pub const PLAY_OFFSET_STEP: f64 = 1e-6;
+
+/// Step of the central differences of the play joints' offset rates and the arms' rates
+/// (m/s, or rad/s): the inverse dynamics is quadratic in the rates, so the differences are
+/// exact but for rounding; a step well above it.
+pub const PLAY_RATE_STEP: f64 = 1e-3;
 
 /// Step of the central differences of the joint-side torques in the arm positions, rad
 /// ([`TransmissionDynamics::load_stiffness`]).
@@ -782,6 +799,53 @@ impl MechanismModel {
         })?
     }
 
+    /// Play site `site`'s [`PlayDynamics`] from the columns of [`Self::offset_differences`]
+    /// over `np` sites' rows, its own at `slot`: its axes (z_i, z_j, n), its reaction Λ.
+    fn coupling(
+        &self,
+        site: usize,
+        slot: usize,
+        np: usize,
+        (z_i, z_j, n): &(Vector3<f64>, Vector3<f64>, Vector3<f64>),
+        lam: [f64; 4],
+        d: &[Vec<f64>],
+    ) -> PlayDynamics {
+        let nj = self.joints.len();
+        // The tilt's sign: the perpendicularity row's offset is −φ.
+        let sign = |c: usize| if c == 3 { -1.0 } else { 1.0 };
+        let reaction = |v: &[f64]| -> [f64; 4] {
+            let l = &v[nj + 6 * site..nj + 6 * site + 6];
+            [l[0], l[1], l[2], Vector3::new(l[3], l[4], l[5]).dot(n)]
+        };
+        let scaled = |v: [f64; 4], s: f64| v.map(|x| s * x);
+        let off = |c: usize| &d[4 * slot + c];
+        let acc = |c: usize| &d[4 * np + 4 * slot + c];
+        // The rates' columns follow the accelerations' (offsets, then arms).
+        let rates = 8 * np + 2 * nj;
+        let rate = |c: usize| &d[rates + 4 * slot + c];
+        PlayDynamics {
+            z_i: *z_i,
+            z_j: *z_j,
+            play: self.play[site].play,
+            cross_mass: self.play[site].cross_mass,
+            reaction: lam,
+            torque_by_offset: std::array::from_fn(|c| off(c)[..nj].iter().map(|v| sign(c) * v).collect()),
+            torque_by_offset_acceleration: std::array::from_fn(|c| {
+                acc(c)[..nj].iter().map(|v| sign(c) * v).collect()
+            }),
+            reaction_by_offset: std::array::from_fn(|c| scaled(reaction(off(c)), sign(c))),
+            reaction_by_offset_acceleration: std::array::from_fn(|c| scaled(reaction(acc(c)), sign(c))),
+            reaction_by_drive: (0..nj).map(|a| reaction(&d[8 * np + a])).collect(),
+            reaction_by_drive_acceleration: (0..nj).map(|a| reaction(&d[8 * np + nj + a])).collect(),
+            torque_by_offset_rate: (0..4)
+                .map(|c| rate(c)[..nj].iter().map(|v| sign(c) * v).collect())
+                .collect(),
+            reaction_by_offset_rate: (0..4).map(|c| scaled(reaction(rate(c)), sign(c))).collect(),
+            reaction_by_drive_rate: (0..nj).map(|a| reaction(&d[rates + 4 * np + a])).collect(),
+            torque_by_drive_rate: (0..nj).map(|a| d[rates + 4 * np + a][..nj].to_vec()).collect(),
+        }
+    }
+
     /// Derivatives of the joint-side torques and the play joints' reactions at the arms'
     /// place of the last sample, one per perturbation: each of `rows` offset by
     /// ±[`PLAY_OFFSET_STEP`] and each arm moved by ±[`PLAY_OFFSET_STEP`] (central differences
@@ -797,82 +861,167 @@ impl MechanismModel {
         qd: &[f64],
         qdd: &[f64],
     ) -> Option<Vec<Vec<f64>>> {
-        let arm = Self::arm_motion(built, qd, qdd);
-        let [qa, qda, qdd_s, _] = &arm;
-        let (n, nr) = (qa.len(), rows.len());
-        let (q0, w0) = (built.q.clone(), built.w.clone());
-        let loads = |built: &Built, mut v: Vec<f64>| -> Vec<f64> {
-            for &jh in &built.play_joints {
-                match built.data.reaction(&built.model, jh) {
-                    Some(r) => v.extend(r.force.iter().chain(r.torque.iter())),
-                    None => v.extend([f64::NAN; 6]),
-                }
-            }
-            v
+        let n = built.drivers.len();
+        let base = OffsetBase {
+            offsets: vec![0.0; rows.len()],
+            lag: vec![0.0; n],
         };
+        Self::offset_differences_about(built, rows, qd, qdd, &base).map(|(d, _, _)| d)
+    }
+
+    /// [`Self::offset_differences`] about a point off the sample: `rows` offset by
+    /// `base.offsets` and the arms lagging by `base.lag` more. Also returns the torques and
+    /// loads (laid out as a perturbation's) there and, where the point is off the sample, at
+    /// the sample itself (else empty). Every path out clears the offsets it set: the cache
+    /// serves the nominal model next.
+    fn offset_differences_about(
+        built: &mut Built,
+        rows: &[usize],
+        qd: &[f64],
+        qdd: &[f64],
+        base: &OffsetBase,
+    ) -> Option<OffsetColumns> {
+        let arm = Self::arm_motion(built, qd, qdd);
+        if base.offsets.len() != rows.len() || base.lag.len() != arm[0].len() {
+            return None;
+        }
         Self::keeping_sample(built, &arm, |built| {
-            let mut out = vec![vec![]; 2 * (nr + n)];
-            // Positions: central differences.
-            for p in (0..nr).chain(2 * nr..2 * nr + n) {
-                let mut column = [vec![], vec![]];
-                for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
-                    let mut x = qa.clone();
-                    let set = if p < nr {
-                        built
-                            .data
-                            .set_constraint_offset(rows[p], 0.0, [sign * PLAY_OFFSET_STEP, 0.0, 0.0])
-                    } else {
-                        x[p - 2 * nr] += sign * PLAY_OFFSET_STEP;
-                        Ok(())
-                    };
-                    built.q.clone_from(&q0);
-                    built.w.clone_from(&w0);
-                    let tau = set.ok().and_then(|_| Self::joint_torques(built, &x, qda, qdd_s));
-                    built.data.clear_constraint_offsets();
-                    match tau {
-                        Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = loads(built, t),
-                        _ => return None,
-                    }
-                }
-                out[p] = (0..column[0].len())
-                    .map(|j| (column[0][j] - column[1][j]) / (2.0 * PLAY_OFFSET_STEP))
-                    .collect();
+            let out = Self::offset_columns(built, rows, base, &arm);
+            built.data.clear_constraint_offsets();
+            out
+        })?
+    }
+
+    /// Sets the offsets of `rows` to `offsets` (m or rad), every other row's to none.
+    fn set_offsets(built: &mut Built, rows: &[usize], offsets: &[f64]) -> Option<()> {
+        built.data.clear_constraint_offsets();
+        for (&r, &x) in rows.iter().zip(offsets) {
+            if x != 0.0 {
+                built.data.set_constraint_offset(r, 0.0, [x, 0.0, 0.0]).ok()?;
             }
-            // Accelerations: exact, at the sample itself.
+        }
+        Some(())
+    }
+
+    /// The torques `tau` followed by each play joint's reaction (force, moment) at the
+    /// cached state.
+    fn with_loads(built: &Built, mut tau: Vec<f64>) -> Vec<f64> {
+        for &jh in &built.play_joints {
+            match built.data.reaction(&built.model, jh) {
+                Some(r) => tau.extend(r.force.iter().chain(r.torque.iter())),
+                None => tau.extend([f64::NAN; 6]),
+            }
+        }
+        tau
+    }
+
+    /// The body of [`Self::offset_differences_about`] (which clears the offsets after it).
+    fn offset_columns(
+        built: &mut Built,
+        rows: &[usize],
+        base: &OffsetBase,
+        arm: &[Vec<f64>; 4],
+    ) -> Option<OffsetColumns> {
+        let [qa0, qda, qdd_s, _] = arm;
+        let (n, nr) = (qa0.len(), rows.len());
+        let qa: Vec<f64> = qa0.iter().zip(&base.lag).map(|(q, l)| q - l).collect();
+        let (q0, w0) = (built.q.clone(), built.w.clone());
+        let mut out = vec![vec![]; 2 * (nr + n)];
+        // Positions: central differences.
+        for p in (0..nr).chain(2 * nr..2 * nr + n) {
+            let mut column = [vec![], vec![]];
+            for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
+                let (mut x, mut offsets) = (qa.clone(), base.offsets.clone());
+                if p < nr {
+                    offsets[p] += sign * PLAY_OFFSET_STEP;
+                } else {
+                    x[p - 2 * nr] += sign * PLAY_OFFSET_STEP;
+                }
+                built.q.clone_from(&q0);
+                built.w.clone_from(&w0);
+                Self::set_offsets(built, rows, &offsets)?;
+                match Self::joint_torques(built, &x, qda, qdd_s) {
+                    Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = Self::with_loads(built, t),
+                    _ => return None,
+                }
+            }
+            out[p] = (0..column[0].len())
+                .map(|j| (column[0][j] - column[1][j]) / (2.0 * PLAY_OFFSET_STEP))
+                .collect();
+        }
+        // Rates: central differences too (the velocity products are quadratic in them), after
+        // the accelerations' columns.
+        for p in 0..nr + n {
+            let mut column = [vec![], vec![]];
+            for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
+                let mut rates = qda.clone();
+                built.q.clone_from(&q0);
+                built.w.clone_from(&w0);
+                Self::set_offsets(built, rows, &base.offsets)?;
+                if p < nr {
+                    let x = [base.offsets[p], sign * PLAY_RATE_STEP, 0.0];
+                    built.data.set_constraint_offset(rows[p], 0.0, x).ok()?;
+                } else {
+                    rates[p - nr] += sign * PLAY_RATE_STEP;
+                }
+                match Self::joint_torques(built, &qa, &rates, qdd_s) {
+                    Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = Self::with_loads(built, t),
+                    _ => return None,
+                }
+            }
+            out.push(
+                (0..column[0].len())
+                    .map(|j| (column[0][j] - column[1][j]) / (2.0 * PLAY_RATE_STEP))
+                    .collect(),
+            );
+        }
+        // The sample itself, where the point is off it.
+        let off_sample = base.offsets.iter().chain(&base.lag).any(|&v| v != 0.0);
+        let at_sample = if off_sample {
             built.q.clone_from(&q0);
             built.w.clone_from(&w0);
-            Self::joint_torques(built, qa, qda, qdd_s)?;
-            let lay = built.model.layout();
-            let drivers: Vec<usize> = built
-                .drivers
-                .iter()
-                .map(|&h| lay.driver_lambda(h))
-                .collect::<Option<_>>()?;
-            let joints: Vec<(&crate::multibody::Joint, usize)> = built
-                .play_joints
-                .iter()
-                .map(|&jh| Some((built.model.joint(jh)?, lay.joint_lambda(jh).start)))
-                .collect::<Option<_>>()?;
-            let accelerated: Vec<usize> = rows.iter().chain(&drivers).copied().collect();
-            let (q, w) = (built.q.clone(), built.w.clone());
-            let dl = built
-                .analysis
-                .acceleration_offset_sensitivity(&built.model, &mut built.data, 0.0, &q, &w, &accelerated)
-                .ok()?;
-            for (m, dl) in dl.iter().enumerate() {
-                // A driver's effort is −λ of its row.
-                let mut v: Vec<f64> = drivers.iter().map(|&k| -dl[k]).collect();
-                for &(joint, k0) in &joints {
-                    let (r, _) = crate::multibody::analysis::joint_reaction(joint, k0, 0.0, &q, dl);
-                    v.extend(r.force.iter().chain(r.torque.iter()));
-                }
-                if !v.iter().all(|x| x.is_finite()) {
-                    return None;
-                }
-                out[if m < nr { nr + m } else { 2 * nr + n + (m - nr) }] = v;
+            built.data.clear_constraint_offsets();
+            let tau = Self::joint_torques(built, qa0, qda, qdd_s)?;
+            Self::with_loads(built, tau)
+        } else {
+            vec![]
+        };
+        // Accelerations: exact, at the point.
+        built.q.clone_from(&q0);
+        built.w.clone_from(&w0);
+        Self::set_offsets(built, rows, &base.offsets)?;
+        let tau = Self::joint_torques(built, &qa, qda, qdd_s)?;
+        let at_point = Self::with_loads(built, tau);
+        let lay = built.model.layout();
+        let drivers: Vec<usize> = built
+            .drivers
+            .iter()
+            .map(|&h| lay.driver_lambda(h))
+            .collect::<Option<_>>()?;
+        let joints: Vec<(&crate::multibody::Joint, usize)> = built
+            .play_joints
+            .iter()
+            .map(|&jh| Some((built.model.joint(jh)?, lay.joint_lambda(jh).start)))
+            .collect::<Option<_>>()?;
+        let accelerated: Vec<usize> = rows.iter().chain(&drivers).copied().collect();
+        let (q, w) = (built.q.clone(), built.w.clone());
+        let dl = built
+            .analysis
+            .acceleration_offset_sensitivity(&built.model, &mut built.data, 0.0, &q, &w, &accelerated)
+            .ok()?;
+        for (m, dl) in dl.iter().enumerate() {
+            // A driver's effort is −λ of its row.
+            let mut v: Vec<f64> = drivers.iter().map(|&k| -dl[k]).collect();
+            for &(joint, k0) in &joints {
+                let (r, _) = crate::multibody::analysis::joint_reaction(joint, k0, 0.0, &q, dl);
+                v.extend(r.force.iter().chain(r.torque.iter()));
             }
-            Some(out)
-        })?
+            if !v.iter().all(|x| x.is_finite()) {
+                return None;
+            }
+            out[if m < nr { nr + m } else { 2 * nr + n + (m - nr) }] = v;
+        }
+        Some((out, at_point, at_sample))
     }
 
     /// The joint-side torques at joint positions `qa` (with rates and accelerations): the
@@ -1412,46 +1561,77 @@ impl InverseDynamicsModel for MechanismModel {
             sites.push(((z_i, z_j, n), [force.x, force.y, force.z, moment.dot(&n)]));
         }
         let d = Self::offset_differences(built, &rows, qd, qdd)?;
-        let (nj, np) = (self.joints.len(), sites.len());
-        // The perturbations' order (see `offset_differences`), and the tilt's sign: the
-        // perpendicularity row's offset is −φ.
-        let sign = |c: usize| if c == 3 { -1.0 } else { 1.0 };
-        let reaction = |v: &[f64], k: usize, n: &Vector3<f64>| -> [f64; 4] {
-            let l = &v[nj + 6 * k..nj + 6 * k + 6];
-            [l[0], l[1], l[2], Vector3::new(l[3], l[4], l[5]).dot(n)]
-        };
-        let scaled = |v: [f64; 4], s: f64| v.map(|x| s * x);
+        let np = sites.len();
         Some(
             sites
                 .iter()
                 .enumerate()
-                .map(|(k, ((z_i, z_j, n), lam))| {
-                    let off = |c: usize| &d[4 * k + c];
-                    let acc = |c: usize| &d[4 * np + 4 * k + c];
-                    PlayDynamics {
-                        z_i: *z_i,
-                        z_j: *z_j,
-                        play: self.play[k].play,
-                        cross_mass: self.play[k].cross_mass,
-                        reaction: *lam,
-                        torque_by_offset: std::array::from_fn(|c| {
-                            off(c)[..nj].iter().map(|v| sign(c) * v).collect()
-                        }),
-                        torque_by_offset_acceleration: std::array::from_fn(|c| {
-                            acc(c)[..nj].iter().map(|v| sign(c) * v).collect()
-                        }),
-                        reaction_by_offset: std::array::from_fn(|c| scaled(reaction(off(c), k, n), sign(c))),
-                        reaction_by_offset_acceleration: std::array::from_fn(|c| {
-                            scaled(reaction(acc(c), k, n), sign(c))
-                        }),
-                        reaction_by_drive: (0..nj).map(|a| reaction(&d[8 * np + a], k, n)).collect(),
-                        reaction_by_drive_acceleration: (0..nj)
-                            .map(|a| reaction(&d[8 * np + nj + a], k, n))
-                            .collect(),
-                    }
-                })
+                .map(|(k, (axes, lam))| self.coupling(k, k, np, axes, *lam, &d))
                 .collect(),
         )
+    }
+    /// Central differences as [`play_dynamics`](Self::play_dynamics), of one site, about the
+    /// point; the torques' and the reaction's change from the sample to the point from the
+    /// inverse dynamics at both (the same arms' rates and accelerations), the reaction at the
+    /// point the sample's (at the arms' own motion) plus that change.
+    fn play_dynamics_at(
+        &self,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        site: usize,
+        windup: &[f64],
+        offset: [f64; 4],
+    ) -> Option<PlayPoint> {
+        let nj = self.joints.len();
+        if site >= self.play.len() || windup.len() != nj {
+            return None;
+        }
+        self.ensure_sample(theta, q, qd, qdd)?;
+        let mut b = self.built.borrow_mut();
+        let built = b.as_mut()?;
+        let rows = Self::play_rows(built).get(4 * site..4 * site + 4)?.to_vec();
+        let jh = *built.play_joints.get(site)?;
+        let (force, moment) = *Self::play_loads(built, qd, qdd)?.get(site)?;
+        let (z_i, z_j) = Self::trunnion_axes(built, jh)?;
+        let n = z_i.cross(&z_j);
+        let n = if n.norm() > 0.0 { n.normalize() } else { n };
+        // The perpendicularity row's offset is −φ.
+        let base = OffsetBase {
+            offsets: vec![offset[0], offset[1], offset[2], -offset[3]],
+            lag: windup.to_vec(),
+        };
+        let (d, at_point, at_sample) = Self::offset_differences_about(built, &rows, qd, qdd, &base)?;
+        let change: Vec<f64> = if at_sample.is_empty() {
+            vec![0.0; at_point.len()]
+        } else {
+            at_point.iter().zip(&at_sample).map(|(a, b)| a - b).collect()
+        };
+        let l = change.get(nj + 6 * site..nj + 6 * site + 6)?;
+        let lam = [
+            force.x + l[0],
+            force.y + l[1],
+            force.z + l[2],
+            (moment + Vector3::new(l[3], l[4], l[5])).dot(&n),
+        ];
+        let dynamics = self.coupling(site, 0, 1, &(z_i, z_j, n), lam, &d);
+        let by_drive = |first: usize| nalgebra::DMatrix::from_fn(nj, nj, |j, k| d[first + k][j]);
+        let point = PlayPoint {
+            windup: windup.to_vec(),
+            offset,
+            dynamics,
+            torque: change[..nj].to_vec(),
+            load_stiffness: by_drive(8),
+            mass: by_drive(8 + nj),
+        };
+        (point.torque.iter().all(|v| v.is_finite())
+            && point
+                .load_stiffness
+                .iter()
+                .chain(point.mass.iter())
+                .all(|v| v.is_finite()))
+        .then_some(point)
     }
     fn configuration_tag(&self, _theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
         self.tagger.as_ref().and_then(|t| t(q, y))

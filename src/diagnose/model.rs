@@ -117,6 +117,41 @@ pub struct PlayDynamics {
     pub reaction_by_drive: Vec<[f64; 4]>,
     /// ∂Λ_r/∂q̈_k per drive k as `[k][r]`.
     pub reaction_by_drive_acceleration: Vec<[f64; 4]>,
+    /// ∂τ_s/∂ė_c per play coordinate c, per drive (N·m per m/s, N·m per rad/s): the
+    /// velocity products' share (empty: not known, taken as zero).
+    pub torque_by_offset_rate: Vec<Vec<f64>>,
+    /// ∂Λ_r/∂ė_c as `[c][r]` (empty: not known).
+    pub reaction_by_offset_rate: Vec<[f64; 4]>,
+    /// ∂Λ_r/∂q̇_k per drive k as `[k][r]` (empty: not known).
+    pub reaction_by_drive_rate: Vec<[f64; 4]>,
+    /// ∂τ_s,j/∂q̇_k as `[k][j]`, N·m·s/rad (empty: not known).
+    pub torque_by_drive_rate: Vec<Vec<f64>>,
+}
+
+/// The nominal model re-linearised at a point of a play's motion
+/// ([`InverseDynamicsModel::play_dynamics_at`]): near a singular position the play moves the
+/// mechanism far enough (the platform by some 40× the clearance) that the derivatives at
+/// the nominal configuration no longer carry the torques; the reduced play model then
+/// expands about this point instead ([`super::play_dynamics::PlaySample::about`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlayPoint {
+    /// The point: each drive's extra wind-up δw (rad, or m): its arm lags its encoder by that
+    /// much more than in the nominal model.
+    pub windup: Vec<f64>,
+    /// The point: the joint's play coordinates e (shift of side j from side i along base x,
+    /// y, z in m; tilt about n in rad).
+    pub offset: [f64; 4],
+    /// The joint's coupling to the drives there (its `reaction`: Λ at the point).
+    pub dynamics: PlayDynamics,
+    /// τ_s at the point less τ_s at the sample (the same arms' rates and accelerations),
+    /// per drive, N·m (or N).
+    pub torque: Vec<f64>,
+    /// ∂τ_s,j/∂q_k at the point as `(j, k)`: the joint-side torques' stiffness in the arms'
+    /// positions, N·m/rad (or N/m).
+    pub load_stiffness: nalgebra::DMatrix<f64>,
+    /// ∂τ_s,j/∂q̈_k at the point as `(j, k)`: the mass matrix in drive coordinates, kg·m²
+    /// (or kg).
+    pub mass: nalgebra::DMatrix<f64>,
 }
 
 /// One perturbable parameter of a nominal model.
@@ -339,6 +374,24 @@ pub trait InverseDynamicsModel {
         _qd: &[f64],
         _qdd: &[f64],
     ) -> Option<Vec<PlayDynamics>> {
+        None
+    }
+    /// Play site `site`'s coupling re-linearised at a point of its motion ([`PlayPoint`]):
+    /// the drives wound up by `windup` more (rad, or m), the joint's sides offset by `offset`
+    /// (shift along base x, y, z in m; tilt about n in rad), at the sample the model last
+    /// evaluated with [`evaluate_at`](Self::evaluate_at) (or at a lone sample). Costs as
+    /// much as [`play_dynamics`](Self::play_dynamics) for one site, twice over. Default None.
+    #[allow(clippy::too_many_arguments)]
+    fn play_dynamics_at(
+        &self,
+        _theta: &[f64],
+        _q: &[f64],
+        _qd: &[f64],
+        _qdd: &[f64],
+        _site: usize,
+        _windup: &[f64],
+        _offset: [f64; 4],
+    ) -> Option<PlayPoint> {
         None
     }
     /// Joints with play (names), in the order of [`OutputSensitivities::play`]. Default:

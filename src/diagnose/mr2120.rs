@@ -231,7 +231,7 @@ pub fn mr2120_model(g: &Geometry, mp: &MassProperties) -> Result<MechanismModel,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diagnose::model::InverseDynamicsModel;
+    use crate::diagnose::model::{InverseDynamicsModel, PlayDynamics};
     use crate::mechanisms::mr2120::kinematics::inverse;
 
     /// ℓ' is the rate at which the drive stretches its leg: differences of |P − D(q)|.
@@ -302,6 +302,126 @@ mod tests {
             assert!(
                 inertia.symmetric_eigenvalues().iter().all(|&e| e > 0.0),
                 "joint {name}: {inertia}"
+            );
+        }
+    }
+
+    /// The velocity products in the play's coupling: ∂τ_s/∂q̇ agrees with central differences
+    /// of the model's own torques in the rates (with rigid drives, where the arms follow the
+    /// encoders; another route through the model), and every rate derivative is linear in the
+    /// motion's rates: zero at rest, doubled with them.
+    #[test]
+    fn the_plays_velocity_coupling_follows_the_torques_and_scales_with_the_rates() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let model = mr2120_model(&g, &mp).unwrap();
+        let mut theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+        for j in 0..3 {
+            theta[DRIVE_COMPLIANCE + j] = 0.0;
+        }
+        let q: Vec<f64> = inverse(&g, Vector3::new(0.02, 0.01, 0.5)).unwrap().to_vec();
+        let (qd, qdd) = (vec![0.8, -1.1, 0.5], vec![1.0, 0.5, -2.0]);
+        let sites = model.play_dynamics(&theta, &q, &qd, &qdd).expect("play dynamics");
+        let s = &sites[0];
+        let step = 1e-3;
+        let torques = |qd: &[f64]| {
+            let mut tau = vec![0.0; 3];
+            model.torques(&theta, &q, qd, &qdd, &mut tau);
+            tau
+        };
+        let scale = s
+            .torque_by_drive_rate
+            .iter()
+            .flatten()
+            .fold(0.0f64, |a, v| a.max(v.abs()));
+        assert!(scale > 1e-3, "{scale}");
+        for k in 0..3 {
+            let (mut up, mut down) = (qd.clone(), qd.clone());
+            up[k] += step;
+            down[k] -= step;
+            let (a, b) = (torques(&up), torques(&down));
+            for j in 0..3 {
+                let want = (a[j] - b[j]) / (2.0 * step);
+                let got = s.torque_by_drive_rate[k][j];
+                assert!((got - want).abs() < 1e-4 * scale, "∂τ{j}/∂q̇{k}: {got} vs {want}");
+            }
+        }
+        // Linear in the rates: at rest nothing, with the rates doubled twice as much.
+        let at = |f: f64| {
+            let qd: Vec<f64> = qd.iter().map(|v| f * v).collect();
+            model.play_dynamics(&theta, &q, &qd, &qdd).unwrap().swap_remove(0)
+        };
+        let (rest, double) = (at(0.0), at(2.0));
+        let all = |p: &PlayDynamics| -> Vec<f64> {
+            p.torque_by_offset_rate
+                .iter()
+                .flatten()
+                .chain(p.reaction_by_offset_rate.iter().flatten())
+                .chain(p.reaction_by_drive_rate.iter().flatten())
+                .chain(p.torque_by_drive_rate.iter().flatten())
+                .copied()
+                .collect()
+        };
+        let (one, zero, two) = (all(s), all(&rest), all(&double));
+        let big = one.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        for ((a, z), d) in one.iter().zip(&zero).zip(&two) {
+            assert!(z.abs() < 1e-6 * big, "at rest {z} (scale {big})");
+            assert!((d - 2.0 * a).abs() < 1e-4 * big, "doubled {d} vs 2 × {a}");
+        }
+    }
+
+    /// Re-linearised at the sample itself, a play site's coupling is the sample's; a small
+    /// step off it changes the torques by the sample's derivatives (first order, within a
+    /// percent of the change), and the torques' stiffness and mass there are the sample's.
+    #[test]
+    fn the_play_re_linearised_at_the_sample_is_the_samples() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let model = mr2120_model(&g, &mp).unwrap();
+        let mut theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+        for j in 0..3 {
+            theta[DRIVE_COMPLIANCE + j] = 0.0;
+        }
+        let q: Vec<f64> = inverse(&g, Vector3::new(0.02, 0.01, 0.5)).unwrap().to_vec();
+        let (qd, qdd) = (vec![0.1, -0.2, 0.05], vec![1.0, 0.5, -2.0]);
+        let site = 2;
+        let nominal = model
+            .play_dynamics(&theta, &q, &qd, &qdd)
+            .unwrap()
+            .swap_remove(site);
+        let same = model
+            .play_dynamics_at(&theta, &q, &qd, &qdd, site, &[0.0; 3], [0.0; 4])
+            .expect("the point");
+        let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-6 * scale;
+        let scale = nominal
+            .torque_by_offset
+            .iter()
+            .flatten()
+            .fold(1.0f64, |a, v| a.max(v.abs()));
+        for c in 0..4 {
+            for j in 0..3 {
+                let (a, b) = (
+                    same.dynamics.torque_by_offset[c][j],
+                    nominal.torque_by_offset[c][j],
+                );
+                assert!(close(a, b, scale), "∂τ{j}/∂e{c}: {a} vs {b}");
+            }
+        }
+        assert!(same.torque.iter().all(|v| *v == 0.0), "{:?}", same.torque);
+        for r in 0..4 {
+            let (a, b) = (same.dynamics.reaction[r], nominal.reaction[r]);
+            assert!(close(a, b, 1.0 + b.abs()), "Λ{r}: {a} vs {b}");
+        }
+        // A micrometre off: the torques move as the sample's derivatives say.
+        let (e, w) = ([1e-6, -2e-6, 1.5e-6, 3e-5], [2e-5, -1e-5, 1e-5]);
+        let off = model
+            .play_dynamics_at(&theta, &q, &qd, &qdd, site, &w, e)
+            .expect("the point off the sample");
+        for j in 0..3 {
+            let linear: f64 = (0..4).map(|c| nominal.torque_by_offset[c][j] * e[c]).sum::<f64>()
+                - (0..3).map(|k| same.load_stiffness[(j, k)] * w[k]).sum::<f64>();
+            assert!(
+                (off.torque[j] - linear).abs() < 0.01 * linear.abs() + 1e-9,
+                "drive {j}: {} vs {linear}",
+                off.torque[j]
             );
         }
     }

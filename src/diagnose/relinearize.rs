@@ -262,6 +262,20 @@ impl InverseDynamicsModel for Shifted<'_> {
     ) -> Option<Vec<super::model::PlayDynamics>> {
         self.inner.play_dynamics(theta, &self.q(q), qd, qdd)
     }
+    #[allow(clippy::too_many_arguments)]
+    fn play_dynamics_at(
+        &self,
+        theta: &[f64],
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        site: usize,
+        windup: &[f64],
+        offset: [f64; 4],
+    ) -> Option<super::model::PlayPoint> {
+        self.inner
+            .play_dynamics_at(theta, &self.q(q), qd, qdd, site, windup, offset)
+    }
     fn clearance_sites(&self) -> Vec<String> {
         self.inner.clearance_sites()
     }
