@@ -114,7 +114,7 @@ where
             if log {
                 format!("{:.1e}", 10f64.powf(*v))
             } else {
-                format!("{v}")
+                plain_tick(*v, xs.1 - xs.0)
             }
         })
         .y_label_formatter(&|v| {
@@ -368,5 +368,43 @@ impl Heatmap {
         draw_heatmap(SVGBackend::new(&svg, (1000, 800)).into_drawing_area(), self)
             .map_err(|e| format!("{}: {e}", svg.display()))?;
         Ok(())
+    }
+}
+
+/// A tick label on a linear axis spanning `span`: two significant digits of the span's
+/// scale after the point, trailing zeros trimmed (2.5, not 2.5000000000000004).
+fn plain_tick(v: f64, span: f64) -> String {
+    let decimals = if span.abs() > 0.0 && span.is_finite() {
+        (2.0 - span.abs().log10().floor()).clamp(0.0, 9.0) as usize
+    } else {
+        3
+    };
+    let s = format!("{v:.decimals$}");
+    let s = if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    };
+    if s == "-0" {
+        "0".into()
+    } else {
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::plain_tick;
+
+    /// Tick labels carry the digits the axis's span resolves, no float noise.
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(plain_tick(2.500_000_000_000_000_4, 0.6), "2.5");
+        assert_eq!(plain_tick(2.7, 0.6), "2.7");
+        assert_eq!(plain_tick(2.65, 0.6), "2.65");
+        assert_eq!(plain_tick(0.05, 0.2), "0.05");
+        assert_eq!(plain_tick(1500.0, 4000.0), "1500");
+        assert_eq!(plain_tick(-1e-9, 1.0), "0");
+        assert_eq!(plain_tick(3.0, 5.0), "3");
     }
 }
