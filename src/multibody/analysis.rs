@@ -20,6 +20,7 @@ use super::joints::Joint;
 use super::layout::Layout;
 use super::model::Mechanism;
 use super::rotation::{d_rot, l_matrix};
+use crate::sparse::DenseLu;
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
 
@@ -158,23 +159,6 @@ impl Analysis {
         (f, j)
     }
 
-    /// The solution of a square, regular system by LU; otherwise (more unknowns than
-    /// equations, redundant constraints, a singular configuration) the minimum-norm
-    /// least-squares solution by SVD. The LU result is used only when it is finite and
-    /// backward stable: its residual is below [`LU_BACKWARD_ERROR`] of ‖A‖·‖x‖ + ‖b‖
-    /// (∞-norms). (A test against ‖b‖ alone refused every Newton step near convergence,
-    /// where b is tiny, and sent it to the SVD: three quarters of a diagnosis's time.)
-    fn solve_square_or_min_norm(a: DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, ModelError> {
-        if a.is_square() {
-            if let Some(x) = a.clone().lu().solve(b) {
-                if Self::backward_stable(&a, &x, b) {
-                    return Ok(x);
-                }
-            }
-        }
-        Self::min_norm(a, b)
-    }
-
     /// The minimum-norm least-squares solution by SVD; an error for a non-finite system.
     fn min_norm(a: DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, ModelError> {
         if !(a.iter().all(|v| v.is_finite()) && b.iter().all(|v| v.is_finite())) {
@@ -292,7 +276,7 @@ impl Analysis {
         // gives contract the residual by CHORD_CONTRACTION or better (near a solution, where
         // assembly usually starts along a trajectory, one factorisation serves every
         // iteration); otherwise the Jacobian is factorised afresh.
-        let mut chord: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>> = None;
+        let mut chord: Option<DenseLu> = None;
         let (mut f, mut j) = Self::position_system(&mut data.ev, t, &q);
         for _ in 0..self.options.max_iterations {
             let norm = f.amax();
@@ -311,8 +295,7 @@ impl Analysis {
                 }
                 chord = None;
             }
-            let step = if j.is_square() {
-                let lu = j.clone().lu();
+            let step = if let Some(lu) = DenseLu::new(&j) {
                 match lu.solve(&f) {
                     Some(x) if Self::backward_stable(&j, &x, &f) => {
                         chord = Some(lu);
@@ -364,17 +347,42 @@ impl Analysis {
         q: &[f64],
         guess: &[f64],
     ) -> Result<Vec<f64>, ModelError> {
+        self.velocities_factorised(model, data, t, q, guess)
+            .map(|(w, _)| w)
+    }
+
+    /// [`velocities`](Self::velocities), and the LU of the velocity Jacobian B(q, t) where it
+    /// is square and gave a backward-stable solution: the acceleration analysis at the same
+    /// positions solves with B and Bᵀ again ([`Self::state_at`]). A square, regular B is
+    /// solved by LU, used only when finite and backward stable (residual below
+    /// [`LU_BACKWARD_ERROR`] of ‖B‖·‖x‖ + ‖r‖; a test against ‖r‖ alone refused every Newton
+    /// step near convergence, where r is tiny, and sent it to the SVD: three quarters of a
+    /// diagnosis's time); otherwise (redundant constraints, a singular configuration) the
+    /// minimum-norm least-squares solution by SVD.
+    fn velocities_factorised(
+        &self,
+        model: &Mechanism,
+        data: &mut MechanismData,
+        t: f64,
+        q: &[f64],
+        guess: &[f64],
+    ) -> Result<(Vec<f64>, Option<DenseLu>), ModelError> {
         model.check_data(data)?;
         if data.ev.layout.constraints() == 0 {
-            return Ok(guess.to_vec());
+            return Ok((guess.to_vec(), None));
         }
         data.ev.set_state(q, guess);
         data.ev.eval_constraints(t);
         let (bm, phit) = Self::velocity_system(&data.ev);
         let w0 = DVector::from_column_slice(guess);
         let r = &bm * &w0 + phit;
-        let dw = Self::solve_square_or_min_norm(bm, &r)?;
-        Ok((w0 - dw).iter().copied().collect())
+        if let Some(lu) = DenseLu::new(&bm) {
+            if let Some(dw) = lu.solve(&r).filter(|dw| Self::backward_stable(&bm, dw, &r)) {
+                return Ok(((w0 - dw).iter().copied().collect(), Some(lu)));
+            }
+        }
+        let dw = Self::min_norm(bm, &r)?;
+        Ok(((w0 - dw).iter().copied().collect(), None))
     }
 
     /// c(q, t) = B(q, t)·w + Φ_t(q, t) for fixed w.
@@ -442,6 +450,20 @@ impl Analysis {
         q: &[f64],
         w: &[f64],
     ) -> Result<(Vec<f64>, Vec<f64>), ModelError> {
+        self.accelerations_factorised(model, data, t, q, w, None)
+    }
+
+    /// [`accelerations`](Self::accelerations) with the velocity Jacobian B at `q` already
+    /// factorised (`b_lu`, from [`Self::velocities_factorised`] at the same positions and time).
+    fn accelerations_factorised(
+        &self,
+        model: &Mechanism,
+        data: &mut MechanismData,
+        t: f64,
+        q: &[f64],
+        w: &[f64],
+        b_lu: Option<&DenseLu>,
+    ) -> Result<(Vec<f64>, Vec<f64>), ModelError> {
         model.check_data(data)?;
         let lay = data.ev.layout.clone();
         if lay.constraints() == 0 {
@@ -484,11 +506,18 @@ impl Analysis {
         // B·ẇ = γ and λ = B⁻ᵀ(Q − M·ẇ) from LUs of B and Bᵀ (a fraction of the work of the
         // augmented system below).
         if lay.constraints() == n {
-            let lu = bm.clone().lu();
-            if let Some(wdot) = lu.solve(&gamma) {
+            let own;
+            let lu = match b_lu {
+                Some(lu) => Some(lu),
+                None => {
+                    own = DenseLu::new(&bm);
+                    own.as_ref()
+                }
+            };
+            if let Some((lu, wdot)) = lu.and_then(|lu| lu.solve(&gamma).map(|x| (lu, x))) {
                 let m = k.view((0, 0), (n, n)).clone_owned();
-                let r = rhs.rows(0, n) - m * &wdot;
-                if let Some(lambda) = bm.transpose().lu().solve(&r) {
+                let r: DVector<f64> = rhs.rows(0, n) - m * &wdot;
+                if let Some(lambda) = lu.solve_transpose(&r) {
                     if wdot.iter().chain(lambda.iter()).all(|v| v.is_finite()) {
                         return Ok((wdot.iter().copied().collect(), lambda.iter().copied().collect()));
                     }
@@ -500,8 +529,8 @@ impl Analysis {
         k.view_mut((n, 0), (lay.constraints(), n)).copy_from(&bm);
         rhs.rows_mut(n, lay.constraints()).copy_from(&gamma);
         let finite = k.iter().chain(rhs.iter()).all(|v| v.is_finite());
-        let sol = match k.clone().lu().solve(&rhs) {
-            Some(s) if s.iter().all(|v| v.is_finite()) => s,
+        let sol = match DenseLu::new(&k).and_then(|lu| lu.solve(&rhs)) {
+            Some(s) => s,
             // (nalgebra's SVD does not return on non-finite input.)
             _ if !finite => {
                 return Err(ModelError::Output(format!(
@@ -552,14 +581,14 @@ impl Analysis {
         let mass = Self::mass_matrix(model);
         let singular = || ModelError::Output(format!("singular acceleration system at t = {t} s"));
         if nc == n {
-            let (lu, lut) = (bm.clone().lu(), bm.transpose().lu());
+            let lu = DenseLu::new(&bm).ok_or_else(singular)?;
             return rows
                 .iter()
                 .map(|&k| {
                     let mut e = DVector::zeros(n);
                     e[k] = 1.0;
                     let dw = lu.solve(&e).ok_or_else(singular)?;
-                    let dl = lut.solve(&(-(&mass * dw))).ok_or_else(singular)?;
+                    let dl = lu.solve_transpose(&(-(&mass * dw))).ok_or_else(singular)?;
                     Ok(dl.iter().copied().collect())
                 })
                 .collect();
@@ -568,7 +597,7 @@ impl Analysis {
         k.view_mut((0, 0), (n, n)).copy_from(&mass);
         k.view_mut((0, n), (n, nc)).copy_from(&bm.transpose());
         k.view_mut((n, 0), (nc, n)).copy_from(&bm);
-        let lu = k.lu();
+        let lu = DenseLu::new(&k).ok_or_else(singular)?;
         rows.iter()
             .map(|&r| {
                 let mut e = DVector::zeros(n + nc);
@@ -602,8 +631,9 @@ impl Analysis {
         w_guess: &[f64],
     ) -> Result<Snapshot, ModelError> {
         let q = self.assemble(model, data, t, q_guess)?;
-        let w = self.velocities(model, data, t, &q, w_guess)?;
-        let (wdot, lambda) = self.accelerations(model, data, t, &q, &w)?;
+        // One factorisation of B(q, t) for the velocities, the accelerations and λ.
+        let (w, b_lu) = self.velocities_factorised(model, data, t, &q, w_guess)?;
+        let (wdot, lambda) = self.accelerations_factorised(model, data, t, &q, &w, b_lu.as_ref())?;
         let s = Snapshot {
             t,
             q,
@@ -648,13 +678,14 @@ impl Analysis {
                 "constraint row {k} out of range ({nc} constraint equations)"
             )));
         }
-        let lu = j.lu();
+        let n = j.nrows();
+        let lu = DenseLu::new(&j);
         rows.iter()
             .map(|&k| {
-                let mut e = DVector::zeros(lu.l().nrows());
+                let mut e = DVector::zeros(n);
                 e[k] = 1.0;
-                match lu.solve(&e) {
-                    Some(x) if x.iter().all(|v| v.is_finite()) => Ok(x.iter().copied().collect()),
+                match lu.as_ref().and_then(|lu| lu.solve(&e)) {
+                    Some(x) => Ok(x.iter().copied().collect()),
                     _ => Err(ModelError::Output(format!(
                         "the assembly Jacobian is singular at t = {t} s: the configuration does not determine how constraint '{}' moves the mechanism",
                         Self::constraint_name(model, data, k)
@@ -687,7 +718,8 @@ impl Analysis {
         data.ev.set_state(&q, &w);
         data.ev.eval_constraints(data.t);
         let (bm, _) = Self::velocity_system(&data.ev);
-        let lu = bm.lu();
+        let lu = DenseLu::new(&bm)
+            .ok_or_else(|| ModelError::Output(format!("singular velocity Jacobian at t = {} s", data.t)))?;
         let rows: Vec<usize> = model
             .drivers()
             .filter_map(|(h, _)| lay.driver_lambda(h))

@@ -8,15 +8,19 @@
 //!   numeric factorisation redone in place.
 //! * [`BlockSchurLu`] — small diagonal blocks eliminated densely first, the sparse LU on the
 //!   Schur complement of what remains.
+//! * [`DenseLu`] — dense LU with partial pivoting for the multibody analyses' small
+//!   systems, solving with A and Aᵀ from one factorisation.
 //! * [`column_colouring`] — a greedy colouring of the columns so a finite-difference Jacobian
 //!   needs one residual evaluation per colour rather than per column.
 
 mod colouring;
+mod dense;
 mod lu;
 mod pattern;
 mod schur;
 
 pub use colouring::column_colouring;
+pub use dense::DenseLu;
 pub use lu::{LinearSolveError, SparseLu, SUPERNODAL_THRESHOLD};
 pub use pattern::{CscMatrix, CscPattern, PatternError, SlotIndex};
 pub use schur::{BlockSchurLu, MAX_GROUP};
