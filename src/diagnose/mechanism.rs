@@ -851,10 +851,12 @@ impl MechanismModel {
     /// ±[`PLAY_OFFSET_STEP`] and each arm moved by ±[`PLAY_OFFSET_STEP`] (central differences
     /// of the inverse dynamics), each of `rows` and each arm accelerated by a unit (exact:
     /// the accelerations enter linearly, so one factorisation at the sample gives them all,
-    /// [`Analysis::acceleration_offset_sensitivity`]). In the order: offsets, offset
-    /// accelerations, arm positions, arm accelerations. Per perturbation: the torques (one per
-    /// drive), then per play joint its reaction's force and moment (base frame). The joints
-    /// are placed back afterwards; None where an evaluation fails.
+    /// [`Analysis::acceleration_offset_sensitivity`]), then each of `rows`' rates and each
+    /// arm's rate moved by ±[`PLAY_RATE_STEP`] (central differences). In the order: offsets,
+    /// offset accelerations, arm positions, arm accelerations, offset rates, arm rates. Per
+    /// perturbation: the torques (one per drive), then per play joint its reaction's force and
+    /// moment (base frame). The joints are placed back afterwards; None where an evaluation
+    /// fails.
     fn offset_differences(
         built: &mut Built,
         rows: &[usize],
@@ -1543,7 +1545,8 @@ impl InverseDynamicsModel for MechanismModel {
         Some(OutputSensitivities { sites: vec![], play })
     }
     /// Per play site: [`PlayDynamics`] from central differences of the inverse dynamics
-    /// ([`PLAY_OFFSET_STEP`]; accelerations by unit steps, exact as they enter linearly).
+    /// ([`PLAY_OFFSET_STEP`] in positions, [`PLAY_RATE_STEP`] in rates; accelerations by unit
+    /// steps, exact as they enter linearly).
     fn play_dynamics(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64]) -> Option<Vec<PlayDynamics>> {
         if self.play.is_empty() {
             return None;
@@ -1626,6 +1629,7 @@ impl InverseDynamicsModel for MechanismModel {
             mass: by_drive(8 + nj),
         };
         (point.torque.iter().all(|v| v.is_finite())
+            && point.dynamics.reaction.iter().all(|v| v.is_finite())
             && point
                 .load_stiffness
                 .iter()

@@ -379,8 +379,9 @@ pub trait InverseDynamicsModel {
     /// Play site `site`'s coupling re-linearised at a point of its motion ([`PlayPoint`]):
     /// the drives wound up by `windup` more (rad, or m), the joint's sides offset by `offset`
     /// (shift along base x, y, z in m; tilt about n in rad), at the sample the model last
-    /// evaluated with [`evaluate_at`](Self::evaluate_at) (or at a lone sample). Costs as
-    /// much as [`play_dynamics`](Self::play_dynamics) for one site, twice over. Default None.
+    /// evaluated with [`evaluate_at`](Self::evaluate_at) (or at a lone sample). Costs
+    /// [`play_dynamics`](Self::play_dynamics)'s differences for one site and two inverse
+    /// dynamics more (at the sample and at the point). Default None.
     #[allow(clippy::too_many_arguments)]
     fn play_dynamics_at(
         &self,

@@ -488,8 +488,10 @@ fn static_start(
     let (p, kk) = (coupling(s), &sys.stiffness);
     let nj = s.transmission.compliance.len();
     let [u1, u2, n] = cross_frame(p)?;
-    // The reaction the joint carries: −g on its rows.
-    let reaction: [f64; 4] = std::array::from_fn(|r| -sys.load[nj + r]);
+    // The reaction the joint carries, where its load pushes it (about a point, the point's
+    // own: −g there is the expansion's reaction at the sample, which near a singular position
+    // can point elsewhere).
+    let reaction = p.reaction;
     let force = Vector3::new(reaction[0], reaction[1], reaction[2]);
     let shift = p.play.shift(&p.z_i, &p.z_j, &force, &(n * reaction[3]), 1e-6);
     // A tenth beyond the walls and ends, so that the loaded balls start in contact

@@ -503,8 +503,8 @@ impl Analysis {
             }
         }
         // A driven mechanism without free degrees of freedom has a square, regular B: then
-        // B·ẇ = γ and λ = B⁻ᵀ(Q − M·ẇ) from LUs of B and Bᵀ (a fraction of the work of the
-        // augmented system below).
+        // B·ẇ = γ and λ = B⁻ᵀ(Q − M·ẇ) from one LU of B, solved with B and with Bᵀ (a
+        // fraction of the work of the augmented system below).
         if lay.constraints() == n {
             let own;
             let lu = match b_lu {

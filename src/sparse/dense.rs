@@ -17,8 +17,9 @@ pub struct DenseLu {
 }
 
 impl DenseLu {
-    /// Factorises square `a` (None if it is not square). A singular matrix factorises; its
-    /// solves come out None.
+    /// Factorises square `a` (None if it is not square). A matrix with an exactly zero pivot
+    /// factorises and its solves come out None; a nearly singular one gives finite but
+    /// inaccurate solves — callers test the backward error where it matters.
     pub fn new(a: &DMatrix<f64>) -> Option<Self> {
         a.is_square().then(|| Self {
             lu: a.clone().lu(),
