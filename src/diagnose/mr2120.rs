@@ -306,12 +306,9 @@ mod tests {
         }
     }
 
-    /// The velocity products in the play's coupling: ∂τ_s/∂q̇ agrees with central differences
-    /// of the model's own torques in the rates (with rigid drives, where the arms follow the
-    /// encoders; another route through the model), and every rate derivative is linear in the
-    /// motion's rates: zero at rest, doubled with them.
-    #[test]
-    fn the_plays_velocity_coupling_follows_the_torques_and_scales_with_the_rates() {
+    /// The MR2120's model with rigid drives (the arms follow the encoders), its parameters
+    /// and the encoder angles of a pose, rad.
+    fn rigid_at_a_pose() -> (MechanismModel, Vec<f64>, Vec<f64>) {
         let (g, mp) = (Geometry::default(), MassProperties::default());
         let model = mr2120_model(&g, &mp).unwrap();
         let mut theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
@@ -319,6 +316,16 @@ mod tests {
             theta[DRIVE_COMPLIANCE + j] = 0.0;
         }
         let q: Vec<f64> = inverse(&g, Vector3::new(0.02, 0.01, 0.5)).unwrap().to_vec();
+        (model, theta, q)
+    }
+
+    /// The velocity products in the play's coupling: ∂τ_s/∂q̇ agrees with central differences
+    /// of the model's own torques in the rates (with rigid drives, where the arms follow the
+    /// encoders; another route through the model), and every rate derivative is linear in the
+    /// motion's rates: zero at rest, doubled with them.
+    #[test]
+    fn the_plays_velocity_coupling_follows_the_torques_and_scales_with_the_rates() {
+        let (model, theta, q) = rigid_at_a_pose();
         let (qd, qdd) = (vec![0.8, -1.1, 0.5], vec![1.0, 0.5, -2.0]);
         let sites = model.play_dynamics(&theta, &q, &qd, &qdd).expect("play dynamics");
         let s = &sites[0];
@@ -369,18 +376,12 @@ mod tests {
         }
     }
 
-    /// Re-linearised at the sample itself, a play site's coupling is the sample's; a small
-    /// step off it changes the torques by the sample's derivatives (first order, within a
-    /// percent of the change), and the torques' stiffness and mass there are the sample's.
+    /// Re-linearised at the sample itself, a play site's coupling and reaction are the
+    /// sample's and the torques do not change; a small step off it changes the torques by the
+    /// sample's derivatives (first order, within a percent of the change).
     #[test]
     fn the_play_re_linearised_at_the_sample_is_the_samples() {
-        let (g, mp) = (Geometry::default(), MassProperties::default());
-        let model = mr2120_model(&g, &mp).unwrap();
-        let mut theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
-        for j in 0..3 {
-            theta[DRIVE_COMPLIANCE + j] = 0.0;
-        }
-        let q: Vec<f64> = inverse(&g, Vector3::new(0.02, 0.01, 0.5)).unwrap().to_vec();
+        let (model, theta, q) = rigid_at_a_pose();
         let (qd, qdd) = (vec![0.1, -0.2, 0.05], vec![1.0, 0.5, -2.0]);
         let site = 2;
         let nominal = model
