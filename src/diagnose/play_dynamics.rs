@@ -328,10 +328,7 @@ fn matrices(s: &PlaySample) -> Option<System> {
     {
         return None;
     }
-    let mut kr = DMatrix::from_diagonal(&td.stiffness());
-    if let Some(sl) = load_stiffness.filter(|sl| sl.shape() == kr.shape()) {
-        kr += sl;
-    }
+    let kr = td.response_stiffness_with(load_stiffness);
     let mut mm = DMatrix::zeros(n, n);
     let mut kk = DMatrix::zeros(n, n);
     for a in 0..nj {

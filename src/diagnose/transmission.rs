@@ -63,8 +63,14 @@ impl TransmissionDynamics {
     /// K + S, the stiffness the response to a joint-side load sees (S, the load stiffness,
     /// left out where not known or of the wrong shape), N·m/rad.
     pub fn response_stiffness(&self) -> DMatrix<f64> {
+        self.response_stiffness_with(self.load_stiffness.as_ref())
+    }
+
+    /// K + S with another load stiffness S (the torques' stiffness at another configuration;
+    /// left out where None or of the wrong shape), N·m/rad.
+    pub fn response_stiffness_with(&self, load_stiffness: Option<&DMatrix<f64>>) -> DMatrix<f64> {
         let k = DMatrix::from_diagonal(&self.stiffness());
-        match &self.load_stiffness {
+        match load_stiffness {
             Some(s) if s.shape() == k.shape() => k + s,
             _ => k,
         }
