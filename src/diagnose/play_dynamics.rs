@@ -765,16 +765,20 @@ mod tests {
             load_stiffness: DMatrix::zeros(1, 1),
             mass: transmission.mass.clone(),
         };
-        let about: Vec<Option<PlaySample>> = plain
-            .iter()
-            .map(|s| {
-                s.map(|s| PlaySample {
-                    about: Some(&point),
-                    ..s
+        // The samples expanded about `point`, answered.
+        let about = |point: &PlayPoint| {
+            let samples: Vec<Option<PlaySample>> = plain
+                .iter()
+                .map(|s| {
+                    s.map(|s| PlaySample {
+                        about: Some(point),
+                        ..s
+                    })
                 })
-            })
-            .collect();
-        let expanded = respond(&about, &JointPlay::radial(h), &BALL_CONTACT);
+                .collect();
+            respond(&samples, &JointPlay::radial(h), &BALL_CONTACT)
+        };
+        let expanded = about(&point);
         for i in [0, 150, 299] {
             let (a, b) = (at[i].as_ref().unwrap(), expanded[i].as_ref().unwrap());
             assert!(
@@ -799,16 +803,7 @@ mod tests {
             torque: vec![0.0],
             ..point.clone()
         };
-        let about: Vec<Option<PlaySample>> = plain
-            .iter()
-            .map(|s| {
-                s.map(|s| PlaySample {
-                    about: Some(&stiff),
-                    ..s
-                })
-            })
-            .collect();
-        let stiffer = respond(&about, &JointPlay::radial(h), &BALL_CONTACT);
+        let stiffer = about(&stiff);
         let (a, b) = (at[299].as_ref().unwrap(), stiffer[299].as_ref().unwrap());
         let k = transmission.stiffness()[0];
         let ratio = b.windup[0] / a.windup[0];
