@@ -10,7 +10,8 @@
 //! platform centre): the truth's effect against the reduced model's (its play coordinates
 //! and extra wind-up through the nominal model's output sensitivities; with the play less
 //! without in parentheses) and the quasi-static shift at load scales of 1, 5 and 20 N.
-//! Prints the RMS per channel and time window in noise units and writes plots.
+//! Prints the RMS per channel and time window in noise units and writes plots, then the
+//! joint's play coordinates in the truth and the model side by side over the plot window.
 //!
 //! ```text
 //! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes]
@@ -283,6 +284,56 @@ fn main() -> Result<(), Box<dyn Error>> {
             vec![],
         )
         .save(&out.join(format!("drive-{}", drive.to_lowercase())))?;
+    }
+
+    // The joint's own motion: its play coordinates in the truth (`TruthRun::joint_play`) and
+    // in the reduced model, with and without the clearance, beside drive A's torque effect:
+    // where the two part, whether the model moves the joint differently or turns the same
+    // motion into different torques.
+    let rows = (plot_to.min(t[n - 1]) - plot_from).max(0.0);
+    let every = (rows / 20.0).max(0.01);
+    println!(
+        "joint {name}'s play coordinates (shift of side j from side i along x, y, z in µm; tilt about n in µrad) and drive A's torque effect (with − without, N·m), every {:.0} ms:",
+        every * 1e3
+    );
+    println!(
+        "  {:>6}  {:^31}  {:^31}  {:^31}  {:^31}  {:>7} {:>7}",
+        "t s",
+        "truth with clearance",
+        "model with clearance",
+        "truth without",
+        "model without",
+        "truth",
+        "model"
+    );
+    let fmt = |e: [f64; 4]| {
+        format!(
+            "{:+6.2} {:+6.2} {:+6.2} {:+8.1}",
+            e[0] * 1e6,
+            e[1] * 1e6,
+            e[2] * 1e6,
+            e[3] * 1e6
+        )
+    };
+    let mut next = plot_from;
+    for i in 0..n {
+        if t[i] + 1e-9 < next || t[i] > plot_to {
+            continue;
+        }
+        next = t[i] + every - 1e-9;
+        let (Some(a), Some(b)) = (&loose_model[i], &tight_model[i]) else {
+            continue;
+        };
+        println!(
+            "  {:6.3}  {}  {}  {}  {}  {:+7.3} {:+7.3}",
+            t[i],
+            fmt(loose.joint_play[joint][i]),
+            fmt(a.offset),
+            fmt(tight.joint_play[joint][i]),
+            fmt(b.offset),
+            loose.tau[0][i] - tight.tau[0][i],
+            a.torque[0] - b.torque[0]
+        );
     }
 
     // The tracker: the play's effect on the platform centre (truth with clearance − without)

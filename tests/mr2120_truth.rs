@@ -492,3 +492,41 @@ fn bearings_do_not_change_the_machines_mass_distribution() {
     );
     assert!(di > 0.0);
 }
+
+/// Each joint's play coordinates come with the truth's signals: a joint with a 6 µm radial
+/// clearance moves by the order of its clearance (here the short pre-roll leaves the joint
+/// rattling: side j swings by up to ~36 µm, the balls' Hertz compression in the impacts
+/// added to twice the clearance the cross allows; the tilt by ~1 mrad, about the two
+/// clearances over half the 24 mm ball spacing), an ideal joint stays at zero to the
+/// constraint tolerance.
+#[test]
+fn the_truth_reports_each_joints_play() {
+    use lash::contact::BearingDesign;
+    use lash::mechanisms::mr2120::clearance::DEFAULT_DAMPING;
+    let h = 6e-6;
+    let mut spec = TruthSpec::nominal();
+    spec.joints[2] = Some(BearingDesign::mr2120(h, 0.0, DEFAULT_DAMPING)); // F
+    spec.settle_hold = 0.05;
+    spec.settle_ramp = 0.05;
+    spec.settle_run_in = 0.0;
+    let run = simulate_run(&spec, &path_gentle(), &opts(0.1)).unwrap();
+    let n = run.t.len();
+    let shift = |p: &[f64; 4]| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+    for (k, play) in run.joint_play.iter().enumerate() {
+        assert_eq!(play.len(), n, "joint {k}: one value per sample");
+        let largest = play.iter().map(shift).fold(0.0f64, f64::max);
+        let tilt = play.iter().map(|p| p[3].abs()).fold(0.0f64, f64::max);
+        if k == 2 {
+            assert!(largest > h && largest < 20.0 * h, "joint F: {largest:e} m");
+            assert!(
+                tilt > 2.0 * h / 0.012 / 4.0 && tilt < 4.0 * 2.0 * h / 0.012,
+                "joint F: tilt {tilt:e} rad"
+            );
+        } else {
+            assert!(
+                largest < 1e-9 && tilt < 1e-8,
+                "ideal joint {k}: {largest:e} m, {tilt:e} rad"
+            );
+        }
+    }
+}

@@ -705,6 +705,64 @@ fn frame_z(z: Vector3<f64>) -> Matrix3<f64> {
     Matrix3::from_columns(&[x, z.cross(&x), z])
 }
 
+/// Where a universal joint's two sides meet, to read the joint's play from a state: the
+/// bodies of its sides and, in each body's frame, the joint centre and the side's trunnion
+/// axis (side i: the arm at an elbow D, E, F, the forearm at a platform joint P, Q, R; side
+/// j: the forearm, the platform), as `lash::diagnose`'s reduced play model defines them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointSides {
+    /// Body of side i.
+    pub body_i: BodyHandle,
+    /// Body of side j.
+    pub body_j: BodyHandle,
+    /// The joint centre in side i's body frame, m.
+    pub centre_i: Vector3<f64>,
+    /// The joint centre in side j's body frame, m.
+    pub centre_j: Vector3<f64>,
+    /// Side i's trunnion axis z_i in its body frame (unit).
+    pub axis_i: Vector3<f64>,
+    /// Side j's trunnion axis z_j in its body frame (unit).
+    pub axis_j: Vector3<f64>,
+}
+
+impl JointSides {
+    /// The sides of the joint at base-frame `centre` with base-frame axes `axis_i`, `axis_j`
+    /// between `body_i` and `body_j`, all as built in `mech`.
+    fn new(
+        mech: &Mechanism,
+        (body_i, body_j): (BodyHandle, BodyHandle),
+        centre: Vector3<f64>,
+        (axis_i, axis_j): (Vector3<f64>, Vector3<f64>),
+    ) -> Option<Self> {
+        let frame = |h: BodyHandle| {
+            let b = mech.body(h)?;
+            Some((
+                b.position,
+                crate::multibody::rotation::rotation(&b.orientation.normalize()),
+            ))
+        };
+        let ((ri, ai), (rj, aj)) = (frame(body_i)?, frame(body_j)?);
+        Some(Self {
+            body_i,
+            body_j,
+            centre_i: ai.transpose() * (centre - ri),
+            centre_j: aj.transpose() * (centre - rj),
+            axis_i: ai.transpose() * axis_i.normalize(),
+            axis_j: aj.transpose() * axis_j.normalize(),
+        })
+    }
+
+    /// The joint's play coordinates in state `s`: the shift of side j's centre from side
+    /// i's along base x, y, z (m) and the tilt of side j about n = z_i × z_j, −z_i·z_j (rad;
+    /// zero for an ideal joint, up to the constraint tolerance).
+    pub fn play(&self, s: &Sample) -> [f64; 4] {
+        let (ai, aj) = (s.body_rotation(self.body_i), s.body_rotation(self.body_j));
+        let d = (s.body_position(self.body_j) + aj * self.centre_j)
+            - (s.body_position(self.body_i) + ai * self.centre_i);
+        [d.x, d.y, d.z, -(ai * self.axis_i).dot(&(aj * self.axis_j))]
+    }
+}
+
 /// The truth model and the handles the recording needs.
 #[derive(Debug)]
 pub struct TruthModel {
@@ -724,6 +782,8 @@ pub struct TruthModel {
     pub q_build: [f64; 3],
     /// The rotor angles relative to the ground (zero in the build configuration).
     pub rotor_angles: [RelativeRotation; 3],
+    /// The sides of the universal joints D, E, F, P, Q, R (ideal or with a bearing).
+    pub joint_sides: [JointSides; 6],
 }
 
 /// Builds the truth model of `spec` at rest with the platform at `m_build` (m), the rotors
@@ -750,6 +810,30 @@ pub fn truth_model(
         carved,
     )?;
     add_universal_joints(&mut mech, &l, &spec.mass, &spec.joints)?;
+    // The joints' sides as `add_universal_joints` joins them: an elbow from the arm (its
+    // axis along the drive axis) to the forearm, a platform joint from the forearm to the
+    // platform, the other way round.
+    let sides: Vec<JointSides> = (0..6)
+        .map(|k| {
+            let i = k % 3;
+            let (bodies, centre, axes) = if k < 3 {
+                (
+                    (l.arms[i], l.forearms[i]),
+                    l.elbows[i],
+                    (l.axes[i], l.cross_axes[i]),
+                )
+            } else {
+                (
+                    (l.forearms[i], l.platform),
+                    l.platform_points[i],
+                    (l.cross_axes[i], l.axes[i]),
+                )
+            };
+            JointSides::new(&mech, bodies, centre, axes)
+                .ok_or_else(|| TruthError::Invalid(format!("joint {k}: its bodies are not in the model")))
+        })
+        .collect::<Result<_, _>>()?;
+    let joint_sides: [JointSides; 6] = sides.try_into().expect("six joints");
     let branches = spec.geometry.branches();
     let mut rotors = [l.platform; 3];
     let mut motors = Vec::with_capacity(3);
@@ -850,6 +934,7 @@ pub fn truth_model(
         payload,
         q_build: l.q,
         rotor_angles: rotor_angles.try_into().expect("three rotors"),
+        joint_sides,
     })
 }
 
@@ -941,6 +1026,11 @@ pub struct TruthRun {
     pub tau_delayed: [Vec<f64>; 3],
     /// Platform centre at t_k − tracker delay, m.
     pub pose_delayed: [Vec<f64>; 3],
+    /// Per universal joint D, E, F, P, Q, R and sample, its play coordinates
+    /// ([`JointSides::play`]): the shift of side j from side i along base x, y, z (m) and the
+    /// tilt about n (rad). A joint with a bearing moves within its clearance and the balls'
+    /// compression; an ideal joint stays at zero (to the constraint tolerance).
+    pub joint_play: [Vec<[f64; 4]>; 6],
     /// Integrator steps (pre-roll included).
     pub steps: usize,
     /// Wall time of the simulation, s.
@@ -1012,6 +1102,7 @@ pub fn simulate_run(
         pose: Default::default(),
         tau_delayed: Default::default(),
         pose_delayed: Default::default(),
+        joint_play: Default::default(),
         steps: sim.stats().steps,
         wall_s: 0.0,
     };
@@ -1067,6 +1158,9 @@ pub fn simulate_run(
             out.pose[i].push(pose_at[ks][i]);
             out.tau_delayed[i].push(tau_at[kt][i]);
             out.pose_delayed[i].push(pose_at[kp][i]);
+        }
+        for (play, sides) in out.joint_play.iter_mut().zip(&model.joint_sides) {
+            play.push(sides.play(s));
         }
     }
     out.wall_s = start.elapsed().as_secs_f64();
