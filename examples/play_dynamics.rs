@@ -14,7 +14,7 @@
 //! joint's play coordinates in the truth and the model side by side over the plot window.
 //!
 //! ```text
-//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes]
+//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m, or hertz] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes]
 //! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics
 //! cargo run --release --example play_dynamics -- D 0,1e-5 5 out/play-dynamics-axial
 //! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics-relin 1e8 200 2.5,3.1 1
@@ -30,7 +30,7 @@ use lash::contact::BearingDesign;
 use lash::diagnose::model::InverseDynamicsModel;
 use lash::diagnose::mr2120::mr2120_model;
 use lash::diagnose::play_dynamics::{
-    respond, BallContact, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
+    respond, BallContact, HertzBalls, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
 };
 use lash::diagnose::suite::{lumped::excitation, SuiteOptions};
 use lash::mechanisms::mr2120::clearance::LUBRICATED_DAMPING;
@@ -60,17 +60,28 @@ fn main() -> Result<(), Box<dyn Error>> {
     }
     let out = PathBuf::from(args.get(3).map(String::as_str).unwrap_or("out/play-dynamics"));
     std::fs::create_dir_all(&out)?;
+    // Ball stiffness: a number (N/m, the linear law) or `hertz` (Hertz's law with the
+    // constants of the joint's own bearing design at this clearance).
+    let hertz = args.get(4).is_some_and(|s| s == "hertz");
     let contact = BallContact {
-        stiffness: args
-            .get(4)
-            .map(|s| s.parse())
-            .transpose()?
-            .unwrap_or(BALL_CONTACT.stiffness),
+        stiffness: match args.get(4) {
+            Some(s) if !hertz => s.parse()?,
+            _ => BALL_CONTACT.stiffness,
+        },
         damping: args
             .get(5)
             .map(|s| s.parse())
             .transpose()?
             .unwrap_or(BALL_CONTACT.damping),
+        hertz: if hertz {
+            Some(HertzBalls::from_design(&BearingDesign::mr2120(
+                h,
+                h_a,
+                LUBRICATED_DAMPING,
+            ))?)
+        } else {
+            None
+        },
     };
     // Re-linearisation passes in the plot window (default none).
     let passes: usize = args.get(7).map(|s| s.parse()).transpose()?.unwrap_or(0);
@@ -199,7 +210,19 @@ fn main() -> Result<(), Box<dyn Error>> {
             clock.elapsed().as_secs_f64()
         );
     }
-    let tight_model = respond(&samples, &JointPlay::default(), &contact);
+    // Without clearance, Hertz balls fit their bores: a conformal, much stiffer contact.
+    let tight_contact = BallContact {
+        hertz: match contact.hertz {
+            Some(_) => Some(HertzBalls::from_design(&BearingDesign::mr2120(
+                0.0,
+                0.0,
+                LUBRICATED_DAMPING,
+            ))?),
+            None => None,
+        },
+        ..contact
+    };
+    let tight_model = respond(&samples, &JointPlay::default(), &tight_contact);
     eprintln!(
         "the reduced model: {:.2} s for two runs",
         clock.elapsed().as_secs_f64()
@@ -223,11 +246,14 @@ fn main() -> Result<(), Box<dyn Error>> {
         (0.6, t[n - 1] + 1e-9),
     ];
     println!(
-        "joint {name}, radial clearance {:.1} µm, axial play {:.1} µm, recording {recording}, balls {:e} N/m and {:e} N·s/m: the play's effect on the drive torques \
+        "joint {name}, radial clearance {:.1} µm, axial play {:.1} µm, recording {recording}, balls {} and {:e} N·s/m: the play's effect on the drive torques \
          (truth with clearance − without) and what the reduced model leaves of it, RMS in torque-noise units ({sigma} N·m)",
         h * 1e6,
         h_a * 1e6,
-        contact.stiffness,
+        match contact.hertz {
+            Some(k) => format!("Hertz {:.3e} N/m^1.5 radially, {:.3e} axially", k.radial, k.axial),
+            None => format!("{:e} N/m", contact.stiffness),
+        },
         contact.damping
     );
     let what = format!(

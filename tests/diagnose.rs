@@ -938,7 +938,11 @@ mod declared_sensors {
         let e = pendulum()
             .with_play(vec![PlaySite {
                 joint: "pivot".into(),
-                play: lash::contact::play::UniversalPlay { ball_spacing: 0.024 },
+                play: lash::contact::play::UniversalPlay {
+                    ball_spacing: 0.024,
+                    ball_radius: 0.004,
+                    material: lash::contact::Material::steel(),
+                },
                 cross_mass: 0.05,
             }])
             .unwrap_err();

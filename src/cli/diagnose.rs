@@ -95,6 +95,12 @@ pub struct Args {
     /// drive torques come from the reduced dynamic play model at the first pass's estimate).
     #[arg(long)]
     quasi_static_play: bool,
+    /// The reduced dynamic play model's balls on Hertz's law per direction, with the
+    /// constants of the joint's own bearings (a ball in a bore of the reference play's
+    /// clearance, a ball on the bore's end face), instead of one linear stiffness (also with
+    /// --suite).
+    #[arg(long)]
+    hertz_play_contact: bool,
     /// Print the diagnosis as JSON.
     #[arg(long)]
     json: bool,
@@ -124,7 +130,15 @@ pub struct Args {
 pub fn run(a: Args) -> Result<Output, CliError> {
     if a.suite {
         let dir = a.report.unwrap_or_else(|| SUITE_REPORT.into());
-        return suite(a.reduced, &a.truth, &a.only, a.keep_recordings, &dir, a.json);
+        return suite(
+            a.reduced,
+            &a.truth,
+            &a.only,
+            a.keep_recordings,
+            a.hertz_play_contact,
+            &dir,
+            a.json,
+        );
     }
     let dp;
     let mr;
@@ -218,6 +232,7 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         dynamic_play_selection: !a.quasi_static_play,
         ..DiagnoseOptions::default()
     };
+    opts.library.play_contact_hertz = a.hertz_play_contact;
     opts.library.exclude = a
         .exclude
         .as_deref()
@@ -269,6 +284,7 @@ fn suite(
     truth: &str,
     only: &str,
     keep_recordings: Option<PathBuf>,
+    hertz_play_contact: bool,
     dir: &Path,
     as_json: bool,
 ) -> Result<Output, CliError> {
@@ -284,6 +300,7 @@ fn suite(
         opts.only = chosen;
     }
     opts.keep_recordings = keep_recordings;
+    opts.diagnose.library.play_contact_hertz = hertz_play_contact;
     let mut progress = Progress::new("diagnose --suite", 1.0);
     let board = run_suite(&opts, Some(dir), |_, f| progress.update(f));
     progress.finish();

@@ -27,6 +27,7 @@
 //! of how firmly a load must press to move it across the play (friction, preload): the
 //! diagnosis chooses it by cross-validation. Units: m, rad, N, N·m.
 
+use super::stiffness::Material;
 use super::BearingDesign;
 use nalgebra::Vector3;
 
@@ -35,6 +36,10 @@ use nalgebra::Vector3;
 pub struct UniversalPlay {
     /// Distance between the two bearings of a trunnion pair, m.
     pub ball_spacing: f64,
+    /// Radius of the trunnion balls, m (with `material`, their Hertz contact).
+    pub ball_radius: f64,
+    /// Material of the balls and their bores.
+    pub material: Material,
 }
 
 impl UniversalPlay {
@@ -42,6 +47,8 @@ impl UniversalPlay {
     pub fn from_design(design: &BearingDesign) -> Self {
         Self {
             ball_spacing: design.ball_spacing,
+            ball_radius: design.ball_radius,
+            material: design.material,
         }
     }
 }

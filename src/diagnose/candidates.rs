@@ -38,7 +38,9 @@
 //! | output-sensor delay | −d·dy_k/dt on output k |
 use super::data::{Channel, MotionData};
 use super::model::{InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily, PlayDynamics};
-use super::play_dynamics::{respond, BallContact, JointPlay, PlayResponse, PlaySample, BALL_CONTACT};
+use super::play_dynamics::{
+    respond, BallContact, HertzBalls, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
+};
 use super::signal::derivative;
 use super::transmission::{self, TransmissionDynamics};
 use serde::Serialize;
@@ -88,6 +90,12 @@ pub struct LibraryOptions {
     /// The balls' contact damping (N·s/m) in the reduced dynamic play model; `None`: that of
     /// [`BALL_CONTACT`].
     pub play_contact_damping: Option<f64>,
+    /// Hertz's law per direction for the balls in the reduced dynamic play model, with the
+    /// constants of the joint's own bearings at the reference play
+    /// ([`HertzBalls::of`](super::play_dynamics::HertzBalls::of): a ball in a bore of that
+    /// clearance, a ball on the bore's end face) instead of [`BALL_CONTACT`]'s one linear
+    /// stiffness. Measured with the example `play_dynamics` (README).
+    pub play_contact_hertz: bool,
     /// Whether the play candidates that take drive-torque rows from the reduced dynamic play
     /// model ([`dynamic_play_clearance`](Self::dynamic_play_clearance),
     /// [`dynamic_axial_play`](Self::dynamic_axial_play)) take their tracker rows from it too:
@@ -209,6 +217,7 @@ impl Default for LibraryOptions {
             dynamic_play_clearance: None,
             dynamic_axial_play: None,
             play_contact_damping: None,
+            play_contact_hertz: false,
             dynamic_play_tracker: true,
             only: vec![],
         }
@@ -647,6 +656,13 @@ pub fn columns(
         ..BALL_CONTACT
     };
     let run = |site: usize, play: &JointPlay| -> Vec<Option<PlayResponse>> {
+        // Hertz's law: the joint's own balls at this play's radial clearance.
+        let hertz = opts
+            .play_contact_hertz
+            .then(|| play_dyn.iter().flatten().find_map(|p| p.get(site)))
+            .flatten()
+            .and_then(|p| HertzBalls::of(&p.play, play.radial).ok());
+        let contact = BallContact { hertz, ..contact };
         let samples: Vec<Option<PlaySample>> = (0..n)
             .map(|i| match (play_dyn.get(i)?, dynamics.get(i)?) {
                 (Some(p), Some(transmission)) => Some(PlaySample {
@@ -1181,7 +1197,11 @@ mod tests {
                     z_j: Vector3::y(),
                     force: Vector3::new(0.0, 0.0, load(q[0])),
                     moment: Vector3::zeros(),
-                    play: UniversalPlay { ball_spacing: 0.024 },
+                    play: UniversalPlay {
+                        ball_spacing: 0.024,
+                        ball_radius: 0.004,
+                        material: crate::contact::Material::steel(),
+                    },
                 }],
             })
         }
@@ -1272,6 +1292,25 @@ mod tests {
                 col[i]
             );
         }
+        // On Hertz's law (the joint's own balls in bores of clearance h): at the wall the
+        // two balls in series under 100 N each add 2·(100 N/K)^(2/3) (1.86 µm) to the 2h
+        // instead of the linear law's 200 N/k (2.00 µm).
+        opts.play_contact_hertz = true;
+        let (hertz, _) = columns(&cands, &d, &Carried, &opts);
+        let k = HertzBalls::of(&fixtures::hanging_joint(0.0, 0.0).play, h)
+            .unwrap()
+            .radial;
+        let squeeze = 2.0 * (100.0 / k).powf(2.0 / 3.0);
+        let hertz_col = torque(&hertz, radial);
+        for (i, sign) in [(200, -1.0), (500, 1.0)] {
+            let got = sign * hertz_col[i] * h / TAU_PER_M - 2.0 * h;
+            assert!(
+                (got - squeeze).abs() < 0.02 * squeeze,
+                "Hertz, t = {} s: the balls add {got:e} m, Hertz gives {squeeze:e}",
+                t[i]
+            );
+        }
+        opts.play_contact_hertz = false;
         let h_a = 2.0 * h;
         opts.dynamic_axial_play = Some(h_a);
         let (both, _) = columns(&cands, &d, &Carried, &opts);

@@ -51,10 +51,27 @@
 //! **Contacts** ([`JointPlay`]): per ball a radial contact in a bore with radial clearance h
 //! and an axial one on the bore's end, h_a/2 away at the centre of a pair's axial play h_a,
 //! on a linear penalty law ([`BallContact`]: stiffness on the penetration, damping on its
-//! rate, never pulling; the same damping along the bore's wall while in radial contact).
-//! This is not the contact law of the suite's truths (Hertz balls with
-//! Hunt–Crossley damping, the whole 63-DOF model): it is a model of the same geometry,
-//! reduced.
+//! rate, never pulling; the same damping along the bore's wall while in radial contact), or
+//! on Hertz's law per direction ([`HertzBalls`], `BallContact::hertz`: F = K·δ^1.5 with K of a
+//! ball in a bore of the play's clearance radially, of a ball on the bore's end face
+//! axially, from the joint's own bearings; damping as before). Neither is the contact law of
+//! the suite's truths (Hertz balls with Hunt–Crossley damping, in the whole 63-DOF model):
+//! it is a model of the same geometry, reduced.
+//!
+//! **Hertz per direction** (2026-11-27, session 28): the truth reports each joint's play
+//! coordinates (`TruthRun::joint_play`), and beside the model's (example `play_dynamics`,
+//! joint F, 6 µm, recording 5 at the load peak near the direct singularity) they showed the
+//! one linear stiffness wrong in both directions: without clearance the truth's joint barely
+//! tilts (102 µrad: balls that fit their bores are a conformal contact) but shifts 8.3 µm
+//! along the trunnion axis (a ball on a flat end face is soft), the model's 397 µrad and
+//! 2.8 µm at 1e8 N/m. With Hertz from the design the model's joint follows the truth's to a
+//! few per cent (without clearance −8.25/−3.22/−0.83 µm, 101.6 µrad against −8.17/−3.19/−0.84
+//! µm, 102.0 µrad at 2.65 s; with clearance 1 198 µrad against 1 217), and what the model
+//! leaves of the play's effect on drives A/B/C (RMS 0.6–5 s, torque-noise units, with the play
+//! less without) drops on every recording: 5: 4.57/3.24/5.26 → 4.04/2.77/4.62; 3: 1.27/0.69/1.48
+//! → 1.01/0.57/1.27; 1: 1.02/0.78/1.23 → 0.63/0.56/0.81; 6: 0.12/0.12/0.15 → 0.08/0.08/0.08.
+//! What stays on recording 5 is the load peak's torque (0.40 against 0.70 N·m at 2.68 s) with
+//! the joint's motion right: the drives' response to it (see the README).
 //!
 //! **Outputs**: the torque sensors read K·δw + D·δẇ more.
 //!
@@ -78,14 +95,93 @@ use super::model::{PlayDynamics, PlayPoint};
 use super::transmission::{TransmissionDynamics, MAX_GAP};
 use nalgebra::{DMatrix, DVector, Vector3};
 
-/// The trunnion balls' contact in the reduced play model: a linear penalty.
+/// The trunnion balls' contact in the reduced play model: a linear penalty, or Hertz's law
+/// per direction ([`HertzBalls`]), with damping on the penetration's rate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BallContact {
-    /// Stiffness on a ball's penetration of its bore's clearance, N/m.
+    /// Stiffness on a ball's penetration of its bore's clearance, N/m (the linear law; with
+    /// [`hertz`](Self::hertz) unused).
     pub stiffness: f64,
     /// Damping on the penetration's rate, and on the ball's sliding along the wall while in
     /// contact, N·s/m (the contact never pulls).
     pub damping: f64,
+    /// Hertz's law instead of the linear one: F = K·δ^1.5, K per direction.
+    pub hertz: Option<HertzBalls>,
+}
+
+/// Hertz constants of a joint's trunnion balls, N/m^1.5: F = K·δ^1.5 on a penetration δ (m).
+/// From the joint's own bearing design ([`HertzBalls::from_design`]): a ball against its
+/// bore's wall is a sphere inside a concave cylinder of the bore's radius (nearly conformal:
+/// the stiffer the smaller the clearance), a ball on its bore's end face a sphere on a plane.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HertzBalls {
+    /// A ball against its bore's wall, N/m^1.5.
+    pub radial: f64,
+    /// A ball against its bore's end face, N/m^1.5.
+    pub axial: f64,
+}
+
+impl HertzBalls {
+    /// The constants of a universal joint's balls ([`UniversalPlay`](crate::contact::play::UniversalPlay):
+    /// radius, material) in bores of radial clearance `radial` (m).
+    pub fn of(
+        play: &crate::contact::play::UniversalPlay,
+        radial: f64,
+    ) -> Result<Self, crate::contact::ContactError> {
+        use crate::contact::stiffness::{ball_in_bore, ball_on_flat};
+        let m = &play.material;
+        Ok(Self {
+            radial: ball_in_bore(play.ball_radius, play.ball_radius + radial.max(0.0), m, m)?,
+            axial: ball_on_flat(play.ball_radius, m, m)?,
+        })
+    }
+
+    /// The constants of `design`'s balls (radius, material) in bores of its radial clearance
+    /// ([`crate::contact::stiffness::ball_in_bore`], [`crate::contact::stiffness::ball_on_flat`]).
+    pub fn from_design(design: &crate::contact::BearingDesign) -> Result<Self, crate::contact::ContactError> {
+        use crate::contact::stiffness::{ball_in_bore, ball_on_flat};
+        let m = &design.material;
+        Ok(Self {
+            radial: ball_in_bore(
+                design.ball_radius,
+                design.ball_radius + design.radial_clearance,
+                m,
+                m,
+            )?,
+            axial: ball_on_flat(design.ball_radius, m, m)?,
+        })
+    }
+}
+
+impl BallContact {
+    /// The normal force (N, ≥ 0) of a penetration `d` (m) of a bore's wall (`radial`) or of
+    /// its end face, without the damping.
+    fn spring(&self, radial: bool, d: f64) -> f64 {
+        if d <= 0.0 {
+            return 0.0;
+        }
+        match self.hertz {
+            None => self.stiffness * d,
+            Some(k) => (if radial { k.radial } else { k.axial }) * d * d.sqrt(),
+        }
+    }
+
+    /// The largest penetration (m) a normal force `force` (N) makes, either direction.
+    fn compression(&self, force: f64) -> f64 {
+        match self.hertz {
+            None => force / self.stiffness,
+            Some(k) => (force / k.radial.min(k.axial)).max(0.0).powf(2.0 / 3.0),
+        }
+    }
+
+    /// The largest contact stiffness dF/dδ (N/m) under a normal force `force` (N), either
+    /// direction (Hertz: 1.5·K^(2/3)·F^(1/3)).
+    fn tangent_stiffness(&self, force: f64) -> f64 {
+        match self.hertz {
+            None => self.stiffness,
+            Some(k) => 1.5 * k.radial.max(k.axial).powf(2.0 / 3.0) * force.max(0.0).cbrt(),
+        }
+    }
 }
 
 /// The contact the README's measurements used: 1e8 N/m, about the secant stiffness F/δ of the
@@ -103,6 +199,7 @@ pub struct BallContact {
 pub const BALL_CONTACT: BallContact = BallContact {
     stiffness: 1e8,
     damping: 2e3,
+    hertz: None,
 };
 
 /// A joint's play in the reduced model: the radial clearance of each trunnion ball in its
@@ -259,7 +356,7 @@ fn contact_load_one(
             // Normal: the penalty and its damping, never pulling; tangential (along the
             // bore's wall): the same damping, while in contact.
             let (nb, tb) = ([b[0] / r, b[1] / r], [-b[1] / r, b[0] / r]);
-            let f = (-c.stiffness * (r - h) - c.damping * (bd[0] * nb[0] + bd[1] * nb[1])).min(0.0);
+            let f = (-c.spring(true, r - h) - c.damping * (bd[0] * nb[0] + bd[1] * nb[1])).min(0.0);
             let ft = -c.damping * (bd[0] * tb[0] + bd[1] * tb[1]);
             for (kk, o) in out.iter_mut().enumerate() {
                 *o += f * (nb[0] * jb[0][kk] + nb[1] * jb[1][kk])
@@ -272,7 +369,7 @@ fn contact_load_one(
             if d <= 0.0 {
                 return 0.0;
             }
-            let f = (-c.stiffness * d - c.damping * dot(row, xd)).min(0.0);
+            let f = (-c.spring(false, d) - c.damping * dot(row, xd)).min(0.0);
             for (kk, o) in out.iter_mut().enumerate() {
                 *o += f * row[kk];
             }
@@ -451,11 +548,12 @@ fn contact_gram(ks: &[Contact; 8], n: usize) -> DMatrix<f64> {
 }
 
 /// Substeps for one sample interval of `h` s: a tenth of the period of the fastest mode
-/// with every ball in contact (the largest eigenvalue of M⁻¹·(K + K_c), K_c = k·Σ JᵀJ),
+/// with every ball in contact (the largest eigenvalue of M⁻¹·(K + K_c), K_c = k·Σ JᵀJ, k the
+/// contact's stiffness — Hertz's under four times the joint's `load`, at least 400 N),
 /// and the damping resolved, the contacts' with the system's (dt·λ_max(M⁻¹·(C + C_c)) ≤ 0.5,
 /// and as much for −C where the velocity products feed a mode); at least 1, at most
 /// 100 000. None if the mass matrix is not positive definite.
-fn substeps(sys: &System, ks: &[Contact; 8], contact: &BallContact, h: f64) -> Option<usize> {
+fn substeps(sys: &System, ks: &[Contact; 8], contact: &BallContact, load: f64, h: f64) -> Option<usize> {
     let jtj = contact_gram(ks, sys.mass.nrows());
     let sym = |m: &DMatrix<f64>| (m + m.transpose()) * 0.5;
     let l = sym(&sys.mass).cholesky()?.l();
@@ -464,7 +562,8 @@ fn substeps(sys: &System, ks: &[Contact; 8], contact: &BallContact, h: f64) -> O
         let a = sym(&(&linv * m * linv.transpose()));
         a.symmetric_eigenvalues().iter().fold(0.0f64, |x, &v| x.max(v))
     };
-    let omega = largest(sym(&sys.stiffness) + &jtj * contact.stiffness).sqrt();
+    let k_contact = contact.tangent_stiffness(4.0 * load.max(100.0));
+    let omega = largest(sym(&sys.stiffness) + &jtj * k_contact).sqrt();
     let c = sym(&sys.damping);
     let gamma = largest(&jtj * contact.damping + &c).max(largest(-c));
     let dt = (0.2 * std::f64::consts::PI / omega.max(1e-300)).min(0.5 / gamma.max(1e-300));
@@ -547,7 +646,7 @@ fn static_start(
                 dx[nj + c].abs() * if rotation { p.play.ball_spacing / 2.0 } else { 1.0 }
             })
             .fold(0.0, f64::max);
-        let limit = play.scale().max(load / contact.stiffness);
+        let limit = play.scale().max(contact.compression(load));
         if reach > limit {
             dx *= limit / reach;
         }
@@ -588,7 +687,9 @@ pub fn respond(
         };
         let next = match state.take() {
             Some((t0, mut x, mut v)) if s.t > t0 && s.t - t0 <= MAX_GAP => {
-                let Some(n_sub) = substeps(&sys, &ks, contact, s.t - t0) else {
+                let r = coupling(s).reaction;
+                let load = r[0].hypot(r[1]).hypot(r[2]);
+                let Some(n_sub) = substeps(&sys, &ks, contact, load, s.t - t0) else {
                     continue;
                 };
                 let dt = (s.t - t0) / n_sub as f64;
@@ -649,7 +750,11 @@ pub(crate) mod fixtures {
         PlayDynamics {
             z_i: Vector3::x(),
             z_j: Vector3::y(),
-            play: UniversalPlay { ball_spacing: 0.024 },
+            play: UniversalPlay {
+                ball_spacing: 0.024,
+                ball_radius: 0.004,
+                material: crate::contact::Material::steel(),
+            },
             cross_mass: 0.05,
             reaction: [0.0, 0.0, load, 0.0],
             torque_by_offset: [vec![0.0], vec![0.0], vec![tau_per_m], vec![0.0]],
@@ -859,6 +964,56 @@ mod tests {
                 assert!((ball - 30.0).abs() < 0.6, "{:?}", at.radial_forces);
             }
         }
+    }
+
+    /// With Hertz's law per direction the same statics hold with δ = (F/K)^(2/3): hanging
+    /// without play on 200 N, side j sits two balls' compressions under 100 N lower (one
+    /// ball of each pair in series); pressed along x by 60 N against the end of a 10 µm axial
+    /// play, it sits h_a/2 + δ_axial(60 N) + δ_radial(30 N) away.
+    #[test]
+    fn with_hertz_balls_the_joint_sits_on_each_directions_own_compression() {
+        let hertz = HertzBalls {
+            radial: 1e10,
+            axial: 2e9,
+        };
+        let contact = BallContact {
+            hertz: Some(hertz),
+            ..BALL_CONTACT
+        };
+        let delta = |f: f64, k: f64| (f / k).powf(2.0 / 3.0);
+        let transmission = fixtures::one_drive();
+        let joint = fixtures::hanging_joint(200.0, 0.0);
+        let samples = every_2_ms(50, |_| &joint, &transmission);
+        let r = respond(&samples, &JointPlay::default(), &contact);
+        let sits = -2.0 * delta(100.0, hertz.radial);
+        for at in [&r[0], &r[49]] {
+            let at = at.as_ref().expect("a response");
+            assert!(
+                (at.offset[2] - sits).abs() < 0.02 * sits.abs(),
+                "{:?} vs {sits:e}",
+                at.offset
+            );
+        }
+        let h_a = 1e-5;
+        let mut push = fixtures::hanging_joint(0.0, 0.0);
+        push.reaction = [60.0, 0.0, 0.0, 0.0];
+        let samples = every_2_ms(50, |_| &push, &transmission);
+        let r = respond(&samples, &JointPlay::axial(h_a), &contact);
+        let sits = -(0.5 * h_a + delta(60.0, hertz.axial) + delta(30.0, hertz.radial));
+        for at in [&r[0], &r[49]] {
+            let at = at.as_ref().expect("a response");
+            assert!(
+                (at.offset[0] - sits).abs() < 0.02 * sits.abs(),
+                "{:?} vs {sits:e}",
+                at.offset
+            );
+        }
+        // From the MR2120 design: a 4 mm steel ball in a bore 6 µm larger is some ten times
+        // stiffer than on a flat end face (1.12e11 against ~1e10 N/m^1.5).
+        let design = crate::contact::BearingDesign::mr2120(6e-6, 0.0, crate::contact::Damping::Elastic);
+        let k = HertzBalls::from_design(&design).unwrap();
+        assert!((k.radial / 1.12e11 - 1.0).abs() < 0.05, "{k:?}");
+        assert!(k.radial > 5.0 * k.axial, "{k:?}");
     }
 
     /// Both trunnion pairs carry the joint's load in series, through the cross: pressed by

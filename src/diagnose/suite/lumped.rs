@@ -394,5 +394,5 @@ pub fn run_case(
         truth: &case.truth,
         rival: case.rival.as_deref(),
     };
-    diagnose_and_score(&model, &fit, &held, &spec, concealment, &opts.record.noise)
+    diagnose_and_score(&model, &fit, &held, &spec, concealment, opts)
 }

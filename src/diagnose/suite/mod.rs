@@ -136,6 +136,8 @@ pub struct SuiteOptions {
     /// (fit recordings first, then the held-out ones), in the format `lash diagnose --model
     /// mr2120 --fit …` reads: to diagnose them again, or with other tools, blind.
     pub keep_recordings: Option<std::path::PathBuf>,
+    /// The diagnosis of each case (its defaults unless an experiment changes them).
+    pub diagnose: super::DiagnoseOptions,
 }
 
 impl Default for SuiteOptions {
@@ -157,6 +159,7 @@ impl Default for SuiteOptions {
             seed: 2026,
             only: vec![],
             keep_recordings: None,
+            diagnose: super::DiagnoseOptions::default(),
         }
     }
 }
@@ -498,14 +501,15 @@ pub(crate) fn diagnose_and_score(
     held: &[MotionData],
     spec: &CaseSpec,
     concealment: Concealment,
-    noise: &SensorNoise,
+    opts: &SuiteOptions,
 ) -> Result<(CaseResult, Diagnosis), SuiteError> {
-    let d = super::diagnose(model, fit, held, &super::DiagnoseOptions::default(), |_, _| {}).map_err(
-        |source| SuiteError::Diagnose {
+    let noise = &opts.record.noise;
+    let d = super::diagnose(model, fit, held, &opts.diagnose, |_, _| {}).map_err(|source| {
+        SuiteError::Diagnose {
             case: spec.name.into(),
             source: Box::new(source),
-        },
-    )?;
+        }
+    })?;
     let res = score(
         spec.name,
         spec.kind,

@@ -451,7 +451,7 @@ pub fn run_case(
         truth: &case.truth,
         rival: case.rival.as_deref(),
     };
-    diagnose_and_score(&model, &fit, &held, &spec, concealment, &opts.record.noise)
+    diagnose_and_score(&model, &fit, &held, &spec, concealment, opts)
 }
 
 #[cfg(test)]
