@@ -202,6 +202,10 @@ pub struct Diagnosis {
     /// Each damping tried (N·s/m) and the selection's leave-one-recording-out RMS with it
     /// (noise units).
     pub dynamic_play_damping_cv: Vec<(f64, f64)>,
+    /// Whether the reduced dynamic play model's balls were on Hertz's law per direction
+    /// ([`LibraryOptions::play_contact_hertz`](super::candidates::LibraryOptions)) rather
+    /// than one linear stiffness (JSON `dynamic_play_hertz`).
+    pub dynamic_play_hertz: bool,
     /// The reference plays tried at the kept damping — (radial clearance, axial play) in m,
     /// `None` where that direction's candidates were quasi-static — and the selection's
     /// leave-one-recording-out RMS with them (noise units): the first pass's estimates, then,

@@ -982,32 +982,31 @@ mod tests {
         };
         let delta = |f: f64, k: f64| (f / k).powf(2.0 / 3.0);
         let transmission = fixtures::one_drive();
-        let joint = fixtures::hanging_joint(200.0, 0.0);
-        let samples = every_2_ms(50, |_| &joint, &transmission);
-        let r = respond(&samples, &JointPlay::default(), &contact);
-        let sits = -2.0 * delta(100.0, hertz.radial);
-        for at in [&r[0], &r[49]] {
-            let at = at.as_ref().expect("a response");
-            assert!(
-                (at.offset[2] - sits).abs() < 0.02 * sits.abs(),
-                "{:?} vs {sits:e}",
-                at.offset
-            );
-        }
+        // Side j's offset `coordinate` at the first and last of 50 samples of `joint` with `play`.
+        let sits_at = |joint: &PlayDynamics, play: &JointPlay, coordinate: usize, sits: f64| {
+            let samples = every_2_ms(50, |_| joint, &transmission);
+            let r = respond(&samples, play, &contact);
+            for at in [&r[0], &r[49]] {
+                let at = at.as_ref().expect("a response");
+                assert!(
+                    (at.offset[coordinate] - sits).abs() < 0.02 * sits.abs(),
+                    "{:?} vs {sits:e}",
+                    at.offset
+                );
+            }
+        };
+        let hanging = fixtures::hanging_joint(200.0, 0.0);
+        sits_at(
+            &hanging,
+            &JointPlay::default(),
+            2,
+            -2.0 * delta(100.0, hertz.radial),
+        );
         let h_a = 1e-5;
         let mut push = fixtures::hanging_joint(0.0, 0.0);
         push.reaction = [60.0, 0.0, 0.0, 0.0];
-        let samples = every_2_ms(50, |_| &push, &transmission);
-        let r = respond(&samples, &JointPlay::axial(h_a), &contact);
         let sits = -(0.5 * h_a + delta(60.0, hertz.axial) + delta(30.0, hertz.radial));
-        for at in [&r[0], &r[49]] {
-            let at = at.as_ref().expect("a response");
-            assert!(
-                (at.offset[0] - sits).abs() < 0.02 * sits.abs(),
-                "{:?} vs {sits:e}",
-                at.offset
-            );
-        }
+        sits_at(&push, &JointPlay::axial(h_a), 0, sits);
         // From the MR2120 design: a 4 mm steel ball in a bore 6 µm larger is some ten times
         // stiffer than on a flat end face (1.12e11 against ~1e10 N/m^1.5).
         let design = crate::contact::BearingDesign::mr2120(6e-6, 0.0, crate::contact::Damping::Elastic);

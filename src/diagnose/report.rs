@@ -176,8 +176,13 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             .collect();
         let _ = writeln!(
             m,
-            "- The reduced dynamic play model's contact damping: {c} N s/m, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}).",
-            if tried.is_empty() { "one value given".into() } else { tried.join(", ") }
+            "- The reduced dynamic play model's contact damping: {c} N s/m, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}); the balls {}.",
+            if tried.is_empty() { "one value given".into() } else { tried.join(", ") },
+            if d.dynamic_play_hertz {
+                "on Hertz's law per direction, with the constants of the joint's own bearings"
+            } else {
+                "on one linear stiffness"
+            }
         );
     }
     if let Some(h) = d.dynamic_axial_play_reference {

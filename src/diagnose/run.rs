@@ -511,6 +511,7 @@ fn diagnose_once(
             || opts.library.dynamic_axial_play.is_some())
         .then(|| opts.library.play_contact_damping.unwrap_or(BALL_CONTACT.damping)),
         dynamic_play_damping_cv: vec![],
+        dynamic_play_hertz: opts.library.play_contact_hertz,
         dynamic_play_reference_cv: vec![],
         estimates,
         correlations,

@@ -80,7 +80,9 @@
 
 use super::clearance::add_universal_joints;
 use super::geometry::{Geometry, MassProperties};
-use super::ideal::{add_links, ideal_model_with, LinkSpec, Mr2120Error, DRIVE_JOINTS, ELBOW_JOINTS};
+use super::ideal::{
+    add_links, ideal_model_with, LinkSpec, Mr2120Error, DRIVE_JOINTS, ELBOW_JOINTS, PLATFORM_JOINTS,
+};
 use super::kinematics::{self, KinematicsError};
 use super::lumped::NOMINAL_COMPLIANCE;
 use super::record::{
@@ -829,8 +831,13 @@ pub fn truth_model(
                     (l.cross_axes[i], l.axes[i]),
                 )
             };
+            let name = if k < 3 {
+                ELBOW_JOINTS[i]
+            } else {
+                PLATFORM_JOINTS[i]
+            };
             JointSides::new(&mech, bodies, centre, axes)
-                .ok_or_else(|| TruthError::Invalid(format!("joint {k}: its bodies are not in the model")))
+                .ok_or_else(|| TruthError::Invalid(format!("joint {name}: its bodies are not in the model")))
         })
         .collect::<Result<_, _>>()?;
     let joint_sides: [JointSides; 6] = sides.try_into().expect("six joints");
