@@ -171,16 +171,12 @@ pub fn universal_with_clearance(
 }
 
 fn pose0(mech: &Mechanism, a: Attach) -> Result<(Vector3<f64>, Matrix3<f64>), ContactError> {
-    match a {
-        Attach::Ground => Ok((Vector3::zeros(), Matrix3::identity())),
-        Attach::Body(h) => {
-            let b = mech.body(h).ok_or(ContactError::UnknownBody(h.index()))?;
-            Ok((
-                b.position,
-                crate::multibody::rotation::rotation(&b.orientation.normalize()),
-            ))
-        }
-    }
+    // (Only a body can be missing: the ground's pose is the base frame.)
+    let index = match a {
+        Attach::Body(h) => h.index(),
+        Attach::Ground => usize::MAX,
+    };
+    mech.initial_pose(a).ok_or(ContactError::UnknownBody(index))
 }
 
 /// Adds a revolute joint with clearance: a pin on side j in a bore on side i along `axis`

@@ -137,19 +137,12 @@ impl HertzBalls {
     }
 
     /// The constants of `design`'s balls (radius, material) in bores of its radial clearance
-    /// ([`crate::contact::stiffness::ball_in_bore`], [`crate::contact::stiffness::ball_on_flat`]).
+    /// (as [`of`](Self::of) the joint's [`UniversalPlay`](crate::contact::play::UniversalPlay)).
     pub fn from_design(design: &crate::contact::BearingDesign) -> Result<Self, crate::contact::ContactError> {
-        use crate::contact::stiffness::{ball_in_bore, ball_on_flat};
-        let m = &design.material;
-        Ok(Self {
-            radial: ball_in_bore(
-                design.ball_radius,
-                design.ball_radius + design.radial_clearance,
-                m,
-                m,
-            )?,
-            axial: ball_on_flat(design.ball_radius, m, m)?,
-        })
+        Self::of(
+            &crate::contact::play::UniversalPlay::from_design(design),
+            design.radial_clearance,
+        )
     }
 }
 

@@ -350,14 +350,21 @@ impl Mechanism {
         (q, w)
     }
 
-    fn pose0(&self, a: Attach) -> (Vector3<f64>, Matrix3<f64>) {
+    /// The pose side `a` was built at: its origin (m) and rotation (body frame to base
+    /// frame); the ground's is the base frame. `None` for a body not in this mechanism.
+    pub fn initial_pose(&self, a: Attach) -> Option<(Vector3<f64>, Matrix3<f64>)> {
         match a {
-            Attach::Ground => (Vector3::zeros(), Matrix3::identity()),
+            Attach::Ground => Some((Vector3::zeros(), Matrix3::identity())),
             Attach::Body(h) => {
-                let b = &self.bodies.bodies[h.0];
-                (b.position, rotation(&b.orientation.normalize()))
+                let b = self.bodies.bodies.get(h.0)?;
+                Some((b.position, rotation(&b.orientation.normalize())))
             }
         }
+    }
+
+    fn pose0(&self, a: Attach) -> (Vector3<f64>, Matrix3<f64>) {
+        self.initial_pose(a)
+            .expect("joint sides are bodies of this mechanism")
     }
 
     /// A joint frame on side `a` from a base-frame point and axes, using the side's initial

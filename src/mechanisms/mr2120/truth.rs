@@ -736,14 +736,10 @@ impl JointSides {
         centre: Vector3<f64>,
         (axis_i, axis_j): (Vector3<f64>, Vector3<f64>),
     ) -> Option<Self> {
-        let frame = |h: BodyHandle| {
-            let b = mech.body(h)?;
-            Some((
-                b.position,
-                crate::multibody::rotation::rotation(&b.orientation.normalize()),
-            ))
-        };
-        let ((ri, ai), (rj, aj)) = (frame(body_i)?, frame(body_j)?);
+        let ((ri, ai), (rj, aj)) = (
+            mech.initial_pose(Attach::Body(body_i))?,
+            mech.initial_pose(Attach::Body(body_j))?,
+        );
         Some(Self {
             body_i,
             body_j,
