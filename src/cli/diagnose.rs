@@ -101,6 +101,11 @@ pub struct Args {
     /// --suite).
     #[arg(long)]
     hertz_play_contact: bool,
+    /// Re-linearise the reduced dynamic play model once about its own motion where its
+    /// response is large (near a singular position; by default it is linearised about the
+    /// nominal motion everywhere; also with --suite).
+    #[arg(long)]
+    play_relinearize: bool,
     /// Print the diagnosis as JSON.
     #[arg(long)]
     json: bool,
@@ -129,16 +134,8 @@ pub struct Args {
 /// Diagnoses the recordings, or runs the suite; the suite's check is its targets.
 pub fn run(a: Args) -> Result<Output, CliError> {
     if a.suite {
-        let dir = a.report.unwrap_or_else(|| SUITE_REPORT.into());
-        return suite(
-            a.reduced,
-            &a.truth,
-            &a.only,
-            a.keep_recordings,
-            a.hertz_play_contact,
-            &dir,
-            a.json,
-        );
+        let dir = a.report.clone().unwrap_or_else(|| SUITE_REPORT.into());
+        return suite(&a, &dir);
     }
     let dp;
     let mr;
@@ -233,6 +230,7 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         ..DiagnoseOptions::default()
     };
     opts.library.play_contact_hertz = a.hertz_play_contact;
+    opts.library.play_relinearize = a.play_relinearize;
     opts.library.exclude = a
         .exclude
         .as_deref()
@@ -279,28 +277,23 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     Ok(Output::OK)
 }
 
-fn suite(
-    reduced: bool,
-    truth: &str,
-    only: &str,
-    keep_recordings: Option<PathBuf>,
-    hertz_play_contact: bool,
-    dir: &Path,
-    as_json: bool,
-) -> Result<Output, CliError> {
+/// The concealed-effects suite with the arguments' options (`--reduced`, `--truth`,
+/// `--only`, `--keep-recordings`, the play model's switches), its report in `dir`.
+fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
     use lash::diagnose::suite::{run_suite, SuiteError, SuiteOptions, SCOREBOARD_FILE};
-    let mut opts = match (truth, reduced) {
+    let mut opts = match (a.truth.as_str(), a.reduced) {
         ("lumped", true) => SuiteOptions::lumped_reduced(),
         ("lumped", false) => SuiteOptions::lumped(),
         (_, true) => SuiteOptions::reduced(),
         (_, false) => SuiteOptions::default(),
     };
-    let chosen: Vec<String> = items(only).map(String::from).collect();
+    let chosen: Vec<String> = items(&a.only).map(String::from).collect();
     if !chosen.is_empty() {
         opts.only = chosen;
     }
-    opts.keep_recordings = keep_recordings;
-    opts.diagnose.library.play_contact_hertz = hertz_play_contact;
+    opts.keep_recordings = a.keep_recordings.clone();
+    opts.diagnose.library.play_contact_hertz = a.hertz_play_contact;
+    opts.diagnose.library.play_relinearize = a.play_relinearize;
     let mut progress = Progress::new("diagnose --suite", 1.0);
     let board = run_suite(&opts, Some(dir), |_, f| progress.update(f));
     progress.finish();
@@ -308,7 +301,7 @@ fn suite(
         SuiteError::NoSuchCase { .. } => CliError::Input(format!("--only: {e}")),
         e => CliError::run(e),
     })?;
-    if as_json {
+    if a.json {
         println!("{}", json(&board));
         return Ok(Output::checked(board.targets_met));
     }

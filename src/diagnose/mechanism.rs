@@ -633,12 +633,13 @@ impl MechanismModel {
         Some(())
     }
 
-    /// ∂τ_s/∂q_arm at the arms' place of the last dynamic step (central differences over
-    /// [`LOAD_STIFFNESS_STEP`]), N·m/rad: how the joint-side torques change when the arms lag
-    /// their encoders further; the joints are placed back afterwards. None where the last
+    /// ∂τ_s/∂q_arm at the arms' place and motion of the last dynamic step (central
+    /// differences over [`LOAD_STIFFNESS_STEP`], at the arms' own rates and accelerations),
+    /// N·m/rad: how the joint-side torques change when the arms lag their encoders further;
+    /// the joints are placed back afterwards. None where the last
     /// sample was not a dynamic step or a difference fails.
     fn load_stiffness(built: &mut Built) -> Option<nalgebra::DMatrix<f64>> {
-        let [qa, qda, qdd, qdda] = built.dynamic.as_ref()?.arm.clone()?;
+        let [qa, qda, _, qdda] = built.dynamic.as_ref()?.arm.clone()?;
         let n = qa.len();
         let (q0, last0) = (built.q.clone(), built.last.clone());
         let mut g = nalgebra::DMatrix::zeros(n, n);
@@ -648,7 +649,7 @@ impl MechanismModel {
             for (s, sign) in [1.0, -1.0].into_iter().enumerate() {
                 let mut x = qa.clone();
                 x[k] += sign * LOAD_STIFFNESS_STEP;
-                match Self::joint_torques(built, &x, &qda, &qdd) {
+                match Self::joint_torques(built, &x, &qda, &qdda) {
                     Some(t) if t.iter().all(|v| v.is_finite()) => column[s] = t,
                     _ => {
                         ok = false;
@@ -924,7 +925,12 @@ impl MechanismModel {
         base: &OffsetBase,
         arm: &[Vec<f64>; 4],
     ) -> Option<OffsetColumns> {
-        let [qa0, qda, qdd_s, _] = arm;
+        // The derivatives at the arms' own accelerations: the joint-side torque is
+        // τ(q_a, q̇_a, q̈_a) with q̈_a the encoder's less the wind-up's, so its derivative by
+        // the arms' place carries ∂M/∂q_a·q̈_a (at the encoders' accelerations it missed
+        // −∂M/∂q_a·ẅ, which near the direct singularity, where the drives ring, is a large
+        // part of it: measured, README).
+        let [qa0, qda, _, qdd_s] = arm;
         let (n, nr) = (qa0.len(), rows.len());
         let qa: Vec<f64> = qa0.iter().zip(&base.lag).map(|(q, l)| q - l).collect();
         let (q0, w0) = (built.q.clone(), built.w.clone());

@@ -427,13 +427,16 @@ mod tests {
         }
     }
 
-    /// The play's load follows the arms, not the encoders: while the transmissions ring after
-    /// a jerk of the encoders, every play joint's reaction is the inverse dynamics' at the
-    /// arms' motion. Checked against the model with rigid transmissions driven by that motion,
-    /// found independently: positions from the tracker by inverse kinematics, rates as the
-    /// encoders' less the wind-up rate, accelerations by central differences of those rates.
+    /// The play's load and the load stiffness follow the arms, not the encoders: while the
+    /// transmissions ring after a jerk of the encoders, every play joint's reaction is the
+    /// inverse dynamics' at the arms' motion, and S = ∂τ_s/∂q_arm the derivative of the
+    /// joint-side torques at the arms' motion (their accelerations are the encoders' less the
+    /// wind-up's: S carries ∂M/∂q·q̈_arm). Checked against the model with rigid transmissions
+    /// driven by that motion, found independently: positions from the tracker by inverse
+    /// kinematics, rates as the encoders' less the wind-up rate, accelerations by central
+    /// differences of those rates.
     #[test]
-    fn the_plays_load_follows_the_ringing_arms() {
+    fn the_plays_load_and_the_load_stiffness_follow_the_ringing_arms() {
         let (g, mp) = (Geometry::default(), MassProperties::default());
         let model = mr2120_model(&g, &mp).unwrap();
         let rigid_model = mr2120_model(&g, &mp).unwrap();
@@ -458,16 +461,16 @@ mod tests {
         let mut arm_rate = vec![];
         let mut arm_at = vec![];
         let mut reaction = vec![];
+        let mut stiffness = vec![];
         for i in 0..jerk_at + 30 {
             let (q, qd, qdd) = motion(i);
             model.evaluate_at(i as f64 * dt, &theta, &q, &qd, &qdd, &mut tau, &mut y);
             if i + 1 < jerk_at {
                 continue;
             }
-            let wd = model
-                .transmission_dynamics(&theta)
-                .expect("compliant drives")
-                .windup_rate;
+            let td = model.transmission_dynamics(&theta).expect("compliant drives");
+            stiffness.push(td.load_stiffness.expect("the load stiffness"));
+            let wd = td.windup_rate;
             arm_rate.push((0..3).map(|j| qd[j] - wd[j]).collect::<Vec<f64>>());
             arm_at.push(inverse(&g, Vector3::new(y[0], y[1], y[2])).unwrap().to_vec());
             let sites = model.play_dynamics(&theta, &q, &qd, &qdd).expect("play dynamics");
@@ -509,6 +512,37 @@ mod tests {
         // The ringing moves the loads by newtons: the check discriminates.
         let largest = ring.iter().flatten().fold(0.0f64, |a, &v| a.max(v));
         assert!(largest > 1.0, "{largest}");
+
+        // S: the rigid model's torques differenced in the arms' positions at their own motion
+        // (the rotor's inertia times the acceleration is in both sides of a difference).
+        let (mut s_ring, mut s_error) = (0.0f64, 0.0f64);
+        for k in 3..29 {
+            let qdd_arm: Vec<f64> = (0..3)
+                .map(|j| (arm_rate[k + 1][j] - arm_rate[k - 1][j]) / (2.0 * dt))
+                .collect();
+            let step = 1e-6;
+            let s_at = |qdd: &[f64]| {
+                nalgebra::DMatrix::from_fn(3, 3, |j, c| {
+                    let torque = |sign: f64| {
+                        let mut q = arm_at[k].clone();
+                        q[c] += sign * step;
+                        let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
+                        rigid_model.evaluate(&rigid, &q, &arm_rate[k], qdd, &mut tau, &mut y);
+                        tau[j]
+                    };
+                    (torque(1.0) - torque(-1.0)) / (2.0 * step)
+                })
+            };
+            let (arms, encoders) = (s_at(&qdd_arm), s_at(&motion(jerk_at - 1 + k).2));
+            s_ring = s_ring.max((&arms - &encoders).amax());
+            s_error = s_error.max((&stiffness[k] - &arms).amax());
+        }
+        assert!(
+            s_error <= 0.05 * s_ring,
+            "S off by {s_error} N·m/rad where the ringing moves it by {s_ring}"
+        );
+        // The ringing moves S by some N·m/rad: the check discriminates.
+        assert!(s_ring > 1.0, "{s_ring}");
     }
 
     /// A leg's joint compliance acts as that much more compliance of its drive (at a lone

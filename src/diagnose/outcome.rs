@@ -206,6 +206,11 @@ pub struct Diagnosis {
     /// ([`LibraryOptions::play_contact_hertz`](super::candidates::LibraryOptions)) rather
     /// than one linear stiffness (JSON `dynamic_play_hertz`).
     pub dynamic_play_hertz: bool,
+    /// Whether the reduced dynamic play model was re-linearised about its own motion where
+    /// its response is large
+    /// ([`LibraryOptions::play_relinearize`](super::candidates::LibraryOptions)); JSON
+    /// `dynamic_play_relinearized`.
+    pub dynamic_play_relinearized: bool,
     /// The reference plays tried at the kept damping — (radial clearance, axial play) in m,
     /// `None` where that direction's candidates were quasi-static — and the selection's
     /// leave-one-recording-out RMS with them (noise units): the first pass's estimates, then,

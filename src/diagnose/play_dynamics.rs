@@ -70,8 +70,20 @@
 //! leaves of the play's effect on drives A/B/C (RMS 0.6–5 s, torque-noise units, with the play
 //! less without) drops on every recording: 5: 4.57/3.24/5.26 → 4.04/2.77/4.62; 3: 1.27/0.69/1.48
 //! → 1.01/0.57/1.27; 1: 1.02/0.78/1.23 → 0.63/0.56/0.81; 6: 0.12/0.12/0.15 → 0.08/0.08/0.08.
-//! What stays on recording 5 is the load peak's torque (0.40 against 0.70 N·m at 2.68 s) with
-//! the joint's motion right: the drives' response to it (see the README).
+//! What stayed on recording 5 was the load peak's torque (0.40 against 0.70 N·m at 2.68 s)
+//! with the joint's motion right: the drives' response to it.
+//!
+//! **The load stiffness at the arms' accelerations** (2026-11-27, session 29): S and the
+//! play's couplings were the nominal model's derivatives at the encoders' accelerations,
+//! where the linearisation asks for the arms' own (q̈ − ẅ: the torque is M(q_a)·q̈_a + …, so
+//! its derivative by the arms' place carries ∂M/∂q_a·q̈_a). Near the direct singularity the
+//! drives ring (the nominal torques swing by some 40 N·m at ≈ 20 Hz on recording 5 at
+//! 2.6–2.9 s) and M_d changes fast with the configuration, so the difference is large. At the
+//! arms' accelerations (Hertz balls, 200 N·s/m; drives A/B/C, torque-noise units) the load
+//! peak's window 2.60–2.77 s goes 10.0/9.8/9.7 → 5.3/5.2/5.1, and re-linearised once about the
+//! model's own motion ([`PlaySample::about`]) to 1.5/1.4/1.5 (peak 0.69 against the truth's
+//! 0.70 N·m). What stays is the rattle after it (2.77–3.10 s: 12.8/6.6/15.0 of 36/32/39): the
+//! joint crossing its play every half-period of that ringing.
 //!
 //! **Outputs**: the torque sensors read K·δw + D·δẇ more.
 //!

@@ -176,12 +176,17 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             .collect();
         let _ = writeln!(
             m,
-            "- The reduced dynamic play model's contact damping: {c} N s/m, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}); the balls {}.",
+            "- The reduced dynamic play model's contact damping: {c} N s/m, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}); the balls {}; {}.",
             if tried.is_empty() { "one value given".into() } else { tried.join(", ") },
             if d.dynamic_play_hertz {
                 "on Hertz's law per direction, with the constants of the joint's own bearings"
             } else {
                 "on one linear stiffness"
+            },
+            if d.dynamic_play_relinearized {
+                "the model re-linearised once about its own motion where its response is large"
+            } else {
+                "the model linearised about the nominal motion"
             }
         );
     }

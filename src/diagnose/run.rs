@@ -512,6 +512,7 @@ fn diagnose_once(
         .then(|| opts.library.play_contact_damping.unwrap_or(BALL_CONTACT.damping)),
         dynamic_play_damping_cv: vec![],
         dynamic_play_hertz: opts.library.play_contact_hertz,
+        dynamic_play_relinearized: opts.library.play_relinearize,
         dynamic_play_reference_cv: vec![],
         estimates,
         correlations,

@@ -18,7 +18,10 @@
 //!
 //!   with S = ∂τ_s/∂q_arm the joint-side torques' own dependence on the arms' positions
 //!   (gravity and configuration stiffness; [`TransmissionDynamics::load_stiffness`], by
-//!   central differences of the nominal model at each sample). The torque sensor of drive k
+//!   central differences of the nominal model at each sample, at the arms' own rates and
+//!   accelerations: q̈_a = q̈ − ẅ, so S carries ∂M_d/∂q_arm·q̈_a — at the encoders'
+//!   accelerations it missed −∂M_d/∂q_arm·ẅ, large where the drives ring near the direct
+//!   singularity; until 2026-11-27, session 29). The torque sensor of drive k
 //!   then reads K_k·δw_k + D_k·δẇ_k more, and the outputs move with the joints by −δw. S is
 //!   small against K away from singular positions and grows without bound near the direct
 //!   singularity. Measured on the multibody suite (held-out residual in torque-noise units):
@@ -54,7 +57,7 @@ pub struct TransmissionDynamics {
     /// at the encoder's rate less this; zeros where the model carries no wind-up state).
     pub windup_rate: Vec<f64>,
     /// S = ∂τ_s/∂q_arm, N·m/rad: how the joint-side torques change with the arms' positions
-    /// at this sample. A load that winds the transmissions up by δw changes them by −S·δw,
+    /// at this sample (at the arms' own rates and accelerations). A load that winds the transmissions up by δw changes them by −S·δw,
     /// so the response obeys M·δẅ + D·δẇ + (K + S)·δw = g. None: not known (taken as 0).
     pub load_stiffness: Option<DMatrix<f64>>,
 }
