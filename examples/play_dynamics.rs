@@ -30,7 +30,7 @@ use lash::contact::BearingDesign;
 use lash::diagnose::model::InverseDynamicsModel;
 use lash::diagnose::mr2120::mr2120_model;
 use lash::diagnose::play_dynamics::{
-    respond, BallContact, HertzBalls, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
+    expanded_about, respond, BallContact, HertzBalls, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
 };
 use lash::diagnose::suite::{lumped::excitation, SuiteOptions};
 use lash::mechanisms::mr2120::clearance::LUBRICATED_DAMPING;
@@ -185,16 +185,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 points[i] = model.play_dynamics_at(&theta, &q, &qd, &qdd, site, &r.windup, r.offset);
             }
         }
-        let about: Vec<Option<PlaySample>> = samples
-            .iter()
-            .zip(&points)
-            .map(|(s, p)| {
-                s.map(|s| PlaySample {
-                    about: p.as_ref(),
-                    ..s
-                })
-            })
-            .collect();
+        let about = expanded_about(&samples, &points);
         loose_model = respond(
             &about,
             &JointPlay {

@@ -41,7 +41,7 @@ use super::model::{
     InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily, PlayDynamics, PlayPoint,
 };
 use super::play_dynamics::{
-    respond, BallContact, HertzBalls, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
+    expanded_about, respond, BallContact, HertzBalls, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
 };
 use super::signal::derivative;
 use super::transmission::{self, TransmissionDynamics};
@@ -732,16 +732,7 @@ pub fn columns(
         if points.iter().all(Option::is_none) {
             return first;
         }
-        let about: Vec<Option<PlaySample>> = samples
-            .iter()
-            .zip(&points)
-            .map(|(s, p)| {
-                s.map(|s| PlaySample {
-                    about: p.as_ref(),
-                    ..s
-                })
-            })
-            .collect();
+        let about = expanded_about(&samples, &points);
         respond(&about, play, &contact)
     };
     // Per sample, the play's effect in the reduced model: drive torques, play coordinates
@@ -1315,6 +1306,24 @@ mod tests {
         }
     }
 
+    /// [`Carried`] swung as 0.3 rad · cos(π t) over `n` samples 2 ms apart, its torque
+    /// read as zero.
+    fn carried_swing(n: usize) -> MotionData {
+        let t: Vec<f64> = (0..n).map(|i| 0.002 * i as f64).collect();
+        let w = std::f64::consts::PI;
+        let q: Vec<f64> = t.iter().map(|t| 0.3 * (w * t).cos()).collect();
+        MotionData {
+            name: "carried".into(),
+            t: t.clone(),
+            q: vec![q.clone()],
+            qd: vec![t.iter().map(|t| -0.3 * w * (w * t).sin()).collect()],
+            qdd: vec![t.iter().map(|t| -0.3 * w * w * (w * t).cos()).collect()],
+            qdd_noise: vec![],
+            tau: vec![vec![0.0; n]],
+            y: vec![q],
+        }
+    }
+
     thread_local! {
         /// [`Carried::play_dynamics_at`]'s calls on this test's thread.
         static EXPANSIONS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
@@ -1328,19 +1337,8 @@ mod tests {
     fn the_play_model_is_re_linearised_where_its_response_is_large() {
         let h = 5e-6;
         let n = 1001;
-        let t: Vec<f64> = (0..n).map(|i| 0.002 * i as f64).collect();
-        let w = std::f64::consts::PI;
-        let q: Vec<f64> = t.iter().map(|t| 0.3 * (w * t).cos()).collect();
-        let d = MotionData {
-            name: "carried".into(),
-            t: t.clone(),
-            q: vec![q.clone()],
-            qd: vec![t.iter().map(|t| -0.3 * w * (w * t).sin()).collect()],
-            qdd: vec![t.iter().map(|t| -0.3 * w * w * (w * t).cos()).collect()],
-            qdd_noise: vec![],
-            tau: vec![vec![0.0; n]],
-            y: vec![q],
-        };
+        let d = carried_swing(n);
+        let t = d.t.clone();
         let mut opts = LibraryOptions {
             play_load_scales: vec![5.0],
             dynamic_play_tracker: false,
@@ -1397,19 +1395,8 @@ mod tests {
     fn a_radial_play_with_dynamic_rows_reads_the_reduced_model_in_the_torques() {
         let h = 5e-6;
         let n = 1001;
-        let t: Vec<f64> = (0..n).map(|i| 0.002 * i as f64).collect();
-        let w = std::f64::consts::PI;
-        let q: Vec<f64> = t.iter().map(|t| 0.3 * (w * t).cos()).collect();
-        let d = MotionData {
-            name: "carried".into(),
-            t: t.clone(),
-            q: vec![q.clone()],
-            qd: vec![t.iter().map(|t| -0.3 * w * (w * t).sin()).collect()],
-            qdd: vec![t.iter().map(|t| -0.3 * w * w * (w * t).cos()).collect()],
-            qdd_noise: vec![],
-            tau: vec![vec![0.0; n]],
-            y: vec![q],
-        };
+        let d = carried_swing(n);
+        let t = d.t.clone();
         let mut opts = LibraryOptions {
             play_load_scales: vec![5.0],
             dynamic_play_tracker: false,

@@ -259,6 +259,24 @@ pub struct PlaySample<'a> {
     pub about: Option<&'a PlayPoint>,
 }
 
+/// The samples expanded about the points where given ([`PlaySample::about`]; the points in
+/// the samples' order, None: the sample's own expansion).
+pub fn expanded_about<'a>(
+    samples: &[Option<PlaySample<'a>>],
+    points: &'a [Option<PlayPoint>],
+) -> Vec<Option<PlaySample<'a>>> {
+    samples
+        .iter()
+        .zip(points)
+        .map(|(s, p)| {
+            s.map(|s| PlaySample {
+                about: p.as_ref(),
+                ..s
+            })
+        })
+        .collect()
+}
+
 /// The reduced play model's state at one sample.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlayResponse {
