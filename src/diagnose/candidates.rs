@@ -96,9 +96,10 @@ pub struct LibraryOptions {
     /// constants of the joint's own bearings at the reference play
     /// ([`HertzBalls::of`](super::play_dynamics::HertzBalls::of): a ball in a bore of that
     /// clearance, a ball on the bore's end face) instead of [`BALL_CONTACT`]'s one linear
-    /// stiffness. Off by default: the model's joint then follows the truth's (example
-    /// `play_dynamics`), but in the suite's clearance-F case the diagnosis did worse (held out
-    /// 3.64× against 3.18×, README): the scaled response carries the joint's own compliance.
+    /// stiffness; the radial columns are then the response with the play less the response
+    /// without (the balls' own compliance does not scale with the play). Off by default: the
+    /// model's joint then follows the truth's (example `play_dynamics`), but in the suite's
+    /// clearance-F case the diagnosis did worse (held out 3.35× against 3.01×, README).
     pub play_contact_hertz: bool,
     /// Re-linearise the reduced dynamic play model once about its own motion
     /// ([`InverseDynamicsModel::play_dynamics_at`], [`PlaySample::about`]) at the samples
