@@ -650,13 +650,18 @@ pub fn columns(
     let mut sens: Vec<Option<OutputSensitivities>> = vec![];
     let mut dynamics: Vec<Option<TransmissionDynamics>> = vec![];
     let mut play_dyn: Vec<Option<Vec<PlayDynamics>>> = vec![];
+    // The nominal model placed at sample i (it walks the data in time order: its wind-up
+    // state is sequential): the encoders' motion there and the nominal outputs.
+    let model_at = |i: usize| {
+        let (q, qd, qdd) = d.motion_at(i);
+        let y: Vec<f64> = y_nom.iter().map(|v| v[i]).collect();
+        let (mut tau, mut yy) = (vec![0.0; model.joints()], y.clone());
+        model.evaluate_at(d.t[i], &theta0, &q, &qd, &qdd, &mut tau, &mut yy);
+        (q, qd, qdd, y)
+    };
     if !output_rows.is_empty() || compliant {
-        let (mut tau, mut yy) = (vec![0.0; model.joints()], vec![0.0; model.outputs()]);
         for i in 0..n {
-            let (q, qd, qdd) = d.motion_at(i);
-            let y: Vec<f64> = y_nom.iter().map(|v| v[i]).collect();
-            yy.copy_from_slice(&y);
-            model.evaluate_at(d.t[i], &theta0, &q, &qd, &qdd, &mut tau, &mut yy);
+            let (q, qd, qdd, y) = model_at(i);
             // (In this order: the play's derivatives perturb the model's cached sample.)
             sens.push(if output_rows.is_empty() {
                 None
@@ -684,13 +689,6 @@ pub fn columns(
         damping: opts.play_contact_damping.unwrap_or(BALL_CONTACT.damping),
         ..BALL_CONTACT
     };
-    let model_at = |i: usize| {
-        let (q, qd, qdd) = d.motion_at(i);
-        let mut y: Vec<f64> = y_nom.iter().map(|v| v[i]).collect();
-        let mut tau = vec![0.0; model.joints()];
-        model.evaluate_at(d.t[i], &theta0, &q, &qd, &qdd, &mut tau, &mut y);
-        (q, qd, qdd)
-    };
     let run = |site: usize, play: &JointPlay| -> Vec<Option<PlayResponse>> {
         // Hertz's law: the joint's own balls at this play's radial clearance.
         let hertz = opts
@@ -714,8 +712,7 @@ pub fn columns(
         if !opts.play_relinearize {
             return first;
         }
-        // Once more, expanded about the first response's own motion where it is large (the
-        // model walks the data in time order: its wind-up state is sequential).
+        // Once more, expanded about the first response's own motion where it is large.
         let size = |r: &PlayResponse| r.torque.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let largest = first.iter().flatten().map(size).fold(0.0, f64::max);
         if !(largest > 0.0 && largest.is_finite()) {
@@ -723,7 +720,7 @@ pub fn columns(
         }
         let points: Vec<Option<PlayPoint>> = (0..n)
             .map(|i| {
-                let (q, qd, qdd) = model_at(i);
+                let (q, qd, qdd, _) = model_at(i);
                 let r = first[i]
                     .as_ref()
                     .filter(|r| size(r) >= RELINEARIZE_FRACTION * largest)?;

@@ -225,10 +225,9 @@ struct Windup {
     m: Option<nalgebra::DMatrix<f64>>,
     /// Quasi-static wind-up at this sample.
     w_qs: nalgebra::DVector<f64>,
-    /// Where a dynamic step left the arms: positions, rates, the encoder's accelerations
-    /// (at which τ_s is evaluated) and the arms' accelerations (None at the quasi-static
-    /// start).
-    arm: Option<[Vec<f64>; 4]>,
+    /// Where a dynamic step left the arms: positions, rates and accelerations (None at the
+    /// quasi-static start).
+    arm: Option<[Vec<f64>; 3]>,
     /// Time of the recording's first sample, s.
     start: f64,
     /// Quasi-static samples so far at the start of the recording (the dynamics runs from the
@@ -639,7 +638,7 @@ impl MechanismModel {
     /// the joints are placed back afterwards. None where the last
     /// sample was not a dynamic step or a difference fails.
     fn load_stiffness(built: &mut Built) -> Option<nalgebra::DMatrix<f64>> {
-        let [qa, qda, _, qdda] = built.dynamic.as_ref()?.arm.clone()?;
+        let [qa, qda, qdda] = built.dynamic.as_ref()?.arm.clone()?;
         let n = qa.len();
         let (q0, last0) = (built.q.clone(), built.last.clone());
         let mut g = nalgebra::DMatrix::zeros(n, n);
@@ -750,15 +749,15 @@ impl MechanismModel {
         ))
     }
 
-    /// The arms' motion of the cached sample: positions, rates, the accelerations the inverse
-    /// dynamics was asked at (the encoders') and the arms' own (the encoders' less the
-    /// wind-up's, where the model integrates one; else the encoders' motion, `built.last`).
-    fn arm_motion(built: &Built, qd: &[f64], qdd: &[f64]) -> [Vec<f64>; 4] {
+    /// The arms' motion of the cached sample: positions, rates and accelerations (the
+    /// encoders' less the wind-up's, where the model integrates one; else the encoders'
+    /// motion, `built.last`).
+    fn arm_motion(built: &Built, qd: &[f64], qdd: &[f64]) -> [Vec<f64>; 3] {
         built
             .dynamic
             .as_ref()
             .and_then(|d| d.arm.clone())
-            .unwrap_or_else(|| [built.last.clone(), qd.to_vec(), qdd.to_vec(), qdd.to_vec()])
+            .unwrap_or_else(|| [built.last.clone(), qd.to_vec(), qdd.to_vec()])
     }
 
     /// Runs `f` on the cache, then puts the cached sample back: its assembled positions and
@@ -766,7 +765,7 @@ impl MechanismModel {
     /// ([`Self::arm_motion`]). None if placing them back fails.
     fn keeping_sample<T>(
         built: &mut Built,
-        arm: &[Vec<f64>; 4],
+        arm: &[Vec<f64>; 3],
         f: impl FnOnce(&mut Built) -> T,
     ) -> Option<T> {
         let (q0, w0, last0) = (built.q.clone(), built.w.clone(), built.last.clone());
@@ -774,7 +773,7 @@ impl MechanismModel {
         built.q = q0;
         built.w = w0;
         built.last = last0;
-        Self::place_joints(built, &arm[0], &arm[1], &arm[3])?;
+        Self::place_joints(built, &arm[0], &arm[1], &arm[2])?;
         Some(out)
     }
 
@@ -788,7 +787,7 @@ impl MechanismModel {
     fn play_loads(built: &mut Built, qd: &[f64], qdd: &[f64]) -> Option<Vec<(Vector3<f64>, Vector3<f64>)>> {
         let arm = Self::arm_motion(built, qd, qdd);
         Self::keeping_sample(built, &arm, |built| {
-            Self::joint_torques(built, &arm[0], &arm[1], &arm[3])?;
+            Self::joint_torques(built, &arm[0], &arm[1], &arm[2])?;
             built
                 .play_joints
                 .iter()
@@ -923,14 +922,14 @@ impl MechanismModel {
         built: &mut Built,
         rows: &[usize],
         base: &OffsetBase,
-        arm: &[Vec<f64>; 4],
+        arm: &[Vec<f64>; 3],
     ) -> Option<OffsetColumns> {
         // The derivatives at the arms' own accelerations: the joint-side torque is
         // τ(q_a, q̇_a, q̈_a) with q̈_a the encoder's less the wind-up's, so its derivative by
         // the arms' place carries ∂M/∂q_a·q̈_a (at the encoders' accelerations it missed
         // −∂M/∂q_a·ẅ, which near the direct singularity, where the drives ring, is a large
         // part of it: measured, README).
-        let [qa0, qda, _, qdd_s] = arm;
+        let [qa0, qda, qdda] = arm;
         let (n, nr) = (qa0.len(), rows.len());
         let qa: Vec<f64> = qa0.iter().zip(&base.lag).map(|(q, l)| q - l).collect();
         let (q0, w0) = (built.q.clone(), built.w.clone());
@@ -948,7 +947,7 @@ impl MechanismModel {
                 built.q.clone_from(&q0);
                 built.w.clone_from(&w0);
                 Self::set_offsets(built, rows, &offsets)?;
-                match Self::joint_torques(built, &x, qda, qdd_s) {
+                match Self::joint_torques(built, &x, qda, qdda) {
                     Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = Self::with_loads(built, t),
                     _ => return None,
                 }
@@ -972,7 +971,7 @@ impl MechanismModel {
                 } else {
                     rates[p - nr] += sign * PLAY_RATE_STEP;
                 }
-                match Self::joint_torques(built, &qa, &rates, qdd_s) {
+                match Self::joint_torques(built, &qa, &rates, qdda) {
                     Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = Self::with_loads(built, t),
                     _ => return None,
                 }
@@ -989,7 +988,7 @@ impl MechanismModel {
             built.q.clone_from(&q0);
             built.w.clone_from(&w0);
             built.data.clear_constraint_offsets();
-            let tau = Self::joint_torques(built, qa0, qda, qdd_s)?;
+            let tau = Self::joint_torques(built, qa0, qda, qdda)?;
             Self::with_loads(built, tau)
         } else {
             vec![]
@@ -998,7 +997,7 @@ impl MechanismModel {
         built.q.clone_from(&q0);
         built.w.clone_from(&w0);
         Self::set_offsets(built, rows, &base.offsets)?;
-        let tau = Self::joint_torques(built, &qa, qda, qdd_s)?;
+        let tau = Self::joint_torques(built, &qa, qda, qdda)?;
         let at_point = Self::with_loads(built, tau);
         let lay = built.model.layout();
         let drivers: Vec<usize> = built
@@ -1319,7 +1318,7 @@ impl MechanismModel {
             tau: tau.clone(),
             m: Some(m),
             w_qs: nalgebra::DVector::zeros(n),
-            arm: Some([qa, qda, qdd[..n].to_vec(), qdda]),
+            arm: Some([qa, qda, qdda]),
             started: 3,
         });
         Some(tau)
