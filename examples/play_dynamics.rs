@@ -73,6 +73,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             .map(|s| s.parse())
             .transpose()?
             .unwrap_or(BALL_CONTACT.damping),
+        load_damping: args.get(8).map(|s| s.parse()).transpose()?.unwrap_or(0.0),
         hertz: if hertz {
             Some(HertzBalls::from_design(&BearingDesign::mr2120(
                 h,

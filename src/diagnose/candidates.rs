@@ -41,7 +41,8 @@ use super::model::{
     InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily, PlayDynamics, PlayPoint,
 };
 use super::play_dynamics::{
-    expanded_about, respond, BallContact, HertzBalls, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
+    expanded_about, respond, BallContact, ContactDamping, HertzBalls, JointPlay, PlayResponse, PlaySample,
+    BALL_CONTACT,
 };
 use super::signal::derivative;
 use super::transmission::{self, TransmissionDynamics};
@@ -89,9 +90,9 @@ pub struct LibraryOptions {
     /// that fits its bore does not have, taken out), as
     /// [`dynamic_play_clearance`](Self::dynamic_play_clearance) does for the radial ones.
     pub dynamic_axial_play: Option<f64>,
-    /// The balls' contact damping (N·s/m) in the reduced dynamic play model; `None`: that of
+    /// The balls' contact damping in the reduced dynamic play model; `None`: that of
     /// [`BALL_CONTACT`].
-    pub play_contact_damping: Option<f64>,
+    pub play_contact_damping: Option<ContactDamping>,
     /// Hertz's law per direction for the balls in the reduced dynamic play model, with the
     /// constants of the joint's own bearings at the reference play
     /// ([`HertzBalls::of`](super::play_dynamics::HertzBalls::of): a ball in a bore of that
@@ -685,10 +686,7 @@ pub fn columns(
     // law the radial response too is taken less the response without play: the balls' axial
     // contact on the bores' end faces is soft at any play, and that compliance must not scale
     // with the play (it is the joint-compliance candidate's).
-    let contact = BallContact {
-        damping: opts.play_contact_damping.unwrap_or(BALL_CONTACT.damping),
-        ..BALL_CONTACT
-    };
+    let contact = BALL_CONTACT.with_damping(opts.play_contact_damping.unwrap_or(BALL_CONTACT.damping()));
     let run = |site: usize, play: &JointPlay| -> Vec<Option<PlayResponse>> {
         // Hertz's law: the joint's own balls at this play's radial clearance.
         let hertz = opts
@@ -1557,7 +1555,7 @@ mod tests {
             d.selected
         );
         assert!(d.dynamic_play_reference.is_some());
-        let tried: Vec<f64> = d.dynamic_play_damping_cv.iter().map(|(c, _)| *c).collect();
+        let tried: Vec<ContactDamping> = d.dynamic_play_damping_cv.iter().map(|(c, _)| *c).collect();
         assert_eq!(tried, opts.play_contact_dampings);
         let best = d
             .dynamic_play_damping_cv

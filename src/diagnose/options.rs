@@ -2,6 +2,7 @@
 
 use super::candidates::LibraryOptions;
 use super::locate::LocateOptions;
+use super::play_dynamics::ContactDamping;
 
 /// Every tunable of the diagnosis.
 #[derive(Debug, Clone, PartialEq)]
@@ -47,13 +48,16 @@ pub struct DiagnoseOptions {
     /// moves the model. The play-dynamics check then has nothing to add and is skipped.
     /// Costs the play's derivatives at every sample.
     pub dynamic_play_selection: bool,
-    /// The balls' contact dampings (N·s/m) tried in the reduced dynamic play model when the
+    /// The balls' contact dampings tried in the reduced dynamic play model when the
     /// play's dynamics are in the selection: the re-linearised pass runs once per damping and
     /// keeps the one with the smallest leave-one-recording-out error
     /// ([`Diagnosis::dynamic_play_damping`](super::Diagnosis)). How fast a joint's rattle dies
-    /// is not known beforehand (a dry or a lubricated joint); the default brackets 1 % and 10 %
-    /// of critical for a kilogram on the model's 1e8 N/m.
-    pub play_contact_dampings: Vec<f64>,
+    /// is not known beforehand (a dry or a lubricated joint); the default tries two constant
+    /// dampings, 200 and 2 000 N·s/m (1 % and 10 % of critical for a kilogram on the model's
+    /// 1e8 N/m), and a load-proportional one, 200 N·s/m + 1 000 s/m × F (the hysteresis of a
+    /// Hertzian contact, [`BallContact::load_damping`](super::play_dynamics::BallContact)):
+    /// one re-linearised pass each.
+    pub play_contact_dampings: Vec<ContactDamping>,
 }
 
 impl Default for DiagnoseOptions {
@@ -71,7 +75,14 @@ impl Default for DiagnoseOptions {
             shift: vec![],
             play_dynamics: true,
             dynamic_play_selection: true,
-            play_contact_dampings: vec![200.0, 2000.0],
+            play_contact_dampings: vec![
+                ContactDamping::constant(200.0),
+                ContactDamping::constant(2000.0),
+                ContactDamping {
+                    constant: 200.0,
+                    load: 1000.0,
+                },
+            ],
         }
     }
 }

@@ -3,6 +3,7 @@
 
 use super::adequacy::{Adequacy, ResidualWindow};
 use super::locate::Location;
+use super::play_dynamics::ContactDamping;
 use serde::Serialize;
 
 /// A candidate's test at the nominal model.
@@ -194,14 +195,14 @@ pub struct Diagnosis {
     /// The axial play (m, total) at which the axial-play candidates took theirs; `None`
     /// when they were quasi-static.
     pub dynamic_axial_play_reference: Option<f64>,
-    /// The balls' contact damping (N·s/m) the reduced dynamic play model took in the
-    /// selection, chosen by cross-validation among
+    /// The balls' contact damping the reduced dynamic play model took in the selection
+    /// (JSON `{"constant": N·s/m, "load": s/m}`), chosen by cross-validation among
     /// [`DiagnoseOptions::play_contact_dampings`](super::DiagnoseOptions); `None` when the
     /// play candidates were quasi-static.
-    pub dynamic_play_damping: Option<f64>,
-    /// Each damping tried (N·s/m) and the selection's leave-one-recording-out RMS with it
-    /// (noise units).
-    pub dynamic_play_damping_cv: Vec<(f64, f64)>,
+    pub dynamic_play_damping: Option<ContactDamping>,
+    /// Each damping tried and the selection's leave-one-recording-out RMS with it (noise
+    /// units).
+    pub dynamic_play_damping_cv: Vec<(ContactDamping, f64)>,
     /// Whether the reduced dynamic play model's balls were on Hertz's law per direction
     /// ([`LibraryOptions::play_contact_hertz`](super::candidates::LibraryOptions)) rather
     /// than one linear stiffness (JSON `dynamic_play_hertz`).

@@ -172,11 +172,11 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         let tried: Vec<String> = d
             .dynamic_play_damping_cv
             .iter()
-            .map(|(c, cv)| format!("{c} N s/m: {cv:.3}"))
+            .map(|(c, cv)| format!("{c}: {cv:.3}"))
             .collect();
         let _ = writeln!(
             m,
-            "- The reduced dynamic play model's contact damping: {c} N s/m, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}); the balls {}; {}.",
+            "- The reduced dynamic play model's contact damping: {c}, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}); the balls {}; {}.",
             if tried.is_empty() { "one value given".into() } else { tried.join(", ") },
             if d.dynamic_play_hertz {
                 "on Hertz's law per direction, with the constants of the joint's own bearings"

@@ -11,7 +11,7 @@ use super::locate::{locate, tagged_windows, StateScales};
 use super::model::InverseDynamicsModel;
 use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, ResidualTrace};
-use super::play_dynamics::BALL_CONTACT;
+use super::play_dynamics::{ContactDamping, BALL_CONTACT};
 use super::recording::{Recording, MIN_SAMPLES};
 use super::relinearize;
 use super::residuals::{prepare, Prepared};
@@ -177,14 +177,14 @@ fn diagnose_folds(
     (o2.library.dynamic_play_clearance, o2.library.dynamic_axial_play) = references;
     // With the play's dynamics: once per contact damping, the smallest cross-validated
     // error kept.
-    let dampings: Vec<Option<f64>> = if dynamic && !opts.play_contact_dampings.is_empty() {
+    let dampings: Vec<Option<ContactDamping>> = if dynamic && !opts.play_contact_dampings.is_empty() {
         opts.play_contact_dampings.iter().map(|c| Some(*c)).collect()
     } else {
         vec![o2.library.play_contact_damping]
     };
     // (One share of the progress per damping, and one for a pass at resized references.)
     let share = 0.4 / (dampings.len() + usize::from(dynamic)) as f64;
-    let mut pass = |k: usize, damping: Option<f64>, refs: (Option<f64>, Option<f64>)| {
+    let mut pass = |k: usize, damping: Option<ContactDamping>, refs: (Option<f64>, Option<f64>)| {
         let mut o = o2.clone();
         o.library.play_contact_damping = damping;
         (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) = refs;
@@ -509,7 +509,11 @@ fn diagnose_once(
         dynamic_axial_play_reference: opts.library.dynamic_axial_play,
         dynamic_play_damping: (opts.library.dynamic_play_clearance.is_some()
             || opts.library.dynamic_axial_play.is_some())
-        .then(|| opts.library.play_contact_damping.unwrap_or(BALL_CONTACT.damping)),
+        .then(|| {
+            opts.library
+                .play_contact_damping
+                .unwrap_or(BALL_CONTACT.damping())
+        }),
         dynamic_play_damping_cv: vec![],
         dynamic_play_hertz: opts.library.play_contact_hertz,
         dynamic_play_relinearized: opts.library.play_relinearize,
