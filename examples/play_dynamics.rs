@@ -14,15 +14,18 @@
 //! joint's play coordinates in the truth and the model side by side over the plot window.
 //!
 //! ```text
-//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m, or hertz] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes]
+//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m, or hertz] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes] [load-proportional damping γ s/m]
 //! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics
 //! cargo run --release --example play_dynamics -- D 0,1e-5 5 out/play-dynamics-axial
 //! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics-relin 1e8 200 2.5,3.1 1
+//! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics-gamma hertz 200 0,5 0 1000
 //! ```
-//! The last: the reduced model with the play re-linearised
+//! The third: the reduced model with the play re-linearised
 //! ([`InverseDynamicsModel::play_dynamics_at`](lash::diagnose::model::InverseDynamicsModel::play_dynamics_at))
 //! about its own motion of the first pass at every sample in the plot window, once; the
-//! tracker's sensitivities stay the sample's (its prediction then mixes the two).
+//! tracker's sensitivities stay the sample's (its prediction then mixes the two). The last:
+//! Hertz balls damped by 200 N·s/m + 1 000 s/m × their elastic force (README,
+//! "Load-proportional contact damping").
 //! (about a minute: two truth simulations and the nominal model's play derivatives at every
 //! sample).
 

@@ -146,6 +146,14 @@ fn bad_input_exits_with_2_and_names_the_cause() {
         err.contains("--derivative-window") && err.contains("wide"),
         "{err}"
     );
+    for bad in ["fast", "0"] {
+        let (code, err) = status(&["diagnose", "--play-load-damping", bad]);
+        assert_eq!(code, Some(2), "{err}");
+        assert!(
+            err.contains("--play-load-damping") && err.contains("not a positive number"),
+            "{err}"
+        );
+    }
     let (code, err) = status(&["mr2120", "trajectory", "--dt", "0.7"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("--dt must be in (0, 0.5] s, got 0.7"), "{err}");

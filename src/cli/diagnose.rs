@@ -5,6 +5,7 @@ use super::progress::Progress;
 use super::{items, json, CliError, Output};
 use lash::diagnose::columns::{csv_header, resolve_columns, DFKI_RECORDINGS};
 use lash::diagnose::model::{DoublePendulumModel, InverseDynamicsModel, Mr2120Model};
+use lash::diagnose::play_dynamics::ContactDamping;
 use lash::diagnose::recording::{read_csv, Recording};
 use lash::diagnose::{diagnose_recordings, format::number, DiagnoseOptions};
 use std::path::{Path, PathBuf};
@@ -30,6 +31,13 @@ fn parse_window(s: &str) -> Result<Window, String> {
             Ok(w) if w >= 1 => Ok(Window::Fixed(w)),
             _ => Err("neither 'auto' nor a positive integer".into()),
         },
+    }
+}
+
+fn parse_positive(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x > 0.0 && x.is_finite() => Ok(x),
+        _ => Err("not a positive number".into()),
     }
 }
 
@@ -106,6 +114,11 @@ pub struct Args {
     /// nominal motion everywhere; also with --suite).
     #[arg(long)]
     play_relinearize: bool,
+    /// Also try a load-proportional contact damping γ·F in the reduced dynamic play model
+    /// (γ in s/m, over 200 N·s/m; cross-validation chooses among the dampings; also with
+    /// --suite).
+    #[arg(long, value_name = "S_PER_M", value_parser = parse_positive)]
+    play_load_damping: Option<f64>,
     /// Print the diagnosis as JSON.
     #[arg(long)]
     json: bool,
@@ -231,6 +244,8 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     };
     opts.library.play_contact_hertz = a.hertz_play_contact;
     opts.library.play_relinearize = a.play_relinearize;
+    opts.play_contact_dampings
+        .extend(a.play_load_damping.map(ContactDamping::load_proportional));
     opts.library.exclude = a
         .exclude
         .as_deref()
@@ -294,6 +309,9 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
     opts.keep_recordings = a.keep_recordings.clone();
     opts.diagnose.library.play_contact_hertz = a.hertz_play_contact;
     opts.diagnose.library.play_relinearize = a.play_relinearize;
+    opts.diagnose
+        .play_contact_dampings
+        .extend(a.play_load_damping.map(ContactDamping::load_proportional));
     let mut progress = Progress::new("diagnose --suite", 1.0);
     let board = run_suite(&opts, Some(dir), |_, f| progress.update(f));
     progress.finish();

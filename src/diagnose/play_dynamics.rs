@@ -92,8 +92,10 @@
 //! 6.9/3.3/9.0 and 7.0/4.9/9.2 on drives A/B/C). One constant damping cannot be right under
 //! tens of newtons and as a ball barely touches; a damping γ·F proportional to the contact's
 //! elastic force — the hysteresis of a Hertzian contact, the form of the truth's law too —
-//! can. γ is chosen by cross-validation ([`DiagnoseOptions::play_contact_dampings`](super::DiagnoseOptions)),
-//! the truth's value (1.5·α = 450 s/m) not on the grid. Measured with the example
+//! can. In the diagnosis γ is one of the dampings cross-validation chooses among
+//! ([`DiagnoseOptions::play_contact_dampings`](super::DiagnoseOptions), not by default: chosen
+//! on clearance-F, it did not lower the held-out residual; README), the truth's value
+//! (1.5·α = 450 s/m) not among them. Measured with the example
 //! `play_dynamics` (Hertz balls, 200 N·s/m constant; what the model leaves of the play's
 //! effect, drives A/B/C, RMS 0.6–5 s in torque-noise units): recording 5 3.60/2.03/4.32 at
 //! γ = 0, 2.49 (drive A) at 100 s/m, 1.84 at 450, 1.97/1.55/2.72 at 1 000 (the rattle
@@ -241,12 +243,25 @@ pub struct ContactDamping {
     pub load: f64,
 }
 
+/// The constant part (N·s/m) that goes with a load-proportional damping in
+/// [`ContactDamping::load_proportional`]: the smaller of the diagnosis' constant dampings, for
+/// the balls' sliding along their bores' walls.
+pub const LOAD_DAMPING_BASE: f64 = 200.0;
+
 impl ContactDamping {
     /// A constant damping `c` (N·s/m).
     pub const fn constant(c: f64) -> Self {
         Self {
             constant: c,
             load: 0.0,
+        }
+    }
+
+    /// A load-proportional damping γ (s/m) over [`LOAD_DAMPING_BASE`].
+    pub const fn load_proportional(gamma: f64) -> Self {
+        Self {
+            constant: LOAD_DAMPING_BASE,
+            load: gamma,
         }
     }
 }
