@@ -35,9 +35,8 @@ use lash::diagnose::mr2120::mr2120_model;
 use lash::diagnose::play_dynamics::{
     expanded_about, respond, BallContact, HertzBalls, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
 };
-use lash::diagnose::suite::{lumped::excitation, SuiteOptions};
+use lash::diagnose::suite::SuiteOptions;
 use lash::mechanisms::mr2120::clearance::LUBRICATED_DAMPING;
-use lash::mechanisms::mr2120::record::RecordOptions;
 use lash::mechanisms::mr2120::truth::{simulate_run, TruthSpec};
 use lash::plot::{LineChart, Series};
 use std::error::Error;
@@ -97,13 +96,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     };
 
     // The truth, with and without clearance in the joint (a Hertz bearing both times).
-    let suite = SuiteOptions::default();
-    let ropts = RecordOptions {
-        torques: true,
-        tracker: true,
-        ..suite.record
-    };
-    let path = excitation(suite.seed, recording - 1);
+    let (path, ropts) = SuiteOptions::default().recording_setup(recording - 1);
     let truth = |radial: f64, axial: f64| {
         let mut spec = TruthSpec::nominal();
         spec.joints[joint] = Some(BearingDesign::mr2120(radial, axial, LUBRICATED_DAMPING));

@@ -18,9 +18,8 @@
 //! (about a minute per variant: eight truth simulations of 5 s.)
 
 use lash::contact::{BearingDesign, Damping};
-use lash::diagnose::suite::{lumped::excitation, SuiteOptions};
+use lash::diagnose::suite::SuiteOptions;
 use lash::mechanisms::mr2120::clearance::LUBRICATED_ALPHA;
-use lash::mechanisms::mr2120::record::RecordOptions;
 use lash::mechanisms::mr2120::truth::{simulate_run, TruthRun, TruthSpec};
 use std::error::Error;
 
@@ -31,13 +30,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         return Err(format!("recording {recording}: 1 to 6").into());
     }
     let h: f64 = args.get(1).map(|s| s.parse()).transpose()?.unwrap_or(6e-6);
-    let suite = SuiteOptions::default();
-    let ropts = RecordOptions {
-        torques: true,
-        tracker: true,
-        ..suite.record
-    };
-    let path = excitation(suite.seed, recording - 1);
+    let (path, ropts) = SuiteOptions::default().recording_setup(recording - 1);
     // Joint F with clearance h and Hunt–Crossley α (s/m); tolerances divided by `tighter`.
     let run = |h: f64, alpha: f64, tighter: f64| {
         let mut spec = TruthSpec::nominal();

@@ -686,7 +686,10 @@ pub fn columns(
     // law the radial response too is taken less the response without play: the balls' axial
     // contact on the bores' end faces is soft at any play, and that compliance must not scale
     // with the play (it is the joint-compliance candidate's).
-    let contact = BALL_CONTACT.with_damping(opts.play_contact_damping.unwrap_or(BALL_CONTACT.damping()));
+    let contact = BALL_CONTACT.with_damping(
+        opts.play_contact_damping
+            .unwrap_or(BALL_CONTACT.contact_damping()),
+    );
     let run = |site: usize, play: &JointPlay| -> Vec<Option<PlayResponse>> {
         // Hertz's law: the joint's own balls at this play's radial clearance.
         let hertz = opts
@@ -1563,18 +1566,32 @@ mod tests {
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(c, _)| *c);
         assert_eq!(d.dynamic_play_damping, best);
-        // The reference plays: the first pass's first; a second set only if the selection
-        // sized a play more than the factor away from it; the kept one cross-validates best.
+        // The reference plays: the first pass's first; another set only if the selection
+        // before sized a play more than the factor away from its own, and only after a
+        // pass that cross-validated better than the one before it; the kept one
+        // cross-validates best.
         let refs = &d.dynamic_play_reference_cv;
-        assert!(!refs.is_empty() && refs.len() <= 2, "{refs:?}");
-        if let [(r0, a0, _), (r1, a1, _)] = refs[..] {
+        assert!(
+            !refs.is_empty() && refs.len() <= 1 + crate::diagnose::MAX_RESIZES,
+            "{refs:?}"
+        );
+        for (k, w) in refs.windows(2).enumerate() {
+            let [(r0, a0, cv0), (r1, a1, _)] = w else {
+                unreachable!()
+            };
             let moved = |x: Option<f64>, y: Option<f64>| match (x, y) {
                 (Some(x), Some(y)) => {
                     y > x * crate::diagnose::RESIZE_FACTOR || y < x / crate::diagnose::RESIZE_FACTOR
                 }
                 _ => false,
             };
-            assert!(moved(r0, r1) || moved(a0, a1), "{refs:?}");
+            assert!(moved(*r0, *r1) || moved(*a0, *a1), "{refs:?}");
+            if k > 0 {
+                assert!(
+                    cv0 < &refs[k - 1].2,
+                    "a pass after one that did not improve: {refs:?}"
+                );
+            }
         }
         let kept = refs.iter().min_by(|a, b| a.2.total_cmp(&b.2)).expect("one");
         assert_eq!(

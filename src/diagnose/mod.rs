@@ -90,5 +90,5 @@ mod verdict;
 pub use error::DiagnoseError;
 pub use options::DiagnoseOptions;
 pub use outcome::{ChannelFit, Confound, Diagnosis, Estimate, Ranked, ResidualTrace, Step};
-pub use relinearize::RESIZE_FACTOR;
+pub use relinearize::{MAX_RESIZES, RESIZE_FACTOR};
 pub use run::{diagnose, diagnose_recordings};

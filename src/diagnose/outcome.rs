@@ -215,9 +215,10 @@ pub struct Diagnosis {
     /// The reference plays tried at the kept damping — (radial clearance, axial play) in m,
     /// `None` where that direction's candidates were quasi-static — and the selection's
     /// leave-one-recording-out RMS with them (noise units): the first pass's estimates, then,
-    /// where the selection sized a play more than [`RESIZE_FACTOR`](super::RESIZE_FACTOR)
-    /// away from its reference, its estimates. The kept selection is the one with the
-    /// smallest. Empty when the play candidates were quasi-static.
+    /// while the last selection sized a play more than [`RESIZE_FACTOR`](super::RESIZE_FACTOR)
+    /// away from its reference and cross-validated better than the one before, its estimates
+    /// (at most [`MAX_RESIZES`](super::MAX_RESIZES) times). The kept selection is the one
+    /// with the smallest. Empty when the play candidates were quasi-static.
     pub dynamic_play_reference_cv: Vec<(Option<f64>, Option<f64>, f64)>,
     /// One-paragraph verdict.
     pub verdict: String,

@@ -287,8 +287,8 @@ impl BallContact {
         }
     }
 
-    /// Its damping.
-    pub fn damping(&self) -> ContactDamping {
+    /// Its damping, both parts (the field `damping` is the constant part alone).
+    pub fn contact_damping(&self) -> ContactDamping {
         ContactDamping {
             constant: self.damping,
             load: self.load_damping,

@@ -83,6 +83,11 @@ pub(super) fn dynamic_play_references(
 /// estimate ([`Diagnosis::dynamic_play_reference_cv`]).
 pub const RESIZE_FACTOR: f64 = 1.25;
 
+/// The most passes at resized reference plays (each a whole selection): the secant
+/// iteration on the plays stops earlier once every selected play is within
+/// [`RESIZE_FACTOR`] of its reference or a pass cross-validates worse than the one before.
+pub const MAX_RESIZES: usize = 3;
+
 /// New reference plays (radial, axial; m) when `d`, a selection made with the play
 /// candidates' columns at `references`, sized a play of some direction more than
 /// [`RESIZE_FACTOR`] away from that direction's reference: per direction the estimate of the

@@ -182,8 +182,8 @@ fn diagnose_folds(
     } else {
         vec![o2.library.play_contact_damping]
     };
-    // (One share of the progress per damping, and one for a pass at resized references.)
-    let share = 0.4 / (dampings.len() + usize::from(dynamic)) as f64;
+    // (One share of the progress per damping, and one per pass at resized references.)
+    let share = 0.4 / (dampings.len() + if dynamic { relinearize::MAX_RESIZES } else { 0 }) as f64;
     let mut pass = |k: usize, damping: Option<ContactDamping>, refs: (Option<f64>, Option<f64>)| {
         let mut o = o2.clone();
         o.library.play_contact_damping = damping;
@@ -208,22 +208,33 @@ fn diagnose_folds(
     // `LibraryOptions::dynamic_play_tracker`; not with the references, see below).
     let cands2 = library(model, &o2.library);
     // The play candidates' columns are secants, exact at their reference play only: where
-    // the kept pass sized a play far from its reference, once more at its estimates (the
-    // kept damping), kept if it cross-validates better.
+    // the last pass sized a play far from its reference, once more at its estimates (the
+    // kept damping) — a secant iteration on the plays, at most `MAX_RESIZES` times, while
+    // the selection cross-validates better; the best kept.
     if dynamic {
-        let resized = relinearize::resized_references(model, &second, &cands2, references);
         second.dynamic_play_reference_cv = vec![(references.0, references.1, second.cv_rms_noise_units)];
-        if let Some(refs) = resized {
-            let mut d = pass(dampings.len(), second.dynamic_play_damping, refs)?;
+        let mut log = std::mem::take(&mut second.dynamic_play_reference_cv);
+        let damping = second.dynamic_play_damping;
+        let (mut last_refs, mut last_cv) = (references, second.cv_rms_noise_units);
+        let mut last: Option<Diagnosis> = None;
+        for k in 0..relinearize::MAX_RESIZES {
+            let at = last.as_ref().unwrap_or(&second);
+            let Some(refs) = relinearize::resized_references(model, at, &cands2, last_refs) else {
+                break;
+            };
+            let mut d = pass(dampings.len() + k, damping, refs)?;
             let cv = d.cv_rms_noise_units;
-            let mut log = std::mem::take(&mut second.dynamic_play_reference_cv);
             log.push((refs.0, refs.1, cv));
+            if cv >= last_cv {
+                break;
+            }
             if cv < second.cv_rms_noise_units {
                 d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
-                second = d;
+                second = d.clone();
             }
-            second.dynamic_play_reference_cv = log;
+            (last_refs, last_cv, last) = (refs, cv, Some(d));
         }
+        second.dynamic_play_reference_cv = log;
     }
     let mut d = relinearize::against_nominal(model, first, second, &cands2);
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
@@ -512,7 +523,7 @@ fn diagnose_once(
         .then(|| {
             opts.library
                 .play_contact_damping
-                .unwrap_or(BALL_CONTACT.damping())
+                .unwrap_or(BALL_CONTACT.contact_damping())
         }),
         dynamic_play_damping_cv: vec![],
         dynamic_play_hertz: opts.library.play_contact_hertz,

@@ -165,6 +165,23 @@ impl Default for SuiteOptions {
 }
 
 impl SuiteOptions {
+    /// The suite's `r`-th recording (0-based): its excitation (the commanded path, from
+    /// [`Self::seed`]) and the record options with every channel on (drive torques and
+    /// tracker) — what an experiment on one of the suite's recordings starts from.
+    pub fn recording_setup(
+        &self,
+        r: usize,
+    ) -> (crate::mechanisms::mr2120::record::Excitation, RecordOptions) {
+        let ropts = RecordOptions {
+            torques: true,
+            tracker: true,
+            ..self.record
+        };
+        (lumped::excitation(self.seed, r), ropts)
+    }
+}
+
+impl SuiteOptions {
     /// The reduced multibody run for CI: three 4 s recordings to fit, one held out, on the
     /// cases of [`multibody::REDUCED_CASES`].
     pub fn reduced() -> Self {
