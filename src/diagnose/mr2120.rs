@@ -15,11 +15,15 @@
 //!
 //! * the joints of each leg (elbow and platform joint) may be compliant (contact in their
 //!   bearings), in series with the leg's drive: a compliance c along the forearm reads as a
-//!   drive compliance c/ℓ'² that changes with the configuration ([`leg_compliance_gain`]).
+//!   drive compliance c/ℓ'² that changes with the configuration ([`leg_compliance_gain`]);
+//!   and a compliance c_a of the joints' axial contacts (the trunnion ends on their faces,
+//!   along the drive's axis n, which both joints of a leg have as a bearing axis), which the
+//!   forearm's load loads by its share u·n and which the leg then yields by (u·n)²·c_a:
+//!   a drive compliance (u·n)²·c_a/ℓ'² ([`leg_axial_compliance_gain`]).
 //!
 //! Parameters, in this order: arm A, B, C lengths, forearm A, B, C lengths (m), arm and
 //! forearm masses, payload on the platform (kg), base tilt about x and y (rad), drive A, B, C
-//! compliances (rad/(N·m)), joint compliances along legs A, B, C (m/N, nominal 0). The closed-form lumped model
+//! compliances (rad/(N·m)), joint compliances along legs A, B, C, then of their axial contacts (m/N, nominal 0). The closed-form lumped model
 //! ([`Mr2120Model`](super::model::Mr2120Model)) stays as a fast cross-check only.
 
 use super::mechanism::{EncoderPlacement, MechanismModel, PlaySite, PointSensor, Sensors, SeriesCompliance};
@@ -112,6 +116,18 @@ pub fn parameters(g: &Geometry, mp: &MassProperties) -> Vec<ModelParameter> {
             JointCompliance,
         ));
     }
+    for (i, b) in ["A", "B", "C"].iter().enumerate() {
+        p.push(mk(
+            format!(
+                "joint compliance along leg {b} (joints {}, {}), axial contacts",
+                ELBOW_JOINTS[i], PLATFORM_JOINTS[i]
+            ),
+            "m/N",
+            0.0,
+            JOINT_COMPLIANCE_SCALE,
+            JointCompliance,
+        ));
+    }
     p
 }
 
@@ -127,6 +143,9 @@ pub const DRIVE_COMPLIANCE: usize = 11;
 /// First parameter index of the legs' joint compliances (legs A, B, C).
 pub const JOINT_COMPLIANCE: usize = 14;
 
+/// First parameter index of the legs' joints' axial contact compliances (legs A, B, C).
+pub const AXIAL_JOINT_COMPLIANCE: usize = 17;
+
 /// How a compliance c (m/N) of the joints along leg `i` (elbow and platform joint, in series
 /// with the forearm) reads in drive coordinates: c/ℓ'², with ℓ' = ∂D/∂q·u the rate at which
 /// the drive stretches the leg (D the elbow, u the unit vector from D to the platform joint
@@ -139,6 +158,22 @@ pub fn leg_compliance_gain(g: &Geometry, i: usize, q: f64, y: &[f64]) -> f64 {
     let u = (p - d).normalize();
     let rate = g.elbow_rate(b, q).dot(&u);
     1.0 / (rate * rate)
+}
+
+/// How a compliance c_a (m/N) of the axial contacts of leg `i`'s joints reads in drive
+/// coordinates: (u·n)²·c_a/ℓ'², n the drive's revolute axis — a bearing axis of both the elbow
+/// (the cross's pair in the arm) and the platform joint (the pair in the platform, which only
+/// translates) — u and ℓ' as in [`leg_compliance_gain`]. The forearm's load F along u presses
+/// those pairs' trunnion ends on their faces with F·(u·n); their yield along n moves the leg's
+/// end by (u·n) of it along u. u·n depends on the platform position only (the elbow stays in
+/// the arm's plane, normal to n; the forearm keeps its length): (u·n)² = 0.53 with the
+/// platform centre on the z axis, 0.35 for leg A with it at (0.05, −0.08) m. Infinite where
+/// ℓ' = 0.
+pub fn leg_axial_compliance_gain(g: &Geometry, i: usize, q: f64, y: &[f64]) -> f64 {
+    let b = &g.branches()[i];
+    let p = Vector3::new(y[0], y[1], y[2]) + b.platform_joint;
+    let un = (p - g.elbow(b, q)).normalize().dot(&b.axis);
+    un * un * leg_compliance_gain(g, i, q, y)
 }
 
 /// The multibody MR2120 model for the diagnosis (see the module documentation).
@@ -212,6 +247,16 @@ pub fn mr2120_model(g: &Geometry, mp: &MassProperties) -> Result<MechanismModel,
                 leg_compliance_gain(&g0, i, q[i], y)
             }),
         })
+        .chain((0..3).map(|i| SeriesCompliance {
+            drive: i,
+            parameter: AXIAL_JOINT_COMPLIANCE + i,
+            gain: Arc::new(move |q: &[f64], y: &[f64]| {
+                if q.len() < 3 || y.len() < 3 {
+                    return 0.0;
+                }
+                leg_axial_compliance_gain(&g0, i, q[i], y)
+            }),
+        }))
         .collect();
     Ok(model
         .with_sensors(sensors)?
@@ -250,6 +295,38 @@ mod tests {
             assert!(
                 (gain * rate * rate - 1.0).abs() < 1e-6,
                 "leg {i}: {gain} vs 1/{rate}²"
+            );
+        }
+    }
+
+    /// The axial contacts' share: a leg stretched by a load F along u presses the trunnion
+    /// ends of its joints' n-pairs with F·(u·n); their yield c_a·F·(u·n) along n lengthens
+    /// the leg by (u·n)·c_a·F·(u·n). Checked against the leg's length with its end moved
+    /// along n by that yield (differences); u·n is fixed by the platform position (the elbow
+    /// stays in the arm's plane, normal to n).
+    #[test]
+    fn the_axial_contacts_gain_is_the_legs_yield_along_the_bearing_axis() {
+        let g = Geometry::default();
+        let m = Vector3::new(0.05, -0.08, 0.48);
+        let q = inverse(&g, m).unwrap();
+        let y = [m.x, m.y, m.z];
+        for (i, b) in g.branches().iter().enumerate() {
+            let p = m + b.platform_joint;
+            let u = (p - g.elbow(b, q[i])).normalize();
+            let un = u.dot(&b.axis);
+            assert!((0.2..0.95).contains(&(un * un)), "leg {i}: (u·n)² = {}", un * un);
+            // The elbow stays in the arm's plane: u·n is (P − A')·n over the forearm's length.
+            let along = (p - b.arm_centre).dot(&b.axis) / g.forearm_length;
+            assert!((along - un).abs() < 1e-9, "leg {i}: u·n {un} vs {along}");
+            let (c_a, f) = (3e-8, 20.0);
+            let yield_n = c_a * f * un;
+            let stretch = (p + b.axis * yield_n - g.elbow(b, q[i])).norm() - (p - g.elbow(b, q[i])).norm();
+            let gain = leg_axial_compliance_gain(&g, i, q[i], &y);
+            let leg = leg_compliance_gain(&g, i, q[i], &y);
+            // In drive coordinates: the stretch per unit load, over ℓ'².
+            assert!(
+                ((stretch / f) * leg / (c_a * gain) - 1.0).abs() < 1e-5,
+                "leg {i}: stretch {stretch:e} m, gain {gain:e}, leg gain {leg:e}"
             );
         }
     }

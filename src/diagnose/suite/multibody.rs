@@ -323,7 +323,8 @@ pub fn cases() -> Vec<Case> {
             |s| s.joints[2] = bearing(0.0, 0.0),
             None,
             // A Hertz contact stiffens with its load: no single linear compliance is the
-            // true one, so the case scores the name only.
+            // true one, so the case scores the name only. The name is a prefix: the leg's
+            // joint compliance, isotropic or of its axial contacts, both count.
             vec![Truth::named("error in joint compliance along leg C")],
         ));
     out
