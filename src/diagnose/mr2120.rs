@@ -104,29 +104,20 @@ pub fn parameters(g: &Geometry, mp: &MassProperties) -> Vec<ModelParameter> {
             DriveCompliance,
         ));
     }
-    for (i, b) in ["A", "B", "C"].iter().enumerate() {
-        p.push(mk(
-            format!(
-                "joint compliance along leg {b} (joints {}, {})",
-                ELBOW_JOINTS[i], PLATFORM_JOINTS[i]
-            ),
-            "m/N",
-            0.0,
-            JOINT_COMPLIANCE_SCALE,
-            JointCompliance,
-        ));
-    }
-    for (i, b) in ["A", "B", "C"].iter().enumerate() {
-        p.push(mk(
-            format!(
-                "joint compliance along leg {b} (joints {}, {}), axial contacts",
-                ELBOW_JOINTS[i], PLATFORM_JOINTS[i]
-            ),
-            "m/N",
-            0.0,
-            JOINT_COMPLIANCE_SCALE,
-            JointCompliance,
-        ));
+    // The legs' joint compliances, then their axial contacts'.
+    for contacts in ["", ", axial contacts"] {
+        for (i, b) in ["A", "B", "C"].iter().enumerate() {
+            p.push(mk(
+                format!(
+                    "joint compliance along leg {b} (joints {}, {}){contacts}",
+                    ELBOW_JOINTS[i], PLATFORM_JOINTS[i]
+                ),
+                "m/N",
+                0.0,
+                JOINT_COMPLIANCE_SCALE,
+                JointCompliance,
+            ));
+        }
     }
     p
 }
@@ -152,12 +143,16 @@ pub const AXIAL_JOINT_COMPLIANCE: usize = 17;
 /// P; the forearm carries its load along u), at drive position `q` (rad) and platform centre
 /// `y` (m). Infinite at an inverse-kinematics singularity (ℓ' = 0).
 pub fn leg_compliance_gain(g: &Geometry, i: usize, q: f64, y: &[f64]) -> f64 {
-    let b = &g.branches()[i];
-    let d = g.elbow(b, q);
-    let p = Vector3::new(y[0], y[1], y[2]) + b.platform_joint;
-    let u = (p - d).normalize();
-    let rate = g.elbow_rate(b, q).dot(&u);
+    let (_, rate) = leg_direction(g, i, q, y);
     1.0 / (rate * rate)
+}
+
+/// Leg `i`'s unit vector u from the elbow D to the platform joint P, and ℓ' = ∂D/∂q·u.
+fn leg_direction(g: &Geometry, i: usize, q: f64, y: &[f64]) -> (Vector3<f64>, f64) {
+    let b = &g.branches()[i];
+    let p = Vector3::new(y[0], y[1], y[2]) + b.platform_joint;
+    let u = (p - g.elbow(b, q)).normalize();
+    (u, g.elbow_rate(b, q).dot(&u))
 }
 
 /// How a compliance c_a (m/N) of the axial contacts of leg `i`'s joints reads in drive
@@ -170,10 +165,9 @@ pub fn leg_compliance_gain(g: &Geometry, i: usize, q: f64, y: &[f64]) -> f64 {
 /// platform centre on the z axis, 0.35 for leg A with it at (0.05, −0.08) m. Infinite where
 /// ℓ' = 0.
 pub fn leg_axial_compliance_gain(g: &Geometry, i: usize, q: f64, y: &[f64]) -> f64 {
-    let b = &g.branches()[i];
-    let p = Vector3::new(y[0], y[1], y[2]) + b.platform_joint;
-    let un = (p - g.elbow(b, q)).normalize().dot(&b.axis);
-    un * un * leg_compliance_gain(g, i, q, y)
+    let (u, rate) = leg_direction(g, i, q, y);
+    let un = u.dot(&g.branches()[i].axis);
+    un * un * (1.0 / (rate * rate))
 }
 
 /// The multibody MR2120 model for the diagnosis (see the module documentation).
@@ -236,27 +230,25 @@ pub fn mr2120_model(g: &Geometry, mp: &MassProperties) -> Result<MechanismModel,
             cross_mass: mp0.cross,
         })
         .collect();
-    let series = (0..3)
-        .map(|i| SeriesCompliance {
-            drive: i,
-            parameter: JOINT_COMPLIANCE + i,
-            gain: Arc::new(move |q: &[f64], y: &[f64]| {
-                if q.len() < 3 || y.len() < 3 {
-                    return 0.0;
-                }
-                leg_compliance_gain(&g0, i, q[i], y)
-            }),
+    type Gain = fn(&Geometry, usize, f64, &[f64]) -> f64;
+    let gains: [(usize, Gain); 2] = [
+        (JOINT_COMPLIANCE, leg_compliance_gain),
+        (AXIAL_JOINT_COMPLIANCE, leg_axial_compliance_gain),
+    ];
+    let series = gains
+        .into_iter()
+        .flat_map(|(first, gain)| {
+            (0..3).map(move |i| SeriesCompliance {
+                drive: i,
+                parameter: first + i,
+                gain: Arc::new(move |q: &[f64], y: &[f64]| {
+                    if q.len() < 3 || y.len() < 3 {
+                        return 0.0;
+                    }
+                    gain(&g0, i, q[i], y)
+                }),
+            })
         })
-        .chain((0..3).map(|i| SeriesCompliance {
-            drive: i,
-            parameter: AXIAL_JOINT_COMPLIANCE + i,
-            gain: Arc::new(move |q: &[f64], y: &[f64]| {
-                if q.len() < 3 || y.len() < 3 {
-                    return 0.0;
-                }
-                leg_axial_compliance_gain(&g0, i, q[i], y)
-            }),
-        }))
         .collect();
     Ok(model
         .with_sensors(sensors)?

@@ -212,27 +212,20 @@ fn diagnose_folds(
     // kept damping) — a secant iteration on the plays, at most `MAX_RESIZES` times, while
     // the selection cross-validates better; the best kept.
     if dynamic {
-        second.dynamic_play_reference_cv = vec![(references.0, references.1, second.cv_rms_noise_units)];
-        let mut log = std::mem::take(&mut second.dynamic_play_reference_cv);
-        let damping = second.dynamic_play_damping;
-        let (mut last_refs, mut last_cv) = (references, second.cv_rms_noise_units);
-        let mut last: Option<Diagnosis> = None;
+        // (Each pass kept has a smaller error than the one before, so `second` is the last.)
+        let mut log = vec![(references.0, references.1, second.cv_rms_noise_units)];
+        let (damping, mut at) = (second.dynamic_play_damping, references);
         for k in 0..relinearize::MAX_RESIZES {
-            let at = last.as_ref().unwrap_or(&second);
-            let Some(refs) = relinearize::resized_references(model, at, &cands2, last_refs) else {
+            let Some(refs) = relinearize::resized_references(model, &second, &cands2, at) else {
                 break;
             };
             let mut d = pass(dampings.len() + k, damping, refs)?;
-            let cv = d.cv_rms_noise_units;
-            log.push((refs.0, refs.1, cv));
-            if cv >= last_cv {
+            log.push((refs.0, refs.1, d.cv_rms_noise_units));
+            if d.cv_rms_noise_units >= second.cv_rms_noise_units {
                 break;
             }
-            if cv < second.cv_rms_noise_units {
-                d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
-                second = d.clone();
-            }
-            (last_refs, last_cv, last) = (refs, cv, Some(d));
+            d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
+            (second, at) = (d, refs);
         }
         second.dynamic_play_reference_cv = log;
     }
