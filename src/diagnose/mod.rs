@@ -89,6 +89,8 @@ mod verdict;
 
 pub use error::DiagnoseError;
 pub use options::DiagnoseOptions;
-pub use outcome::{ChannelFit, Confound, Diagnosis, Estimate, Ranked, ResidualTrace, Step};
-pub use relinearize::{MAX_RESIZES, RESIZE_FACTOR};
+pub use outcome::{
+    ChannelFit, Confound, Diagnosis, Estimate, LinearizationStep, Ranked, ResidualTrace, Step,
+};
+pub use relinearize::{MAX_RESIZES, RESIZE_FACTOR, SHIFT_DEPARTURE_TOLERANCE};
 pub use run::{diagnose, diagnose_recordings};

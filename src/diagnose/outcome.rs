@@ -134,6 +134,20 @@ pub struct ResidualTrace {
     pub after: Vec<f64>,
 }
 
+/// One first-pass estimate's step into the second pass's linearisation point.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LinearizationStep {
+    /// The candidate.
+    pub candidate: String,
+    /// The fraction of its estimate moved into the model (0: it stayed at the nominal
+    /// point).
+    pub fraction: f64,
+    /// Per fraction tried, in order: (fraction, departure of the second pass's
+    /// nominal-equivalent residual relative to the step's linear response, the same in
+    /// noise units — RMS of the channel that departs most).
+    pub departures: Vec<(f64, f64, f64)>,
+}
+
 /// The outcome.
 #[derive(Debug, Clone, Serialize)]
 pub struct Diagnosis {
@@ -220,6 +234,10 @@ pub struct Diagnosis {
     /// (at most [`MAX_RESIZES`](super::MAX_RESIZES) times). The kept selection is the one
     /// with the smallest. Empty when the play candidates were quasi-static.
     pub dynamic_play_reference_cv: Vec<(Option<f64>, Option<f64>, f64)>,
+    /// The first pass's estimates that moved the model for the second pass, each with the
+    /// fraction of its step kept ([`SHIFT_DEPARTURE_TOLERANCE`](super::SHIFT_DEPARTURE_TOLERANCE));
+    /// empty without a second pass.
+    pub relinearization_steps: Vec<LinearizationStep>,
     /// One-paragraph verdict.
     pub verdict: String,
     /// Leave-one-recording-out residual RMS of the final model on the fit recordings, in

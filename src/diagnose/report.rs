@@ -160,6 +160,27 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
     if let Some(c) = &d.play_dynamics {
         let _ = writeln!(m, "- {}", super::verdict::play_dynamics_check(c).trim());
     }
+    let held: Vec<String> = d
+        .relinearization_steps
+        .iter()
+        .filter(|s| s.fraction < 1.0)
+        .map(|s| {
+            let full = s.departures.first().map_or(0.0, |x| x.2);
+            format!(
+                "{} ({} of its step; at the whole step the residual departed {full:.2} noise units from the nominal one)",
+                s.candidate,
+                if s.fraction == 0.0 { "none".to_string() } else { format!("{:.0} %", 100.0 * s.fraction) }
+            )
+        })
+        .collect();
+    if !held.is_empty() {
+        let _ = writeln!(
+            m,
+            "- Re-linearisation: held back where the model is not linear between the nominal point and the first pass's estimate (tolerance {} noise units): {}.",
+            super::SHIFT_DEPARTURE_TOLERANCE,
+            held.join("; ")
+        );
+    }
     if let Some(h) = d.dynamic_play_reference {
         let _ = writeln!(
             m,

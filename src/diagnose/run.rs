@@ -155,7 +155,17 @@ fn diagnose_folds(
     }
     // Shift the model by the selected parameter and sensor-offset estimates.
     let cands = library(model, &opts.library);
-    let (shifted, moved) = relinearize::shift(model, &first, &cands);
+    // Each estimate moves the model only as far as the point stays near linear (a
+    // departure from the nominal residual would be fitted as if it were data).
+    let floors: Vec<f64> = first.channels.iter().map(|c| c.noise_floor).collect();
+    let steps = relinearize::linear_steps(model, &first.estimates, &cands, fit, &floors, opts)?;
+    let fraction = |name: &str| {
+        steps
+            .iter()
+            .find(|s| s.candidate == name)
+            .map_or(1.0, |s| s.fraction)
+    };
+    let (shifted, moved) = relinearize::shift(model, &first.estimates, &cands, &fraction);
     // The plays' dynamics in the selection: the reference plays from the first pass.
     let references = if opts.dynamic_play_selection {
         relinearize::dynamic_play_references(model, &first, &cands)
@@ -166,6 +176,7 @@ fn diagnose_folds(
     if moved.is_empty() && !dynamic {
         // Nothing to re-linearise; the play-dynamics check still runs.
         let mut d = first;
+        d.relinearization_steps = steps;
         d.play_dynamics = play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, &mut progress)?;
         d.verdict = verdict_text(model, &d, &cands);
         progress("done", 1.0);
@@ -230,6 +241,7 @@ fn diagnose_folds(
         second.dynamic_play_reference_cv = log;
     }
     let mut d = relinearize::against_nominal(model, first, second, &cands2);
+    d.relinearization_steps = steps;
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
     adequacy::refresh(&mut d);
     let set: Vec<usize> = d
@@ -522,6 +534,7 @@ fn diagnose_once(
         dynamic_play_hertz: opts.library.play_contact_hertz,
         dynamic_play_relinearized: opts.library.play_relinearize,
         dynamic_play_reference_cv: vec![],
+        relinearization_steps: vec![],
         estimates,
         correlations,
         confounded,
