@@ -132,22 +132,7 @@ mod tests {
 
     #[test]
     fn fixed_defaults_apply_without_a_user_mapping_and_must_be_complete_with_one() {
-        let m = crate::diagnose::model::DoublePendulumModel {
-            params: crate::mechanisms::double_pendulum::DoublePendulumParams {
-                m1: 0.6,
-                m2: 0.6,
-                l1: 0.3,
-                l2: 0.2,
-                r1: 0.3,
-                r2: 0.2,
-                i1: 0.054,
-                i2: 0.024,
-                g: 9.81,
-                tilt: 0.0,
-                payload: 0.0,
-                gear_ratio: None,
-            },
-        };
+        let m = crate::diagnose::model::DoublePendulumModel::example();
         assert_eq!(m.column_defaults(), ColumnDefaults::Fixed(DFKI_COLUMNS.into()));
         let map = resolve_columns(&m, None, &[]).unwrap();
         assert_eq!(map[0], ("q1".to_string(), "pos_filt1".to_string()));

@@ -428,6 +428,28 @@ pub struct DoublePendulumModel {
 }
 
 impl DoublePendulumModel {
+    /// A two-link arm of round numbers (0.6 kg links, 0.3 m and 0.2 m long, no gear), for
+    /// tests.
+    #[cfg(test)]
+    pub(crate) fn example() -> Self {
+        Self {
+            params: DoublePendulumParams {
+                m1: 0.6,
+                m2: 0.6,
+                l1: 0.3,
+                l2: 0.2,
+                r1: 0.3,
+                r2: 0.2,
+                i1: 0.054,
+                i2: 0.024,
+                g: 9.81,
+                tilt: 0.0,
+                payload: 0.0,
+                gear_ratio: None,
+            },
+        }
+    }
+
     fn with(&self, theta: &[f64]) -> DoublePendulumParams {
         let mut p = self.params;
         p.l1 = theta[0];

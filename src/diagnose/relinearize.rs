@@ -503,22 +503,7 @@ mod tests {
     fn a_step_moves_the_model_only_as_far_as_its_response_stays_linear() {
         use crate::diagnose::candidates::{library, LibraryOptions};
         use crate::diagnose::model::DoublePendulumModel;
-        let model = DoublePendulumModel {
-            params: crate::mechanisms::double_pendulum::DoublePendulumParams {
-                m1: 0.6,
-                m2: 0.6,
-                l1: 0.3,
-                l2: 0.2,
-                r1: 0.3,
-                r2: 0.2,
-                i1: 0.054,
-                i2: 0.024,
-                g: 9.81,
-                tilt: 0.0,
-                payload: 0.0,
-                gear_ratio: None,
-            },
-        };
+        let model = DoublePendulumModel::example();
         let t: Vec<f64> = (0..400).map(|i| i as f64 * 0.01).collect();
         let w = [2.0 * std::f64::consts::PI * 0.5, 2.0 * std::f64::consts::PI * 0.7];
         let (a, phase) = ([0.8, 0.6], [0.0, 1.0]);
