@@ -235,7 +235,7 @@ pub struct Diagnosis {
     /// with the smallest. Empty when the play candidates were quasi-static.
     pub dynamic_play_reference_cv: Vec<(Option<f64>, Option<f64>, f64)>,
     /// The first pass's estimates that moved the model for the second pass, each with the
-    /// fraction of its step kept ([`SHIFT_DEPARTURE_TOLERANCE`](super::SHIFT_DEPARTURE_TOLERANCE));
+    /// fraction of its step kept ([`SHIFT_LINEARITY_TOLERANCE`](super::SHIFT_LINEARITY_TOLERANCE));
     /// empty without a second pass.
     pub relinearization_steps: Vec<LinearizationStep>,
     /// One-paragraph verdict.

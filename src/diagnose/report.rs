@@ -165,19 +165,20 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         .iter()
         .filter(|s| s.fraction < 1.0)
         .map(|s| {
-            let full = s.departures.first().map_or(0.0, |x| x.2);
+            let (rel, noise) = s.departures.first().map_or((0.0, 0.0), |x| (x.1, x.2));
             format!(
-                "{} ({} of its step; at the whole step the residual departed {full:.2} noise units from the nominal one)",
+                "{} ({} of its step; at the whole step the residual departed {:.0} % of the step's linear response, {noise:.2} noise units, from the nominal one)",
                 s.candidate,
-                if s.fraction == 0.0 { "none".to_string() } else { format!("{:.0} %", 100.0 * s.fraction) }
+                if s.fraction == 0.0 { "none".to_string() } else { format!("{:.0} %", 100.0 * s.fraction) },
+                100.0 * rel
             )
         })
         .collect();
     if !held.is_empty() {
         let _ = writeln!(
             m,
-            "- Re-linearisation: held back where the model is not linear between the nominal point and the first pass's estimate (tolerance {} noise units): {}.",
-            super::SHIFT_DEPARTURE_TOLERANCE,
+            "- Re-linearisation: held back where the model is not linear between the nominal point and the first pass's estimate (tolerance {:.0} %): {}.",
+            100.0 * super::SHIFT_LINEARITY_TOLERANCE,
             held.join("; ")
         );
     }
