@@ -1,6 +1,6 @@
 //! Block elimination before the sparse LU: small diagonal blocks of unknowns are eliminated
 //! exactly (a dense inverse each), and the Schur complement on the remaining unknowns is
-//! factorised with [`SparseLu`].
+//! factorised with [`RefactorLu`] (its pivot sequence reused while it stays acceptable).
 //!
 //! For a matrix partitioned into eliminated unknowns E (the union of the given groups; rows
 //! and columns share the indices) and kept unknowns R,
@@ -22,7 +22,7 @@
 //! factorised with a plain [`SparseLu`] instead, built on first use; its results are then
 //! exact for the given values, cross-group entries included.
 
-use super::{CscPattern, LinearSolveError, SlotIndex, SparseLu};
+use super::{CscPattern, LinearSolveError, RefactorLu, SlotIndex, SparseLu};
 
 /// Largest group (unknowns per eliminated block) accepted: blocks are inverted densely.
 pub const MAX_GROUP: usize = 32;
@@ -68,7 +68,7 @@ pub struct BlockSchurLu {
     /// A_RR entries: (position in the values, position in the reduced values).
     rr: Vec<(usize, usize)>,
     s_values: Vec<f64>,
-    s_lu: SparseLu,
+    s_lu: RefactorLu,
     /// Reduced right-hand side.
     work: Vec<f64>,
     /// Scratch for one block's dense work (g × g and g × nv).
@@ -82,7 +82,7 @@ pub struct BlockSchurLu {
 
 impl BlockSchurLu {
     /// Analyses `pattern` (square) with the eliminated `groups` (disjoint sets of unknowns,
-    /// each of at most [`MAX_GROUP`]); with no groups it is a plain [`SparseLu`].
+    /// each of at most [`MAX_GROUP`]); with no groups it is a plain [`RefactorLu`].
     pub fn new(pattern: &CscPattern, groups: &[Vec<usize>]) -> Result<Self, LinearSolveError> {
         let n = pattern.ncols();
         if pattern.nrows() != n {
@@ -195,7 +195,7 @@ impl BlockSchurLu {
                 .collect();
             scratch_len = scratch_len.max(g.idx.len() * (g.idx.len() + g.vcols.len()));
         }
-        let s_lu = SparseLu::new(&s_pattern)?;
+        let s_lu = RefactorLu::new(&s_pattern)?;
         Ok(Self {
             pattern: pattern.clone(),
             groups: gs,
