@@ -28,6 +28,7 @@ use super::rotation::{l_matrix, skew};
 use crate::dae::{DaeSystem, EvalError, JacobianSource, VarKind};
 use crate::sparse::{CscPattern, SlotIndex};
 use nalgebra::{Matrix3, Matrix3x4, Matrix4, Vector3, Vector4};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Tunables of the equations of motion ([`MultibodyDae`]); part of
@@ -55,6 +56,29 @@ impl Default for FormulationOptions {
     }
 }
 
+/// Adds Jacobian entries into the values of a pattern, remembering the first entry outside
+/// it (a bug of the formulation, reported as an error rather than a panic).
+struct Scatter<'a> {
+    slots: &'a SlotIndex,
+    values: &'a mut [f64],
+    outside: Option<(usize, usize)>,
+}
+
+impl Scatter<'_> {
+    /// Adds `v` to entry (r, c).
+    #[inline]
+    fn add(&mut self, r: usize, c: usize, v: f64) {
+        if v != 0.0 {
+            match self.slots.get(r, c) {
+                Some(k) => self.values[k] += v,
+                None => {
+                    self.outside.get_or_insert((r, c));
+                }
+            }
+        }
+    }
+}
+
 /// A mechanism's equations of motion as a [`DaeSystem`].
 #[derive(Debug)]
 pub struct MultibodyDae {
@@ -65,6 +89,10 @@ pub struct MultibodyDae {
     pattern: Option<CscPattern>,
     /// Entry lookup on `pattern` for the analytic Jacobian.
     slots: Option<SlotIndex>,
+    /// For each (loaded body, body differentiated by) pair of a force element, the value
+    /// positions of the load-derivative block: momentum row r (6) and state column c (13:
+    /// positions, velocities) at `13·r + c`.
+    load_slots: HashMap<(usize, usize), Box<[usize; 78]>>,
     /// Tunables.
     pub options: FormulationOptions,
     /// Jacobians at rest only (static equilibria): the Jacobian fills just the momentum
@@ -115,11 +143,13 @@ impl MultibodyDae {
             names,
             pattern: None,
             slots: None,
+            load_slots: HashMap::new(),
             options,
             at_rest: false,
         };
         s.pattern = Some(s.build_pattern());
         s.slots = s.pattern.as_ref().map(SlotIndex::new);
+        s.load_slots = s.load_block_slots();
         Ok(s)
     }
 
@@ -365,6 +395,46 @@ impl MultibodyDae {
         CscPattern::from_entries(lay.dim(), lay.dim(), e).expect("pattern indices are in range")
     }
 
+    /// The value positions of every force element's load-derivative blocks (see
+    /// `load_slots`); a pair with an entry outside the pattern is left out (its entries then
+    /// go through the general path, which reports them).
+    fn load_block_slots(&self) -> HashMap<(usize, usize), Box<[usize; 78]>> {
+        let lay = &self.ev.layout;
+        let mut out = HashMap::new();
+        let Some(slots) = self.slots.as_ref() else {
+            return out;
+        };
+        for (_, f) in self.model.forces() {
+            let bs = f.bodies();
+            for br in &bs {
+                for bc in &bs {
+                    if out.contains_key(&(br.0, bc.0)) {
+                        continue;
+                    }
+                    let mut tab = Box::new([0usize; 78]);
+                    let mut complete = true;
+                    for r in 0..6 {
+                        for c in 0..13 {
+                            let gc = if c < 7 {
+                                lay.q(bc.0) + c
+                            } else {
+                                lay.w(bc.0) + c - 7
+                            };
+                            match slots.get(lay.w(br.0) + r, gc) {
+                                Some(k) => tab[13 * r + c] = k,
+                                None => complete = false,
+                            }
+                        }
+                    }
+                    if complete {
+                        out.insert((br.0, bc.0), tab);
+                    }
+                }
+            }
+        }
+        out
+    }
+
     fn name_of(&self, i: usize) -> String {
         let lay = self.ev.layout.clone();
         let body = |b: usize| self.model.bodies().bodies[b].name.clone();
@@ -402,16 +472,10 @@ impl MultibodyDae {
         };
         // First entry outside the declared pattern (a bug of the formulation, reported as an
         // error rather than a panic).
-        let mut outside: Option<(usize, usize)> = None;
-        let mut add = |r: usize, c: usize, v: f64| {
-            if v != 0.0 {
-                match slots.get(r, c) {
-                    Some(k) => values[k] += v,
-                    None => {
-                        outside.get_or_insert((r, c));
-                    }
-                }
-            }
+        let mut sc = Scatter {
+            slots,
+            values,
+            outside: None,
         };
         let rest = self.at_rest;
         // Per body: kinematics, inertia, normalisation.
@@ -421,28 +485,28 @@ impl MultibodyDae {
             let body = &self.model.bodies().bodies[b];
             let nu = y[lay.nu() + b];
             for k in 0..3 {
-                add(qo + k, qo + k, alpha);
-                add(qo + k, wo + k, -1.0);
-                add(wo + k, wo + k, alpha * body.mass);
+                sc.add(qo + k, qo + k, alpha);
+                sc.add(qo + k, wo + k, -1.0);
+                sc.add(wo + k, wo + k, alpha * body.mass);
             }
             let w = lt_omega_derivative(&st.omega);
             let lt = l_matrix(&st.p).transpose();
             for r in 0..4 {
                 for c in 0..4 {
                     let diag = if r == c { alpha + 2.0 * nu } else { 0.0 };
-                    add(qo + 3 + r, qo + 3 + c, diag - 0.5 * w[(r, c)]);
+                    sc.add(qo + 3 + r, qo + 3 + c, diag - 0.5 * w[(r, c)]);
                 }
                 for c in 0..3 {
-                    add(qo + 3 + r, wo + 3 + c, -0.5 * lt[(r, c)]);
+                    sc.add(qo + 3 + r, wo + 3 + c, -0.5 * lt[(r, c)]);
                 }
-                add(qo + 3 + r, lay.nu() + b, 2.0 * st.p[r]);
-                add(lay.nu() + b, qo + 3 + r, st.p[r]);
+                sc.add(qo + 3 + r, lay.nu() + b, 2.0 * st.p[r]);
+                sc.add(lay.nu() + b, qo + 3 + r, st.p[r]);
             }
             let jw = body.inertia * st.omega;
             let gyro = skew(&st.omega) * body.inertia - skew(&jw);
             for r in 0..3 {
                 for c in 0..3 {
-                    add(
+                    sc.add(
                         wo + 3 + r,
                         wo + 3 + c,
                         alpha * body.inertia[(r, c)] + gyro[(r, c)],
@@ -495,9 +559,9 @@ impl MultibodyDae {
                 // Position constraint row and the μ, λ columns.
                 for c in 0..14 {
                     if let Some(gc) = col[c] {
-                        add(lay.lambda() + k, gc, g[c]);
+                        sc.add(lay.lambda() + k, gc, g[c]);
                         if !rest {
-                            add(gc, lay.mu() + k, g[c]);
+                            sc.add(gc, lay.mu() + k, g[c]);
                         }
                     }
                 }
@@ -507,8 +571,8 @@ impl MultibodyDae {
                         let Some(b) = side else { continue };
                         let br = 0.5 * l_matrix(&self.ev.states[b].p) * dp;
                         for c in 0..3 {
-                            add(lay.w(b) + c, lay.lambda() + k, g[off + c]);
-                            add(lay.w(b) + 3 + c, lay.lambda() + k, br[c]);
+                            sc.add(lay.w(b) + c, lay.lambda() + k, g[off + c]);
+                            sc.add(lay.w(b) + 3 + c, lay.lambda() + k, br[c]);
                         }
                     }
                     continue;
@@ -523,19 +587,19 @@ impl MultibodyDae {
                     let dr = Vector3::new(g[off], g[off + 1], g[off + 2]);
                     let mdp = 0.5 * l_times_d_derivative(&dp).transpose() * st.omega;
                     for c in 0..3 {
-                        add(lay.mu() + k, lay.w(b) + c, dr[c]);
-                        add(lay.mu() + k, lay.w(b) + 3 + c, br[c]);
-                        add(lay.w(b) + c, lay.lambda() + k, dr[c]);
-                        add(lay.w(b) + 3 + c, lay.lambda() + k, br[c]);
+                        sc.add(lay.mu() + k, lay.w(b) + c, dr[c]);
+                        sc.add(lay.mu() + k, lay.w(b) + 3 + c, br[c]);
+                        sc.add(lay.w(b) + c, lay.lambda() + k, dr[c]);
+                        sc.add(lay.w(b) + 3 + c, lay.lambda() + k, br[c]);
                     }
                     for c in 0..4 {
-                        add(lay.mu() + k, lay.q(b) + 3 + c, mdp[c]);
+                        sc.add(lay.mu() + k, lay.q(b) + 3 + c, mdp[c]);
                     }
                 }
                 for c in 0..14 {
                     if let Some(gc) = col[c] {
                         let extra = gt.map(|v| v[c]).unwrap_or(0.0);
-                        add(lay.mu() + k, gc, hq[c] + extra);
+                        sc.add(lay.mu() + k, gc, hq[c] + extra);
                     }
                 }
             }
@@ -544,7 +608,7 @@ impl MultibodyDae {
                 let Some(gr) = col[r] else { continue };
                 for c in 0..14 {
                     if let Some(gc) = col[c] {
-                        add(gr, gc, h_mu[(r, c)]);
+                        sc.add(gr, gc, h_mu[(r, c)]);
                     }
                 }
             }
@@ -562,14 +626,14 @@ impl MultibodyDae {
                     );
                     let rot = 0.5 * l * hp;
                     for r in 0..3 {
-                        add(lay.w(b) + r, gc, h_lam[(off + r, c)]);
-                        add(lay.w(b) + 3 + r, gc, rot[r]);
+                        sc.add(lay.w(b) + r, gc, h_lam[(off + r, c)]);
+                        sc.add(lay.w(b) + 3 + r, gc, rot[r]);
                     }
                 }
                 let m = 0.5 * l_times_d_derivative(&dp_lam[si_idx]);
                 for r in 0..3 {
                     for c in 0..4 {
-                        add(lay.w(b) + 3 + r, lay.q(b) + 3 + c, m[(r, c)]);
+                        sc.add(lay.w(b) + 3 + r, lay.q(b) + 3 + c, m[(r, c)]);
                     }
                 }
             }
@@ -605,11 +669,20 @@ impl MultibodyDae {
                 }
                 for blk in blocks {
                     let (br, bc) = (blk.loaded.0, blk.wrt.0);
+                    if let Some(tab) = self.load_slots.get(&(br, bc)) {
+                        // The block's place in the values, found once (`load_slots`).
+                        for c in 0..columns {
+                            for r in 0..6 {
+                                sc.values[tab[13 * r + c]] -= blk.d[(r, c)];
+                            }
+                        }
+                        continue;
+                    }
                     for c in 0..columns {
                         let gc = if c < 7 { lay.q(bc) + c } else { lay.w(bc) + c - 7 };
                         for r in 0..3 {
-                            add(lay.w(br) + r, gc, -blk.d[(r, c)]);
-                            add(lay.w(br) + 3 + r, gc, -blk.d[(3 + r, c)]);
+                            sc.add(lay.w(br) + r, gc, -blk.d[(r, c)]);
+                            sc.add(lay.w(br) + 3 + r, gc, -blk.d[(3 + r, c)]);
                         }
                     }
                 }
@@ -655,14 +728,14 @@ impl MultibodyDae {
                         let df = (loads_p[br.0].force - loads_m[br.0].force) / (2.0 * h);
                         let dn = (loads_p[br.0].torque - loads_m[br.0].torque) / (2.0 * h);
                         for r in 0..3 {
-                            add(lay.w(br.0) + r, gc, -df[r]);
-                            add(lay.w(br.0) + 3 + r, gc, -dn[r]);
+                            sc.add(lay.w(br.0) + r, gc, -df[r]);
+                            sc.add(lay.w(br.0) + 3 + r, gc, -dn[r]);
                         }
                     }
                 }
             }
         }
-        match outside {
+        match sc.outside {
             Some((r, c)) => Err(EvalError::Fatal(format!(
                 "Jacobian entry ({}, {}) outside the declared pattern",
                 self.name_of(r),
