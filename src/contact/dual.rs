@@ -20,23 +20,28 @@ pub(crate) struct D<const N: usize> {
 }
 
 impl<const N: usize> D<N> {
+    #[inline]
     pub fn c(v: f64) -> Self {
         D { v, g: [0.0; N] }
     }
+    #[inline]
     fn var(v: f64, i: usize) -> Self {
         let mut g = [0.0; N];
         g[i] = 1.0;
         D { v, g }
     }
+    #[inline]
     fn map(self, v: f64, dv: f64) -> Self {
         let mut g = self.g;
         g.iter_mut().for_each(|x| *x *= dv);
         D { v, g }
     }
+    #[inline]
     pub fn sqrt(self) -> Self {
         let s = self.v.sqrt();
         self.map(s, if s > 0.0 { 0.5 / s } else { 0.0 })
     }
+    #[inline]
     pub fn recip(self) -> Self {
         self.map(1.0 / self.v, -1.0 / (self.v * self.v))
     }
@@ -44,6 +49,7 @@ impl<const N: usize> D<N> {
 
 impl<const N: usize> Add for D<N> {
     type Output = D<N>;
+    #[inline]
     fn add(mut self, o: D<N>) -> D<N> {
         self.v += o.v;
         for (a, b) in self.g.iter_mut().zip(o.g) {
@@ -54,18 +60,21 @@ impl<const N: usize> Add for D<N> {
 }
 impl<const N: usize> Sub for D<N> {
     type Output = D<N>;
+    #[inline]
     fn sub(self, o: D<N>) -> D<N> {
         self + (-o)
     }
 }
 impl<const N: usize> Neg for D<N> {
     type Output = D<N>;
+    #[inline]
     fn neg(self) -> D<N> {
         self.map(-self.v, -1.0)
     }
 }
 impl<const N: usize> Mul for D<N> {
     type Output = D<N>;
+    #[inline]
     fn mul(self, o: D<N>) -> D<N> {
         let mut g = [0.0; N];
         for i in 0..N {
@@ -76,6 +85,7 @@ impl<const N: usize> Mul for D<N> {
 }
 impl<const N: usize> Mul<f64> for D<N> {
     type Output = D<N>;
+    #[inline]
     fn mul(self, s: f64) -> D<N> {
         self.map(self.v * s, s)
     }
@@ -84,18 +94,23 @@ impl<const N: usize> Mul<f64> for D<N> {
 /// A 3-vector of such numbers.
 pub(crate) type V3<const N: usize> = [D<N>; 3];
 
+#[inline]
 pub fn add<const N: usize>(a: &V3<N>, b: &V3<N>) -> V3<N> {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
+#[inline]
 pub fn sub<const N: usize>(a: &V3<N>, b: &V3<N>) -> V3<N> {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
+#[inline]
 pub fn scale<const N: usize>(a: &V3<N>, s: D<N>) -> V3<N> {
     [a[0] * s, a[1] * s, a[2] * s]
 }
+#[inline]
 pub fn dot<const N: usize>(a: &V3<N>, b: &V3<N>) -> D<N> {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
+#[inline]
 pub fn cross<const N: usize>(a: &V3<N>, b: &V3<N>) -> V3<N> {
     [
         a[1] * b[2] - a[2] * b[1],
@@ -120,6 +135,7 @@ impl<const N: usize> DState<N> {
     /// Variables per body: 13 (r, p, v, ω') when N = [`FULL`], 7 (r, p) otherwise.
     pub const PER_BODY: usize = if N == FULL { 13 } else { 7 };
 
+    #[inline]
     pub fn new(s: &BodyState, offset: Option<usize>) -> Self {
         let x = |val: f64, k: usize| match offset {
             Some(o) if k < Self::PER_BODY => D::var(val, o + k),
@@ -151,15 +167,18 @@ impl<const N: usize> DState<N> {
         Self { r, a, v, omega }
     }
     /// A·s.
+    #[inline]
     pub fn rot(&self, s: &V3<N>) -> V3<N> {
         [dot(&self.a[0], s), dot(&self.a[1], s), dot(&self.a[2], s)]
     }
     /// A·s for a constant s (cheaper than [`rot`](Self::rot) of a constant).
+    #[inline]
     pub fn rot_c(&self, s: &nalgebra::Vector3<f64>) -> V3<N> {
         let row = |i: usize| self.a[i][0] * s[0] + self.a[i][1] * s[1] + self.a[i][2] * s[2];
         [row(0), row(1), row(2)]
     }
     /// Aᵀ·f.
+    #[inline]
     pub fn rot_t(&self, f: &V3<N>) -> V3<N> {
         let col = |j: usize| [self.a[0][j], self.a[1][j], self.a[2][j]];
         [dot(&col(0), f), dot(&col(1), f), dot(&col(2), f)]

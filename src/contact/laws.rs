@@ -147,13 +147,21 @@ impl NormalLaw {
         }
         let (k, n) = self.stiffness();
         let c = self.damping_factor();
-        let elastic = k * delta.powf(n);
+        // δ^(n−1) once; Hertz's n = 3/2 (the usual exponent) and n = 1 without a power.
+        let d_nm1 = if n == 1.5 {
+            delta.sqrt()
+        } else if n == 1.0 {
+            1.0
+        } else {
+            delta.powf(n - 1.0)
+        };
+        let elastic = k * delta * d_nm1;
         let damp = 1.0 + c * delta_rate;
         let f = elastic * damp;
         if f <= 0.0 {
             return (0.0, 0.0, 0.0);
         }
-        (f, k * n * delta.powf(n - 1.0) * damp, elastic * c)
+        (f, k * n * d_nm1 * damp, elastic * c)
     }
 }
 

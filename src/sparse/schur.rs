@@ -340,10 +340,24 @@ impl BlockSchurLu {
     }
 }
 
-/// Σ a_i·b_i over two slices of equal length.
+/// Σ a_i·b_i over two slices of equal length, in four independent partial sums (a single
+/// running sum is a chain of dependent additions that cannot be vectorised).
 #[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+    let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = ac
+        .remainder()
+        .iter()
+        .zip(bc.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    let mut acc = [0.0; 4];
+    for (x, y) in ac.zip(bc) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 /// Inverts the m × m row-major matrix `a` into `inv` by Gauss–Jordan elimination with
