@@ -4,8 +4,9 @@
 use super::dual::{self as ad, DState, D, POSITIONS, V3};
 use super::laws::{Friction, NormalLaw};
 use crate::multibody::forces::{BodyLoad, BodyState, ForceElement, LoadDerivative};
+use crate::multibody::rotation::{d_rot, skew};
 use crate::multibody::{Attach, BodyHandle};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 use crate::multibody::forces::state_of as state;
 
@@ -87,6 +88,123 @@ fn normal_force<const N: usize>(law: &NormalLaw, delta: D<N>, rate: D<N>, n: &V3
         force_rate: f_r,
     };
     (ad::scale(n, -fd), term)
+}
+
+/// Jacobian of a 3-vector with respect to a body pair's positions (ball r, p: columns 0..7;
+/// socket r, p: 7..14), the closed-form counterpart of [`POSITIONS`] dual numbers.
+type J14 = nalgebra::SMatrix<f64, 3, 14>;
+/// Gradient of a scalar with respect to the same 14 positions.
+type G14 = nalgebra::SMatrix<f64, 1, 14>;
+
+/// One side of a pair for closed-form derivatives: its state and the first of its 7
+/// position columns (`None`: the ground, constant).
+struct Side {
+    st: BodyState,
+    col: Option<usize>,
+}
+
+impl Side {
+    fn new(states: &[BodyState], a: Attach, col: usize) -> Self {
+        Side {
+            st: state(states, a),
+            col: matches!(a, Attach::Body(_)).then_some(col),
+        }
+    }
+    /// Adds `m` (3 × 3) to the columns of r and `b` (3 × 4) to those of p.
+    fn put(&self, j: &mut J14, m: Option<&nalgebra::Matrix3<f64>>, b: Option<&nalgebra::Matrix3x4<f64>>) {
+        let Some(c) = self.col else { return };
+        if let Some(m) = m {
+            let mut v = j.fixed_view_mut::<3, 3>(0, c);
+            v += m;
+        }
+        if let Some(b) = b {
+            let mut v = j.fixed_view_mut::<3, 4>(0, c + 3);
+            v += b;
+        }
+    }
+    /// ∂(Aᵀ·z)/∂p for a fixed z: Aᵀ(p) = A(p̄) with p̄ = (e0, −e).
+    fn d_rot_t(&self, z: &Vector3<f64>) -> nalgebra::Matrix3x4<f64> {
+        let p = self.st.p;
+        let mut b = d_rot(&nalgebra::Vector4::new(p[0], -p[1], -p[2], -p[3]), z);
+        for k in 1..4 {
+            b.set_column(k, &(-b.column(k)));
+        }
+        b
+    }
+    /// Aᵀ·z and its Jacobian, given z's Jacobian.
+    fn rot_t(&self, z: &Vector3<f64>, jz: &J14) -> (Vector3<f64>, J14) {
+        let at = self.st.a.transpose();
+        let mut j = at * jz;
+        self.put(&mut j, None, Some(&self.d_rot_t(z)));
+        (at * z, j)
+    }
+    /// Velocity of the side's material point at base-frame x (Jacobian `jx`), as
+    /// `point_velocity`: v + A·(ω × Aᵀ(x − r)).
+    fn point_velocity(&self, x: &Vector3<f64>, jx: &J14) -> (Vector3<f64>, J14) {
+        let mut jz = *jx;
+        self.put(&mut jz, Some(&(-Matrix3::identity())), None);
+        let (y, jy) = self.rot_t(&(x - self.st.r), &jz);
+        let wy = self.st.omega.cross(&y);
+        let mut j = self.st.a * skew(&self.st.omega) * jy;
+        self.put(&mut j, None, Some(&d_rot(&self.st.p, &wy)));
+        (self.st.v + self.st.a * wy, j)
+    }
+}
+
+/// u·ω-style helpers: the gradient of a·b from both Jacobians.
+fn dot_grad(a: &Vector3<f64>, ja: &J14, b: &Vector3<f64>, jb: &J14) -> G14 {
+    a.transpose() * jb + b.transpose() * ja
+}
+
+/// A normal contact term's force −u·F(δ, δ̇) and its Jacobian, from δ, δ̇ and u with theirs.
+fn normal_term(
+    law: &NormalLaw,
+    (delta, jdelta): (f64, G14),
+    (rate, jrate): (f64, G14),
+    (u, ju): (&Vector3<f64>, &J14),
+) -> (Vector3<f64>, J14, RateTerm) {
+    let (f, f_d, f_r) = law.force_with_derivatives(delta, rate);
+    let jf = jdelta * f_d + jrate * f_r;
+    let term = RateTerm {
+        direction: *u,
+        force_rate: f_r,
+    };
+    (-u * f, -(u * jf) - ju * f, term)
+}
+
+/// The loads of a contact force `f` (Jacobian `jf`) at base-frame point `x` (Jacobian `jx`)
+/// as [`LoadDerivative`] blocks: +f on the ball side, −f on the socket side (the closed-form
+/// counterpart of [`pair_derivatives`]).
+fn pair_blocks(
+    sides: [(Attach, &Side); 2],
+    x: &Vector3<f64>,
+    jx: &J14,
+    f: &Vector3<f64>,
+    jf: &J14,
+) -> Vec<LoadDerivative> {
+    let mut out = Vec::with_capacity(4);
+    for (k, (attach, side)) in sides.iter().enumerate() {
+        let Attach::Body(h) = *attach else { continue };
+        let sign = if k == 0 { 1.0 } else { -1.0 };
+        let (fs, jfs) = (f * sign, jf * sign);
+        let mut jz = *jx;
+        side.put(&mut jz, Some(&(-Matrix3::identity())), None);
+        let (s_local, js) = side.rot_t(&(x - side.st.r), &jz);
+        let (g, jg) = side.rot_t(&fs, &jfs);
+        let jtorque = skew(&s_local) * jg - skew(&g) * js;
+        for (wrt_attach, wrt_side) in &sides {
+            let (Attach::Body(w), Some(c0)) = (*wrt_attach, wrt_side.col) else {
+                continue;
+            };
+            let mut d = nalgebra::SMatrix::<f64, 6, 13>::zeros();
+            d.fixed_view_mut::<3, 7>(0, 0)
+                .copy_from(&jfs.fixed_view::<3, 7>(0, c0));
+            d.fixed_view_mut::<3, 7>(3, 0)
+                .copy_from(&jtorque.fixed_view::<3, 7>(0, c0));
+            out.push(LoadDerivative { loaded: h, wrt: w, d });
+        }
+    }
+    out
 }
 
 /// A contact between a ball body and a socket body whose load derivatives come from dual
@@ -323,14 +441,94 @@ impl ForceElement for ClearanceBearing {
     }
 
     fn load_jacobian(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        full_jacobian(self, states)
+        if self.friction.is_some() {
+            return None;
+        }
+        let (blocks, rates) = self.position_derivatives(states);
+        Some(with_velocity_columns(
+            blocks,
+            &rates,
+            states,
+            self.ball_body,
+            self.socket_body,
+        ))
     }
 
     fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        rest_jacobian(self, states)
+        self.friction
+            .is_none()
+            .then(|| self.position_derivatives(states).0)
     }
 }
 
+impl ClearanceBearing {
+    /// The load derivatives with respect to the pair's positions and the contact terms'
+    /// rates, in closed form (the same function as [`PairContact::derivatives`] with
+    /// [`POSITIONS`] dual numbers, which a test compares it with; 3–4× cheaper).
+    fn position_derivatives(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Rates) {
+        let b = Side::new(states, self.ball_body, 0);
+        let s = Side::new(states, self.socket_body, 7);
+        let eye = Matrix3::identity();
+        // Ball centre c, socket axis a, and d = c − socket centre.
+        let c = b.st.r + b.st.a * self.ball_centre;
+        let mut jc = J14::zeros();
+        b.put(&mut jc, Some(&eye), Some(&d_rot(&b.st.p, &self.ball_centre)));
+        let a = s.st.a * self.socket_axis;
+        let mut ja = J14::zeros();
+        s.put(&mut ja, None, Some(&d_rot(&s.st.p, &self.socket_axis)));
+        let d = c - (s.st.r + s.st.a * self.socket_centre);
+        let mut jd = jc;
+        s.put(
+            &mut jd,
+            Some(&(-eye)),
+            Some(&(-d_rot(&s.st.p, &self.socket_centre))),
+        );
+        let axial = d.dot(&a);
+        let jaxial = dot_grad(&d, &jd, &a, &ja);
+        let radial = d - a * axial;
+        let jradial = jd - a * jaxial - ja * axial;
+        let rho = radial.norm();
+        let delta_r = rho - self.radial_clearance;
+        let delta_a = axial - self.axial_stop;
+        let radial_on = delta_r > 0.0 && rho > 0.0;
+        if !radial_on && delta_a <= 0.0 {
+            return (vec![], Rates::default());
+        }
+        let (vb, jvb) = b.point_velocity(&c, &jc);
+        let (vs, jvs) = s.point_velocity(&c, &jc);
+        let (v_rel, jv) = (vb - vs, jvb - jvs);
+        let mut f = Vector3::zeros();
+        let mut jf = J14::zeros();
+        let mut terms = vec![];
+        if radial_on {
+            let n = radial / rho;
+            let jrho = n.transpose() * jradial;
+            let jn = (jradial - n * jrho) / rho;
+            let rate = v_rel.dot(&n);
+            let jrate = dot_grad(&v_rel, &jv, &n, &jn);
+            let (fr, jfr, term) = normal_term(&self.radial_law, (delta_r, jrho), (rate, jrate), (&n, &jn));
+            f += fr;
+            jf += jfr;
+            terms.push(term);
+        }
+        if delta_a > 0.0 {
+            let rate = v_rel.dot(&a);
+            let jrate = dot_grad(&v_rel, &jv, &a, &ja);
+            let (fa, jfa, term) = normal_term(&self.axial_law, (delta_a, jaxial), (rate, jrate), (&a, &ja));
+            f += fa;
+            jf += jfa;
+            terms.push(term);
+        }
+        if f == Vector3::zeros() && jf.iter().all(|v| *v == 0.0) {
+            return (vec![], Rates::default());
+        }
+        let blocks = pair_blocks([(self.ball_body, &b), (self.socket_body, &s)], &c, &jc, &f, &jf);
+        (blocks, Rates { point: c, terms })
+    }
+}
+
+/// The dual-number derivatives: the reference the closed form is tested against.
+#[cfg(test)]
 impl PairContact for ClearanceBearing {
     fn sides(&self) -> (Attach, Attach, bool) {
         (self.ball_body, self.socket_body, self.friction.is_none())
@@ -470,6 +668,80 @@ mod tests {
             v,
             omega,
         }
+    }
+
+    /// The closed-form position derivatives equal the dual-number ones: radial and axial
+    /// contact (each alone and both), a socket on the ground, and Euler parameters off the
+    /// unit sphere (the polynomial rotation matrix keeps both exact there too).
+    #[test]
+    fn closed_form_derivatives_equal_the_dual_numbers() {
+        let law = NormalLaw::HuntCrossley {
+            k: 1e9,
+            n: 1.5,
+            alpha: 0.3,
+        };
+        let make = |socket: Attach, radial: f64, axial: f64| ClearanceBearing {
+            name: "b".into(),
+            ball_body: Attach::Body(BodyHandle(0)),
+            ball_centre: Vector3::new(0.01, 0.0, 0.002),
+            socket_body: socket,
+            socket_centre: Vector3::new(0.0, 0.01, 0.0),
+            socket_axis: Vector3::new(0.0, 0.6, 0.8),
+            radial_clearance: radial,
+            axial_stop: axial,
+            radial_law: law,
+            axial_law: NormalLaw::Hertz { k: 3e8, n: 1.5 },
+            friction: None,
+        };
+        let p_ball = from_axis_angle(&Vector3::new(0.3, -0.5, 0.8).normalize(), 0.2) * 1.001;
+        let states = [
+            state(
+                Vector3::new(-0.01 + 3e-5, 0.01 - 2e-5, -0.002 + 4e-5),
+                p_ball,
+                Vector3::new(0.01, -0.02, 0.005),
+                Vector3::new(0.1, 0.4, -0.2),
+            ),
+            state(
+                Vector3::new(1e-5, -2e-5, 0.5e-5),
+                from_axis_angle(&Vector3::new(0.0, 0.0, 1.0), 0.1) * 0.999,
+                Vector3::new(0.0, 0.01, -0.03),
+                Vector3::new(0.2, 0.3, -0.1),
+            ),
+        ];
+        let socket = Attach::Body(BodyHandle(1));
+        for (bearing, what) in [
+            (make(socket, 1e-5, 1e-5), "radial and axial"),
+            (make(socket, 1e-5, 1.0), "radial"),
+            (make(socket, 1.0, 1e-5), "axial"),
+            (make(Attach::Ground, 1e-5, 1e-5), "socket on the ground"),
+        ] {
+            let (closed, rc) = bearing.position_derivatives(&states);
+            let (dual, rd) = bearing.derivatives::<POSITIONS>(&states);
+            assert!(!closed.is_empty(), "{what}: in contact");
+            assert_eq!(closed.len(), dual.len(), "{what}");
+            assert!((rc.point - rd.point).norm() < 1e-15, "{what}");
+            assert_eq!(rc.terms.len(), rd.terms.len(), "{what}");
+            for (a, b) in rc.terms.iter().zip(&rd.terms) {
+                assert!((a.direction - b.direction).norm() < 1e-12, "{what}");
+                assert!(
+                    (a.force_rate - b.force_rate).abs() <= 1e-12 * b.force_rate.abs(),
+                    "{what}"
+                );
+            }
+            for (a, b) in closed.iter().zip(&dual) {
+                assert_eq!((a.loaded, a.wrt), (b.loaded, b.wrt), "{what}");
+                let scale = b.d.amax();
+                assert!(scale > 0.0, "{what}");
+                assert!(
+                    (a.d - b.d).amax() <= 1e-10 * scale,
+                    "{what}: {}",
+                    (a.d - b.d).amax() / scale
+                );
+            }
+        }
+        // Out of contact: no blocks.
+        let apart = make(socket, 1.0, 1.0);
+        assert!(apart.position_derivatives(&states).0.is_empty());
     }
 
     /// The derivatives at rest are the position columns of the full ones (radial and axial
