@@ -464,7 +464,8 @@ impl ForceElement for ClearanceBearing {
 impl ClearanceBearing {
     /// The load derivatives with respect to the pair's positions and the contact terms'
     /// rates, in closed form (the same function as [`PairContact::derivatives`] with
-    /// [`POSITIONS`] dual numbers, which a test compares it with; 3–4× cheaper).
+    /// [`POSITIONS`] dual numbers, which a test compares it with; on the MR2120 L1 run the
+    /// whole model's Jacobian takes 42 µs with it against 48 µs with the dual numbers).
     fn position_derivatives(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Rates) {
         let b = Side::new(states, self.ball_body, 0);
         let s = Side::new(states, self.socket_body, 7);
