@@ -363,65 +363,18 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// Inverts the m × m row-major matrix `a` into `inv` by Gauss–Jordan elimination with
 /// partial pivoting (`a` is overwritten). Returns `false` when a pivot is below
 /// m·ε·max|a|: the block is singular to working precision. The multibody blocks (m = 8: a
-/// body's positions and normalisation multiplier) go through a copy of the same elimination
-/// compiled for that size, whose loops the compiler unrolls.
+/// body's positions and normalisation multiplier) get the elimination compiled for that
+/// size.
 fn invert_in_place(a: &mut [f64], inv: &mut [f64], m: usize) -> bool {
     match m {
-        8 => gauss_jordan::<8>(a, inv),
-        _ => gauss_jordan_dyn(a, inv, m),
+        // The same code inlined with m a constant, so the compiler unrolls its loops.
+        8 => gauss_jordan(a, inv, 8),
+        _ => gauss_jordan(a, inv, m),
     }
 }
 
-fn gauss_jordan<const M: usize>(a: &mut [f64], inv: &mut [f64]) -> bool {
-    if a.len() != M * M || inv.len() != M * M {
-        return false;
-    }
-    let (a, inv) = (&mut a[..M * M], &mut inv[..M * M]);
-    let scale = a.iter().fold(0.0f64, |s, v| s.max(v.abs()));
-    if scale == 0.0 {
-        return false;
-    }
-    let tiny = M as f64 * f64::EPSILON * scale;
-    inv.iter_mut().for_each(|v| *v = 0.0);
-    for i in 0..M {
-        inv[i * M + i] = 1.0;
-    }
-    for col in 0..M {
-        let mut piv = col;
-        for r in col + 1..M {
-            if a[r * M + col].abs() > a[piv * M + col].abs() {
-                piv = r;
-            }
-        }
-        if a[piv * M + col].abs() <= tiny {
-            return false;
-        }
-        if piv != col {
-            for j in 0..M {
-                a.swap(piv * M + j, col * M + j);
-                inv.swap(piv * M + j, col * M + j);
-            }
-        }
-        let d = 1.0 / a[col * M + col];
-        for j in 0..M {
-            a[col * M + j] *= d;
-            inv[col * M + j] *= d;
-        }
-        for r in 0..M {
-            let f = a[r * M + col];
-            if r == col || f == 0.0 {
-                continue;
-            }
-            for j in 0..M {
-                a[r * M + j] -= f * a[col * M + j];
-                inv[r * M + j] -= f * inv[col * M + j];
-            }
-        }
-    }
-    true
-}
-
-fn gauss_jordan_dyn(a: &mut [f64], inv: &mut [f64], m: usize) -> bool {
+#[inline(always)]
+fn gauss_jordan(a: &mut [f64], inv: &mut [f64], m: usize) -> bool {
     let scale = a.iter().fold(0.0f64, |s, v| s.max(v.abs()));
     if scale == 0.0 {
         return false;
