@@ -28,3 +28,40 @@ pub use lu::{LinearSolveError, SparseLu, SUPERNODAL_THRESHOLD};
 pub use pattern::{CscMatrix, CscPattern, PatternError, SlotIndex};
 pub use refactor::{RefactorLu, REUSE_PIVOT_THRESHOLD};
 pub use schur::{BlockSchurLu, MAX_GROUP};
+
+/// Helpers of the sparse tests: small dense matrices as patterns and values.
+#[cfg(test)]
+pub(crate) mod test_util {
+    use super::CscPattern;
+
+    /// A dense square matrix as a pattern (its nonzeros, and the entries `keep` names even
+    /// when zero) and values.
+    pub(crate) fn csc(dense: &[Vec<f64>], keep: impl Fn(usize, usize) -> bool) -> (CscPattern, Vec<f64>) {
+        let n = dense.len();
+        let mut e = Vec::new();
+        for (r, row) in dense.iter().enumerate() {
+            for (c, &v) in row.iter().enumerate() {
+                if v != 0.0 || keep(r, c) {
+                    e.push((r, c));
+                }
+            }
+        }
+        let p = CscPattern::from_entries(n, n, e).unwrap();
+        let mut vals = vec![0.0; p.nnz()];
+        for c in 0..n {
+            for k in p.col_range(c) {
+                vals[k] = dense[p.row_idx()[k]][c];
+            }
+        }
+        (p, vals)
+    }
+
+    /// max_r |(A·x − b)_r|.
+    pub(crate) fn residual(dense: &[Vec<f64>], x: &[f64], b: &[f64]) -> f64 {
+        dense
+            .iter()
+            .zip(b)
+            .map(|(row, b)| (row.iter().zip(x).map(|(a, x)| a * x).sum::<f64>() - b).abs())
+            .fold(0.0, f64::max)
+    }
+}

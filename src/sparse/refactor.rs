@@ -480,32 +480,8 @@ impl RefactorLu {
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_util::{csc, residual};
     use super::*;
-
-    /// A dense n × n matrix's nonzeros as a pattern and values.
-    fn csc(dense: &[Vec<f64>]) -> (CscPattern, Vec<f64>) {
-        let n = dense.len();
-        let entries: Vec<(usize, usize)> = (0..n)
-            .flat_map(|c| (0..n).map(move |r| (r, c)))
-            .filter(|&(r, c)| dense[r][c] != 0.0)
-            .collect();
-        let p = CscPattern::from_entries(n, n, entries).unwrap();
-        let mut v = vec![0.0; p.nnz()];
-        for c in 0..n {
-            for k in p.col_range(c) {
-                v[k] = dense[p.row_idx()[k]][c];
-            }
-        }
-        (p, v)
-    }
-
-    fn residual(dense: &[Vec<f64>], x: &[f64], b: &[f64]) -> f64 {
-        dense
-            .iter()
-            .zip(b)
-            .map(|(row, bi)| (row.iter().zip(x).map(|(a, x)| a * x).sum::<f64>() - bi).abs())
-            .fold(0.0, f64::max)
-    }
 
     /// A saddle-point matrix like the multibody iteration matrices (zero diagonal in the
     /// multiplier rows), values scaled by `s` in the coupling.
@@ -522,11 +498,11 @@ mod tests {
 
     #[test]
     fn refactorisations_reuse_the_pivots_and_solve_to_round_off() {
-        let (p, _) = csc(&saddle(2.0));
+        let (p, _) = csc(&saddle(2.0), |_, _| false);
         let mut lu = RefactorLu::new(&p).unwrap();
         for (round, s) in [2.0, 2.1, 1.9, 2.05].into_iter().enumerate() {
             let dense = saddle(s);
-            let (_, v) = csc(&dense);
+            let (_, v) = csc(&dense, |_, _| false);
             lu.factor(&v).unwrap();
             let b: Vec<f64> = (0..6).map(|i| (i as f64 + 0.5).sin()).collect();
             let mut x = b.clone();
@@ -542,11 +518,11 @@ mod tests {
         // Diagonally dominant first; then entry (0, 0) nearly vanishes against (1, 0), so
         // the first pivot no longer passes the threshold.
         let a = |d: f64| vec![vec![d, 2.0, 0.0], vec![1.0, 3.0, 1.0], vec![0.0, 1.0, 4.0]];
-        let (p, _) = csc(&a(5.0));
+        let (p, _) = csc(&a(5.0), |_, _| false);
         let mut lu = RefactorLu::new(&p).unwrap();
         for d in [5.0, 1e-6] {
             let dense = a(d);
-            let (_, v) = csc(&dense);
+            let (_, v) = csc(&dense, |_, _| false);
             lu.factor(&v).unwrap();
             let b = vec![1.0, -2.0, 0.5];
             let mut x = b.clone();
@@ -558,12 +534,12 @@ mod tests {
 
     #[test]
     fn singular_and_unfactored_are_errors_not_panics() {
-        let (p, _) = csc(&saddle(2.0));
+        let (p, _) = csc(&saddle(2.0), |_, _| false);
         let mut lu = RefactorLu::new(&p).unwrap();
         let mut b = vec![1.0; 6];
         assert!(lu.solve_in_place(&mut b).is_err());
         let sing = vec![vec![1.0, 2.0], vec![2.0, 4.0]];
-        let (p2, v2) = csc(&sing);
+        let (p2, v2) = csc(&sing, |_, _| false);
         let mut lu2 = RefactorLu::new(&p2).unwrap();
         let r = lu2.factor(&v2).and_then(|_| {
             let mut b = vec![1.0, 1.0];

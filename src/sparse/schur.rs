@@ -421,6 +421,7 @@ fn gauss_jordan(a: &mut [f64], inv: &mut [f64], m: usize) -> bool {
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_util::{csc, residual};
     use super::*;
 
     /// A 6 × 6 test matrix: unknowns {0, 1} and {2} eliminated; entry (0, 2) couples the two
@@ -436,37 +437,6 @@ mod tests {
         ];
         let (p, vals) = csc(&dense, |r, c| r == 0 && c == 2);
         (p, vals, dense)
-    }
-
-    /// A dense square matrix as a pattern (its nonzeros, and the entries `keep` names even
-    /// when zero) and values.
-    fn csc(dense: &[Vec<f64>], keep: impl Fn(usize, usize) -> bool) -> (CscPattern, Vec<f64>) {
-        let n = dense.len();
-        let mut e = Vec::new();
-        for (r, row) in dense.iter().enumerate() {
-            for (c, &v) in row.iter().enumerate() {
-                if v != 0.0 || keep(r, c) {
-                    e.push((r, c));
-                }
-            }
-        }
-        let p = CscPattern::from_entries(n, n, e).unwrap();
-        let mut vals = vec![0.0; p.nnz()];
-        for c in 0..n {
-            for k in p.col_range(c) {
-                vals[k] = dense[p.row_idx()[k]][c];
-            }
-        }
-        (p, vals)
-    }
-
-    /// max_r |(A·x − b)_r|.
-    fn residual(dense: &[Vec<f64>], x: &[f64], b: &[f64]) -> f64 {
-        dense
-            .iter()
-            .zip(b)
-            .map(|(row, b)| (row.iter().zip(x).map(|(a, x)| a * x).sum::<f64>() - b).abs())
-            .fold(0.0, f64::max)
     }
 
     #[test]
