@@ -469,25 +469,13 @@ impl ClearanceBearing {
     fn position_derivatives(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Rates) {
         let b = Side::new(states, self.ball_body, 0);
         let s = Side::new(states, self.socket_body, 7);
-        let eye = Matrix3::identity();
-        // Ball centre c, socket axis a, and d = c − socket centre.
+        // Ball centre c, socket axis a, and d = c − socket centre; the Jacobians only when a
+        // contact is closed (an open bearing has no load).
         let c = b.st.r + b.st.a * self.ball_centre;
-        let mut jc = J14::zeros();
-        b.put(&mut jc, Some(&eye), Some(&d_rot(&b.st.p, &self.ball_centre)));
         let a = s.st.a * self.socket_axis;
-        let mut ja = J14::zeros();
-        s.put(&mut ja, None, Some(&d_rot(&s.st.p, &self.socket_axis)));
         let d = c - (s.st.r + s.st.a * self.socket_centre);
-        let mut jd = jc;
-        s.put(
-            &mut jd,
-            Some(&(-eye)),
-            Some(&(-d_rot(&s.st.p, &self.socket_centre))),
-        );
         let axial = d.dot(&a);
-        let jaxial = dot_grad(&d, &jd, &a, &ja);
         let radial = d - a * axial;
-        let jradial = jd - a * jaxial - ja * axial;
         let rho = radial.norm();
         let delta_r = rho - self.radial_clearance;
         let delta_a = axial - self.axial_stop;
@@ -495,6 +483,19 @@ impl ClearanceBearing {
         if !radial_on && delta_a <= 0.0 {
             return (vec![], Rates::default());
         }
+        let eye = Matrix3::identity();
+        let mut jc = J14::zeros();
+        b.put(&mut jc, Some(&eye), Some(&d_rot(&b.st.p, &self.ball_centre)));
+        let mut ja = J14::zeros();
+        s.put(&mut ja, None, Some(&d_rot(&s.st.p, &self.socket_axis)));
+        let mut jd = jc;
+        s.put(
+            &mut jd,
+            Some(&(-eye)),
+            Some(&(-d_rot(&s.st.p, &self.socket_centre))),
+        );
+        let jaxial = dot_grad(&d, &jd, &a, &ja);
+        let jradial = jd - a * jaxial - ja * axial;
         let (vb, jvb) = b.point_velocity(&c, &jc);
         let (vs, jvs) = s.point_velocity(&c, &jc);
         let (v_rel, jv) = (vb - vs, jvb - jvs);

@@ -21,14 +21,13 @@
 use super::constraints::{Hess14, Pose};
 use super::error::ModelError;
 use super::evaluator::Evaluator;
-use super::forces::BodyLoad;
+use super::forces::{BodyLoad, BodyState};
 pub use super::layout::Layout;
 use super::model::Mechanism;
 use super::rotation::{l_matrix, skew};
 use crate::dae::{DaeSystem, EvalError, JacobianSource, VarKind};
 use crate::sparse::{CscPattern, SlotIndex};
 use nalgebra::{Matrix3, Matrix3x4, Matrix4, Vector3, Vector4};
-use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Tunables of the equations of motion ([`MultibodyDae`]); part of
@@ -92,7 +91,7 @@ pub struct MultibodyDae {
     /// For each (loaded body, body differentiated by) pair of a force element, the value
     /// positions of the load-derivative block: momentum row r (6) and state column c (13:
     /// positions, velocities) at `13·r + c`.
-    load_slots: HashMap<(usize, usize), Box<[usize; 78]>>,
+    load_slots: LoadSlots,
     /// Tunables.
     pub options: FormulationOptions,
     /// Jacobians at rest only (static equilibria): the Jacobian fills just the momentum
@@ -100,6 +99,31 @@ pub struct MultibodyDae {
     /// entries (kinematic, velocity-constraint, stabilisation and normalisation rows,
     /// velocity columns) are left zero.
     pub(crate) at_rest: bool,
+}
+
+/// The value positions of the force elements' load-derivative blocks, found once: for a
+/// (loaded body, body differentiated by) pair, momentum row r (6) and state column c (13:
+/// positions, velocities) sit at `table[13·r + c]`. A dense body-pair index (the Jacobian
+/// looks up every block of every element on each evaluation).
+#[derive(Debug, Clone, Default)]
+struct LoadSlots {
+    bodies: usize,
+    /// Table of each pair, `u32::MAX` for none (row-major over (loaded, wrt)).
+    index: Vec<u32>,
+    tables: Vec<[usize; 78]>,
+}
+
+impl LoadSlots {
+    /// The table of the pair (`loaded`, `wrt`), if all its positions are in the pattern.
+    fn get(&self, loaded: usize, wrt: usize) -> Option<&[usize; 78]> {
+        if loaded >= self.bodies || wrt >= self.bodies {
+            return None;
+        }
+        match self.index[loaded * self.bodies + wrt] {
+            u32::MAX => None,
+            k => self.tables.get(k as usize),
+        }
+    }
 }
 
 /// ∂(L(p)·d)/∂p for a fixed 4-vector d: [d_v | −d_0·I + d̃_v] (3 × 4).
@@ -143,7 +167,7 @@ impl MultibodyDae {
             names,
             pattern: None,
             slots: None,
-            load_slots: HashMap::new(),
+            load_slots: LoadSlots::default(),
             options,
             at_rest: false,
         };
@@ -398,9 +422,14 @@ impl MultibodyDae {
     /// The value positions of every force element's load-derivative blocks (see
     /// `load_slots`); a pair with an entry outside the pattern is left out (its entries then
     /// go through the general path, which reports them).
-    fn load_block_slots(&self) -> HashMap<(usize, usize), Box<[usize; 78]>> {
+    fn load_block_slots(&self) -> LoadSlots {
         let lay = &self.ev.layout;
-        let mut out = HashMap::new();
+        let nb = lay.bodies();
+        let mut out = LoadSlots {
+            bodies: nb,
+            index: vec![u32::MAX; nb * nb],
+            tables: Vec::new(),
+        };
         let Some(slots) = self.slots.as_ref() else {
             return out;
         };
@@ -408,10 +437,10 @@ impl MultibodyDae {
             let bs = f.bodies();
             for br in &bs {
                 for bc in &bs {
-                    if out.contains_key(&(br.0, bc.0)) {
+                    if out.get(br.0, bc.0).is_some() {
                         continue;
                     }
-                    let mut tab = Box::new([0usize; 78]);
+                    let mut tab = [0usize; 78];
                     let mut complete = true;
                     for r in 0..6 {
                         for c in 0..13 {
@@ -427,7 +456,8 @@ impl MultibodyDae {
                         }
                     }
                     if complete {
-                        out.insert((br.0, bc.0), tab);
+                        out.index[br.0 * nb + bc.0] = out.tables.len() as u32;
+                        out.tables.push(tab);
                     }
                 }
             }
@@ -642,9 +672,9 @@ impl MultibodyDae {
         // Force elements: central differences of each element's loads over its bodies' states
         // (one scratch copy of the states and two load buffers, reused throughout).
         let model = self.model.clone();
-        let mut states = self.ev.states.clone();
-        let mut loads_p = vec![BodyLoad::default(); nb];
-        let mut loads_m = vec![BodyLoad::default(); nb];
+        // Scratch for the central differences (states and two load buffers), made on first
+        // use: elements with exact load Jacobians need none.
+        let mut scratch: Option<(Vec<BodyState>, Vec<BodyLoad>, Vec<BodyLoad>)> = None;
         for (_, f) in model.forces() {
             let exact = if rest {
                 f.load_jacobian_at_rest(t, &self.ev.states)
@@ -669,7 +699,7 @@ impl MultibodyDae {
                 }
                 for blk in blocks {
                     let (br, bc) = (blk.loaded.0, blk.wrt.0);
-                    if let Some(tab) = self.load_slots.get(&(br, bc)) {
+                    if let Some(tab) = self.load_slots.get(br, bc) {
                         // The block's place in the values, found once (`load_slots`).
                         for c in 0..columns {
                             for r in 0..6 {
@@ -689,6 +719,13 @@ impl MultibodyDae {
                 continue;
             }
             let bodies = f.bodies();
+            let (states, loads_p, loads_m) = scratch.get_or_insert_with(|| {
+                (
+                    self.ev.states.clone(),
+                    vec![BodyLoad::default(); nb],
+                    vec![BodyLoad::default(); nb],
+                )
+            });
             for &bc in &bodies {
                 let saved = states[bc.0];
                 for c in 0..columns {
@@ -701,7 +738,7 @@ impl MultibodyDae {
                             } else {
                                 y[lay.w(bc.0) + c - 7].abs()
                             });
-                    for (sign, loads) in [(1.0, &mut loads_p), (-1.0, &mut loads_m)] {
+                    for (sign, loads) in [(1.0, &mut *loads_p), (-1.0, &mut *loads_m)] {
                         for &b in &bodies {
                             loads[b.0] = BodyLoad::default();
                         }
@@ -716,7 +753,7 @@ impl MultibodyDae {
                             7..=9 => st.v[c - 7] += sign * h,
                             _ => st.omega[c - 10] += sign * h,
                         }
-                        f.apply(t, &states, loads);
+                        f.apply(t, states, loads);
                     }
                     states[bc.0] = saved;
                     let gc = if c < 7 {
