@@ -34,18 +34,19 @@ struct Group {
     /// Unknowns (= rows) of the block, full indices.
     idx: Vec<usize>,
     /// Block entries: (position in the values, local row · g + local column).
-    ee: Vec<(usize, usize)>,
-    /// A_RE entries: (position in the values, index into `urows`, local column).
-    re: Vec<(usize, usize, usize)>,
-    /// A_ER entries: (position in the values, local row, index into `vcols`); stored, like
-    /// `w`, column after column.
-    er: Vec<(usize, usize, usize)>,
+    ee: Vec<(u32, u32)>,
+    /// A_RE entries: (position in the values, position in `u`: index into `urows` · g +
+    /// local column).
+    re: Vec<(u32, u32)>,
+    /// A_ER entries: (position in the values, position in the block's V: index into
+    /// `vcols` · g + local row); stored, like `w`, column after column.
+    er: Vec<(u32, u32)>,
     /// Kept rows coupled to the block (reduced indices).
     urows: Vec<usize>,
     /// Kept columns coupled to the block (reduced indices).
     vcols: Vec<usize>,
     /// Position in the reduced values of S(urows[i], vcols[j]), row-major (i · nv + j).
-    slots: Vec<usize>,
+    slots: Vec<u32>,
     /// A_EE⁻¹ of the block (g × g, row-major).
     inv: Vec<f64>,
     /// A_RE restricted to the block (nu × g, row-major).
@@ -66,7 +67,7 @@ pub struct BlockSchurLu {
     /// Full index of each kept unknown.
     kept: Vec<usize>,
     /// A_RR entries: (position in the values, position in the reduced values).
-    rr: Vec<(usize, usize)>,
+    rr: Vec<(u32, u32)>,
     s_values: Vec<f64>,
     s_lu: RefactorLu,
     /// Reduced right-hand side.
@@ -122,6 +123,21 @@ impl BlockSchurLu {
         for (k, &i) in kept.iter().enumerate() {
             reduced[i] = k;
         }
+        // Positions and addresses are kept as u32 (the elimination streams through them
+        // at every factorisation: half the memory traffic of usize at large N).
+        let narrow = |v: usize| {
+            u32::try_from(v).map_err(|_| {
+                LinearSolveError::InvalidBlocks(format!("{v} entries: more than block elimination addresses"))
+            })
+        };
+        narrow(pattern.nnz())?;
+        // Per group, while analysing: block, A_RE and A_ER entries with full indices.
+        type Entries = (
+            Vec<(usize, usize)>,
+            Vec<(usize, usize, usize)>,
+            Vec<(usize, usize, usize)>,
+        );
+        let mut entries: Vec<Entries> = vec![(vec![], vec![], vec![]); groups.len()];
         let mut gs: Vec<Group> = groups
             .iter()
             .map(|idx| Group {
@@ -146,10 +162,10 @@ impl BlockSchurLu {
                 match (group_of[r], group_of[c]) {
                     (usize::MAX, usize::MAX) => rr_entries.push((k, reduced[r], reduced[c])),
                     (gr, gc) if gr == gc => {
-                        gs[gr].ee.push((k, local[r] * groups[gr].len() + local[c]));
+                        entries[gr].0.push((k, local[r] * groups[gr].len() + local[c]));
                     }
-                    (usize::MAX, gc) => gs[gc].re.push((k, r, local[c])),
-                    (gr, usize::MAX) => gs[gr].er.push((k, local[r], c)),
+                    (usize::MAX, gc) => entries[gc].1.push((k, r, local[c])),
+                    (gr, usize::MAX) => entries[gr].2.push((k, local[r], c)),
                     // Coupling between two blocks: left out (see the module docs).
                     _ => {}
                 }
@@ -157,18 +173,24 @@ impl BlockSchurLu {
         }
         let mut s_entries: Vec<(usize, usize)> = rr_entries.iter().map(|&(_, r, c)| (r, c)).collect();
         s_entries.extend((0..kept.len()).map(|i| (i, i)));
-        for g in gs.iter_mut() {
-            let mut urows: Vec<usize> = g.re.iter().map(|e| reduced[e.1]).collect();
+        for (g, (ee, re, er)) in gs.iter_mut().zip(&entries) {
+            let m = g.idx.len();
+            let mut urows: Vec<usize> = re.iter().map(|e| reduced[e.1]).collect();
             urows.sort_unstable();
             urows.dedup();
-            let mut vcols: Vec<usize> = g.er.iter().map(|e| reduced[e.2]).collect();
+            let mut vcols: Vec<usize> = er.iter().map(|e| reduced[e.2]).collect();
             vcols.sort_unstable();
             vcols.dedup();
-            for e in g.re.iter_mut() {
-                e.1 = urows.binary_search(&reduced[e.1]).expect("row listed");
+            for &(k, l) in ee {
+                g.ee.push((narrow(k)?, narrow(l)?));
             }
-            for e in g.er.iter_mut() {
-                e.2 = vcols.binary_search(&reduced[e.2]).expect("column listed");
+            for &(k, r, l) in re {
+                let i = urows.binary_search(&reduced[r]).expect("row listed");
+                g.re.push((narrow(k)?, narrow(i * m + l)?));
+            }
+            for &(k, l, c) in er {
+                let j = vcols.binary_search(&reduced[c]).expect("column listed");
+                g.er.push((narrow(k)?, narrow(j * m + l)?));
             }
             for &r in &urows {
                 for &c in &vcols {
@@ -184,15 +206,18 @@ impl BlockSchurLu {
             .map_err(|e| LinearSolveError::InvalidBlocks(e.to_string()))?;
         let slot = SlotIndex::new(&s_pattern);
         let at = |r: usize, c: usize| slot.get(r, c).expect("entry is in the reduced pattern");
-        let rr = rr_entries.iter().map(|&(k, r, c)| (k, at(r, c))).collect();
+        let rr = rr_entries
+            .iter()
+            .map(|&(k, r, c)| Ok((narrow(k)?, narrow(at(r, c))?)))
+            .collect::<Result<_, LinearSolveError>>()?;
         let mut scratch_len = 0;
         for g in gs.iter_mut() {
             g.slots = g
                 .urows
                 .iter()
                 .flat_map(|&r| g.vcols.iter().map(move |&c| (r, c)))
-                .map(|(r, c)| at(r, c))
-                .collect();
+                .map(|(r, c)| narrow(at(r, c)))
+                .collect::<Result<_, _>>()?;
             scratch_len = scratch_len.max(g.idx.len() * (g.idx.len() + g.vcols.len()));
         }
         let s_lu = RefactorLu::new(&s_pattern)?;
@@ -228,7 +253,7 @@ impl BlockSchurLu {
         super::lu::check_values(&self.pattern, values)?;
         self.s_values.iter_mut().for_each(|v| *v = 0.0);
         for &(k, s) in &self.rr {
-            self.s_values[s] += values[k];
+            self.s_values[s as usize] += values[k as usize];
         }
         for g in self.groups.iter_mut() {
             let m = g.idx.len();
@@ -236,18 +261,18 @@ impl BlockSchurLu {
             let (block, v) = self.scratch[..m * (m + nv)].split_at_mut(m * m);
             block.iter_mut().for_each(|x| *x = 0.0);
             for &(k, l) in &g.ee {
-                block[l] = values[k];
+                block[l as usize] = values[k as usize];
             }
             if !invert_in_place(block, &mut g.inv, m) {
                 return self.factor_plain(values);
             }
             g.u.iter_mut().for_each(|x| *x = 0.0);
-            for &(k, i, l) in &g.re {
-                g.u[i * m + l] = values[k];
+            for &(k, d) in &g.re {
+                g.u[d as usize] = values[k as usize];
             }
             v.iter_mut().for_each(|x| *x = 0.0);
-            for &(k, l, j) in &g.er {
-                v[j * m + l] = values[k];
+            for &(k, d) in &g.er {
+                v[d as usize] = values[k as usize];
             }
             // W = A_EE⁻¹·V, column by column.
             for (wj, vj) in g.w.chunks_exact_mut(m).zip(v.chunks_exact(m)) {
@@ -258,7 +283,7 @@ impl BlockSchurLu {
             // S −= U·W.
             for (ui, slots) in g.u.chunks_exact(m).zip(g.slots.chunks_exact(nv.max(1))) {
                 for (wj, &slot) in g.w.chunks_exact(m).zip(slots) {
-                    self.s_values[slot] -= dot(ui, wj);
+                    self.s_values[slot as usize] -= dot(ui, wj);
                 }
             }
         }
