@@ -103,26 +103,20 @@ pub struct MultibodyDae {
 
 /// The value positions of the force elements' load-derivative blocks, found once: for a
 /// (loaded body, body differentiated by) pair, momentum row r (6) and state column c (13:
-/// positions, velocities) sit at `table[13·r + c]`. A dense body-pair index (the Jacobian
-/// looks up every block of every element on each evaluation).
+/// positions, velocities) sit at `table[13·r + c]`. Indexed per loaded body (the Jacobian
+/// looks up every block of every element on each evaluation; a body has a few partners).
 #[derive(Debug, Clone, Default)]
 struct LoadSlots {
-    bodies: usize,
-    /// Table of each pair, `u32::MAX` for none (row-major over (loaded, wrt)).
-    index: Vec<u32>,
+    /// Per loaded body, (body differentiated by, table) of each pair.
+    pairs: Vec<Vec<(usize, usize)>>,
     tables: Vec<[usize; 78]>,
 }
 
 impl LoadSlots {
     /// The table of the pair (`loaded`, `wrt`), if all its positions are in the pattern.
     fn get(&self, loaded: usize, wrt: usize) -> Option<&[usize; 78]> {
-        if loaded >= self.bodies || wrt >= self.bodies {
-            return None;
-        }
-        match self.index[loaded * self.bodies + wrt] {
-            u32::MAX => None,
-            k => self.tables.get(k as usize),
-        }
+        let &(_, k) = self.pairs.get(loaded)?.iter().find(|(w, _)| *w == wrt)?;
+        self.tables.get(k)
     }
 }
 
@@ -426,8 +420,7 @@ impl MultibodyDae {
         let lay = &self.ev.layout;
         let nb = lay.bodies();
         let mut out = LoadSlots {
-            bodies: nb,
-            index: vec![u32::MAX; nb * nb],
+            pairs: vec![Vec::new(); nb],
             tables: Vec::new(),
         };
         let Some(slots) = self.slots.as_ref() else {
@@ -456,8 +449,11 @@ impl MultibodyDae {
                         }
                     }
                     if complete {
-                        out.index[br.0 * nb + bc.0] = out.tables.len() as u32;
-                        out.tables.push(tab);
+                        let k = out.tables.len();
+                        if let Some(p) = out.pairs.get_mut(br.0) {
+                            p.push((bc.0, k));
+                            out.tables.push(tab);
+                        }
                     }
                 }
             }
