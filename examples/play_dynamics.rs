@@ -70,6 +70,10 @@ fn main() -> Result<(), Box<dyn Error>> {
             Some(s) if !hertz => s.parse()?,
             _ => BALL_CONTACT.stiffness,
         },
+        axial_stiffness: match args.get(4) {
+            Some(s) if !hertz => s.parse()?,
+            _ => BALL_CONTACT.axial_stiffness,
+        },
         damping: args
             .get(5)
             .map(|s| s.parse())

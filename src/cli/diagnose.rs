@@ -109,6 +109,11 @@ pub struct Args {
     /// --suite).
     #[arg(long)]
     hertz_play_contact: bool,
+    /// The reduced dynamic play model's linear stiffness of a ball on its bore's end face,
+    /// N/m, alone (by default cross-validation chooses between 1e8 and 1.5e7; also with
+    /// --suite).
+    #[arg(long, value_name = "N_PER_M", value_parser = parse_positive)]
+    play_axial_stiffness: Option<f64>,
     /// Re-linearise the reduced dynamic play model once about its own motion where its
     /// response is large (near a singular position; by default it is linearised about the
     /// nominal motion everywhere; also with --suite).
@@ -243,6 +248,10 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         ..DiagnoseOptions::default()
     };
     opts.library.play_contact_hertz = a.hertz_play_contact;
+    if let Some(k) = a.play_axial_stiffness {
+        opts.library.play_axial_stiffness = Some(k);
+        opts.play_axial_stiffnesses = vec![k];
+    }
     opts.library.play_relinearize = a.play_relinearize;
     opts.play_contact_dampings
         .extend(a.play_load_damping.map(ContactDamping::load_proportional));
@@ -308,6 +317,10 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
     }
     opts.keep_recordings = a.keep_recordings.clone();
     opts.diagnose.library.play_contact_hertz = a.hertz_play_contact;
+    if let Some(k) = a.play_axial_stiffness {
+        opts.diagnose.library.play_axial_stiffness = Some(k);
+        opts.diagnose.play_axial_stiffnesses = vec![k];
+    }
     opts.diagnose.library.play_relinearize = a.play_relinearize;
     opts.diagnose
         .play_contact_dampings

@@ -102,6 +102,10 @@ pub struct LibraryOptions {
     /// model's joint then follows the truth's (example `play_dynamics`), but in the suite's
     /// clearance-F case the diagnosis did worse (held out 3.35× against 3.01×, README).
     pub play_contact_hertz: bool,
+    /// The linear law's stiffness of a ball on its bore's end face (N/m) in the reduced
+    /// dynamic play model; `None`: [`BALL_CONTACT`]'s. Unused with
+    /// [`play_contact_hertz`](Self::play_contact_hertz).
+    pub play_axial_stiffness: Option<f64>,
     /// Re-linearise the reduced dynamic play model once about its own motion
     /// ([`InverseDynamicsModel::play_dynamics_at`], [`PlaySample::about`]) at the samples
     /// where its first response on some drive reaches [`RELINEARIZE_FRACTION`] of its
@@ -237,6 +241,7 @@ impl Default for LibraryOptions {
             dynamic_axial_play: None,
             play_contact_damping: None,
             play_contact_hertz: false,
+            play_axial_stiffness: None,
             play_relinearize: false,
             dynamic_play_tracker: true,
             only: vec![],
@@ -686,10 +691,13 @@ pub fn columns(
     // law the radial response too is taken less the response without play: the balls' axial
     // contact on the bores' end faces is soft at any play, and that compliance must not scale
     // with the play (it is the joint-compliance candidate's).
-    let contact = BALL_CONTACT.with_damping(
-        opts.play_contact_damping
-            .unwrap_or(BALL_CONTACT.contact_damping()),
-    );
+    let contact = BallContact {
+        axial_stiffness: opts.play_axial_stiffness.unwrap_or(BALL_CONTACT.axial_stiffness),
+        ..BALL_CONTACT.with_damping(
+            opts.play_contact_damping
+                .unwrap_or(BALL_CONTACT.contact_damping()),
+        )
+    };
     let run = |site: usize, play: &JointPlay| -> Vec<Option<PlayResponse>> {
         // Hertz's law: the joint's own balls at this play's radial clearance.
         let hertz = opts
@@ -1507,7 +1515,7 @@ mod tests {
     /// per contact damping of the grid, reports each one's cross-validated error and keeps
     /// the smallest.
     #[test]
-    fn the_play_dynamics_pass_tries_each_contact_damping_and_keeps_the_best() {
+    fn the_play_dynamics_pass_tries_each_contact_damping_and_end_face_stiffness_and_keeps_the_best() {
         let h = 5e-6;
         let mut seed = 12345u64;
         let mut noise = move |sigma: f64| {
@@ -1566,6 +1574,19 @@ mod tests {
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(c, _)| *c);
         assert_eq!(d.dynamic_play_damping, best);
+        // The end faces' stiffness likewise, at the kept damping.
+        let tried: Vec<f64> = d
+            .dynamic_play_axial_stiffness_cv
+            .iter()
+            .map(|(k, _)| *k)
+            .collect();
+        assert_eq!(tried, opts.play_axial_stiffnesses);
+        let best = d
+            .dynamic_play_axial_stiffness_cv
+            .iter()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _)| *k);
+        assert_eq!(d.dynamic_play_axial_stiffness, best);
         // The reference plays: the first pass's first; another set only if the selection
         // before sized a play more than the factor away from its own, and only after a
         // pass that cross-validated better than the one before it; the kept one

@@ -60,6 +60,19 @@ pub struct DiagnoseOptions {
     /// cross-validation but did not lower the held-out residual (README, "Load-proportional
     /// contact damping"), so it is not tried by default.
     pub play_contact_dampings: Vec<ContactDamping>,
+    /// The balls' stiffnesses on their bores' end faces (N/m, the linear law) tried in the
+    /// reduced dynamic play model when the play's dynamics are in the selection: after the
+    /// damping is chosen, one re-linearised pass per further value, the smallest
+    /// leave-one-recording-out error kept
+    /// ([`Diagnosis::dynamic_play_axial_stiffness`](super::Diagnosis)); the first value is
+    /// the one the dampings are tried with. Unused with Hertz's law
+    /// ([`LibraryOptions::play_contact_hertz`](super::candidates::LibraryOptions)). How soft
+    /// a ball on a flat face is, against the wall of a bore it nearly fits, depends on the
+    /// joint's make; the default tries the wall's 1e8 N/m and 1.5e7 N/m (a sphere on a plane
+    /// is the less conformal contact: for a 4 mm steel ball Hertz's law gives a secant F/δ of
+    /// about 1.0e7 N/m at 10 N and 2.1e7 at 100 N on a flat face, against 0.85–1.1e8 at
+    /// 50–100 N in a bore 6 µm larger; a textbook estimate for the grid, not a fit).
+    pub play_axial_stiffnesses: Vec<f64>,
 }
 
 impl Default for DiagnoseOptions {
@@ -78,6 +91,7 @@ impl Default for DiagnoseOptions {
             play_dynamics: true,
             dynamic_play_selection: true,
             play_contact_dampings: vec![ContactDamping::constant(200.0), ContactDamping::constant(2000.0)],
+            play_axial_stiffnesses: vec![1e8, 1.5e7],
         }
     }
 }

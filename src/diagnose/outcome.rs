@@ -217,6 +217,14 @@ pub struct Diagnosis {
     /// Each damping tried and the selection's leave-one-recording-out RMS with it (noise
     /// units).
     pub dynamic_play_damping_cv: Vec<(ContactDamping, f64)>,
+    /// The balls' stiffness on their bores' end faces (N/m, the linear law) the reduced
+    /// dynamic play model took in the selection, chosen by cross-validation among
+    /// [`DiagnoseOptions::play_axial_stiffnesses`](super::DiagnoseOptions); `None` when the
+    /// play candidates were quasi-static or on Hertz's law.
+    pub dynamic_play_axial_stiffness: Option<f64>,
+    /// Each end-face stiffness tried (N/m) and the selection's leave-one-recording-out RMS
+    /// with it (noise units), at the kept damping.
+    pub dynamic_play_axial_stiffness_cv: Vec<(f64, f64)>,
     /// Whether the reduced dynamic play model's balls were on Hertz's law per direction
     /// ([`LibraryOptions::play_contact_hertz`](super::candidates::LibraryOptions)) rather
     /// than one linear stiffness (JSON `dynamic_play_hertz`).

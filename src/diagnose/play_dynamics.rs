@@ -138,9 +138,13 @@ use nalgebra::{DMatrix, DVector, Vector3};
 /// per direction ([`HertzBalls`]), with damping on the penetration's rate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BallContact {
-    /// Stiffness on a ball's penetration of its bore's clearance, N/m (the linear law; with
-    /// [`hertz`](Self::hertz) unused).
+    /// Stiffness on a ball's penetration of its bore's clearance (against the bore's wall),
+    /// N/m (the linear law; with [`hertz`](Self::hertz) unused).
     pub stiffness: f64,
+    /// Stiffness on a ball's penetration of its bore's end face, N/m (the linear law; with
+    /// [`hertz`](Self::hertz) unused). A ball on a flat face is a much softer contact than a
+    /// ball in a bore that nearly fits it.
+    pub axial_stiffness: f64,
     /// Damping on the penetration's rate, and on the ball's sliding along the wall while in
     /// contact, N·s/m (the contact never pulls).
     pub damping: f64,
@@ -200,7 +204,13 @@ impl BallContact {
             return 0.0;
         }
         match self.hertz {
-            None => self.stiffness * d,
+            None => {
+                (if radial {
+                    self.stiffness
+                } else {
+                    self.axial_stiffness
+                }) * d
+            }
             Some(k) => (if radial { k.radial } else { k.axial }) * d * d.sqrt(),
         }
     }
@@ -217,7 +227,7 @@ impl BallContact {
     /// The largest penetration (m) a normal force `force` (N) makes, either direction.
     fn compression(&self, force: f64) -> f64 {
         match self.hertz {
-            None => force / self.stiffness,
+            None => force / self.stiffness.min(self.axial_stiffness),
             Some(k) => (force / k.radial.min(k.axial)).max(0.0).powf(2.0 / 3.0),
         }
     }
@@ -226,7 +236,7 @@ impl BallContact {
     /// direction (Hertz: 1.5·K^(2/3)·F^(1/3)).
     fn tangent_stiffness(&self, force: f64) -> f64 {
         match self.hertz {
-            None => self.stiffness,
+            None => self.stiffness.max(self.axial_stiffness),
             Some(k) => 1.5 * k.radial.max(k.axial).powf(2.0 / 3.0) * force.max(0.0).cbrt(),
         }
     }
@@ -310,6 +320,7 @@ impl BallContact {
 /// at 0.04 with these values.
 pub const BALL_CONTACT: BallContact = BallContact {
     stiffness: 1e8,
+    axial_stiffness: 1e8,
     damping: 2e3,
     load_damping: 0.0,
     hertz: None,
@@ -1248,6 +1259,58 @@ mod tests {
         }
     }
 
+    /// Side j's offset `coordinate` sits at `sits` (within 2 %) at the first and last of 50
+    /// samples of `joint` with `play` on `contact`.
+    fn assert_sits(
+        contact: &BallContact,
+        joint: &PlayDynamics,
+        play: &JointPlay,
+        coordinate: usize,
+        sits: f64,
+    ) {
+        let transmission = fixtures::one_drive();
+        let samples = every_2_ms(50, |_| joint, &transmission);
+        let r = respond(&samples, play, contact);
+        for at in [&r[0], &r[49]] {
+            let at = at.as_ref().expect("a response");
+            assert!(
+                (at.offset[coordinate] - sits).abs() < 0.02 * sits.abs(),
+                "{:?} vs {sits:e}",
+                at.offset
+            );
+        }
+    }
+
+    /// The linear law per direction: pressed along x by 60 N against the end of a 10 µm
+    /// axial play, with the end faces five times softer than the walls, side j sits
+    /// h_a/2 + 60/k_a + 30/k away (the end face's compression, then a wall's); hanging
+    /// without play on 200 N, 2·100/k lower whatever the end faces' stiffness.
+    #[test]
+    fn with_linear_balls_each_direction_has_its_own_stiffness() {
+        let (k, k_a, h_a) = (BALL_CONTACT.stiffness, BALL_CONTACT.stiffness / 5.0, 1e-5);
+        let contact = BallContact {
+            axial_stiffness: k_a,
+            ..BALL_CONTACT
+        };
+        let sits_at = |joint: &PlayDynamics, play: &JointPlay, coordinate: usize, sits: f64| {
+            assert_sits(&contact, joint, play, coordinate, sits)
+        };
+        let mut push = fixtures::hanging_joint(0.0, 0.0);
+        push.reaction = [60.0, 0.0, 0.0, 0.0];
+        sits_at(
+            &push,
+            &JointPlay::axial(h_a),
+            0,
+            -(0.5 * h_a + 60.0 / k_a + 30.0 / k),
+        );
+        sits_at(
+            &fixtures::hanging_joint(200.0, 0.0),
+            &JointPlay::default(),
+            2,
+            -2.0 * 100.0 / k,
+        );
+    }
+
     /// With Hertz's law per direction the same statics hold with δ = (F/K)^(2/3): hanging
     /// without play on 200 N, side j sits two balls' compressions under 100 N lower (one
     /// ball of each pair in series); pressed along x by 60 N against the end of a 10 µm axial
@@ -1263,19 +1326,8 @@ mod tests {
             ..BALL_CONTACT
         };
         let delta = |f: f64, k: f64| (f / k).powf(2.0 / 3.0);
-        let transmission = fixtures::one_drive();
-        // Side j's offset `coordinate` at the first and last of 50 samples of `joint` with `play`.
         let sits_at = |joint: &PlayDynamics, play: &JointPlay, coordinate: usize, sits: f64| {
-            let samples = every_2_ms(50, |_| joint, &transmission);
-            let r = respond(&samples, play, &contact);
-            for at in [&r[0], &r[49]] {
-                let at = at.as_ref().expect("a response");
-                assert!(
-                    (at.offset[coordinate] - sits).abs() < 0.02 * sits.abs(),
-                    "{:?} vs {sits:e}",
-                    at.offset
-                );
-            }
+            assert_sits(&contact, joint, play, coordinate, sits)
         };
         let hanging = fixtures::hanging_joint(200.0, 0.0);
         sits_at(

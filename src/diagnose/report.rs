@@ -196,14 +196,33 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             .iter()
             .map(|(c, cv)| format!("{c}: {cv:.3}"))
             .collect();
+        let linear = match d.dynamic_play_axial_stiffness {
+            Some(k) if d.dynamic_play_axial_stiffness_cv.len() > 1 => {
+                let tried: Vec<String> = d
+                    .dynamic_play_axial_stiffness_cv
+                    .iter()
+                    .map(|(k, cv)| format!("{k:.1e} N/m: {cv:.3}"))
+                    .collect();
+                format!(
+                    "on linear stiffnesses, {:.1e} N/m against the bores' walls and {k:.1e} N/m on their end faces, chosen by cross-validation ({})",
+                    super::play_dynamics::BALL_CONTACT.stiffness,
+                    tried.join(", ")
+                )
+            }
+            Some(k) => format!(
+                "on linear stiffnesses, {:.1e} N/m against the bores' walls and {k:.1e} N/m on their end faces",
+                super::play_dynamics::BALL_CONTACT.stiffness
+            ),
+            None => "on one linear stiffness".into(),
+        };
         let _ = writeln!(
             m,
             "- The reduced dynamic play model's contact damping: {c}, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}); the balls {}; {}.",
             if tried.is_empty() { "one value given".into() } else { tried.join(", ") },
             if d.dynamic_play_hertz {
-                "on Hertz's law per direction, with the constants of the joint's own bearings"
+                "on Hertz's law per direction, with the constants of the joint's own bearings".to_string()
             } else {
-                "on one linear stiffness"
+                linear
             },
             if d.dynamic_play_relinearized {
                 "the model re-linearised once about its own motion where its response is large"

@@ -193,27 +193,57 @@ fn diagnose_folds(
     } else {
         vec![o2.library.play_contact_damping]
     };
-    // (One share of the progress per damping, and one per pass at resized references.)
-    let share = 0.4 / (dampings.len() + if dynamic { relinearize::MAX_RESIZES } else { 0 }) as f64;
-    let mut pass = |k: usize, damping: Option<ContactDamping>, refs: (Option<f64>, Option<f64>)| {
+    // Then, at the kept damping, once per further end-face stiffness (linear balls only).
+    let stiffnesses: Vec<Option<f64>> =
+        if dynamic && !o2.library.play_contact_hertz && !opts.play_axial_stiffnesses.is_empty() {
+            opts.play_axial_stiffnesses.iter().map(|k| Some(*k)).collect()
+        } else {
+            vec![o2.library.play_axial_stiffness]
+        };
+    // (One share of the progress per damping and stiffness, and one per pass at resized
+    // references.)
+    let passes = dampings.len() + stiffnesses.len() - 1 + if dynamic { relinearize::MAX_RESIZES } else { 0 };
+    let share = 0.4 / passes as f64;
+    let mut pass = |k: usize,
+                    damping: Option<ContactDamping>,
+                    stiffness: Option<f64>,
+                    refs: (Option<f64>, Option<f64>)| {
         let mut o = o2.clone();
         o.library.play_contact_damping = damping;
+        o.library.play_axial_stiffness = stiffness;
         (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) = refs;
         diagnose_once(&shifted, fit, holdout, &o, |s, f| {
             progress(s, 0.5 + share * (k as f64 + f))
         })
     };
-    let mut second = pass(0, dampings[0], references)?;
+    let mut second = pass(0, dampings[0], stiffnesses[0], references)?;
     let mut tried = vec![(dampings[0], second.cv_rms_noise_units)];
     for k in 1..dampings.len() {
-        let d = pass(k, dampings[k], references)?;
+        let d = pass(k, dampings[k], stiffnesses[0], references)?;
         tried.push((dampings[k], d.cv_rms_noise_units));
+        if d.cv_rms_noise_units < second.cv_rms_noise_units {
+            second = d;
+        }
+    }
+    let mut tried_stiffness = vec![(stiffnesses[0], second.cv_rms_noise_units)];
+    for (k, &stiffness) in stiffnesses.iter().enumerate().skip(1) {
+        let d = pass(
+            dampings.len() + k - 1,
+            second.dynamic_play_damping,
+            stiffness,
+            references,
+        )?;
+        tried_stiffness.push((stiffness, d.cv_rms_noise_units));
         if d.cv_rms_noise_units < second.cv_rms_noise_units {
             second = d;
         }
     }
     if dynamic {
         second.dynamic_play_damping_cv = tried.into_iter().filter_map(|(c, cv)| Some((c?, cv))).collect();
+        second.dynamic_play_axial_stiffness_cv = tried_stiffness
+            .into_iter()
+            .filter_map(|(k, cv)| Some((k?, cv)))
+            .collect();
     }
     // The second pass's own library (its play candidates may differ from the first's:
     // `LibraryOptions::dynamic_play_tracker`; not with the references, see below).
@@ -225,17 +255,27 @@ fn diagnose_folds(
     if dynamic {
         // (Each pass kept has a smaller error than the one before, so `second` is the last.)
         let mut log = vec![(references.0, references.1, second.cv_rms_noise_units)];
-        let (damping, mut at) = (second.dynamic_play_damping, references);
+        let (damping, stiffness, mut at) = (
+            second.dynamic_play_damping,
+            second.dynamic_play_axial_stiffness,
+            references,
+        );
         for k in 0..relinearize::MAX_RESIZES {
             let Some(refs) = relinearize::resized_references(model, &second, &cands2, at) else {
                 break;
             };
-            let mut d = pass(dampings.len() + k, damping, refs)?;
+            let mut d = pass(
+                dampings.len() + stiffnesses.len() - 1 + k,
+                damping,
+                stiffness,
+                refs,
+            )?;
             log.push((refs.0, refs.1, d.cv_rms_noise_units));
             if d.cv_rms_noise_units >= second.cv_rms_noise_units {
                 break;
             }
             d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
+            d.dynamic_play_axial_stiffness_cv = std::mem::take(&mut second.dynamic_play_axial_stiffness_cv);
             (second, at) = (d, refs);
         }
         second.dynamic_play_reference_cv = log;
@@ -531,6 +571,15 @@ fn diagnose_once(
                 .unwrap_or(BALL_CONTACT.contact_damping())
         }),
         dynamic_play_damping_cv: vec![],
+        dynamic_play_axial_stiffness: ((opts.library.dynamic_play_clearance.is_some()
+            || opts.library.dynamic_axial_play.is_some())
+            && !opts.library.play_contact_hertz)
+            .then(|| {
+                opts.library
+                    .play_axial_stiffness
+                    .unwrap_or(BALL_CONTACT.axial_stiffness)
+            }),
+        dynamic_play_axial_stiffness_cv: vec![],
         dynamic_play_hertz: opts.library.play_contact_hertz,
         dynamic_play_relinearized: opts.library.play_relinearize,
         dynamic_play_reference_cv: vec![],
