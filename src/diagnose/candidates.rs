@@ -1566,26 +1566,17 @@ mod tests {
             d.selected
         );
         assert!(d.dynamic_play_reference.is_some());
-        let tried: Vec<ContactDamping> = d.dynamic_play_damping_cv.iter().map(|(c, _)| *c).collect();
+        // Each value tried, in the options' order, and the one with the smallest error kept:
+        // the damping, then the end faces' stiffness at the kept damping.
+        fn tried_and_best<T: Copy>(cv: &[(T, f64)]) -> (Vec<T>, Option<T>) {
+            let best = cv.iter().min_by(|a, b| a.1.total_cmp(&b.1)).map(|(v, _)| *v);
+            (cv.iter().map(|(v, _)| *v).collect(), best)
+        }
+        let (tried, best) = tried_and_best(&d.dynamic_play_damping_cv);
         assert_eq!(tried, opts.play_contact_dampings);
-        let best = d
-            .dynamic_play_damping_cv
-            .iter()
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(c, _)| *c);
         assert_eq!(d.dynamic_play_damping, best);
-        // The end faces' stiffness likewise, at the kept damping.
-        let tried: Vec<f64> = d
-            .dynamic_play_axial_stiffness_cv
-            .iter()
-            .map(|(k, _)| *k)
-            .collect();
+        let (tried, best) = tried_and_best(&d.dynamic_play_axial_stiffness_cv);
         assert_eq!(tried, opts.play_axial_stiffnesses);
-        let best = d
-            .dynamic_play_axial_stiffness_cv
-            .iter()
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(k, _)| *k);
         assert_eq!(d.dynamic_play_axial_stiffness, best);
         // The reference plays: the first pass's first; another set only if the selection
         // before sized a play more than the factor away from its own, and only after a
