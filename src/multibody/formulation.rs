@@ -88,9 +88,7 @@ pub struct MultibodyDae {
     pattern: Option<CscPattern>,
     /// Entry lookup on `pattern` for the analytic Jacobian.
     slots: Option<SlotIndex>,
-    /// For each (loaded body, body differentiated by) pair of a force element, the value
-    /// positions of the load-derivative block: momentum row r (6) and state column c (13:
-    /// positions, velocities) at `13·r + c`.
+    /// Where each force element's load-derivative blocks go in the values ([`LoadSlots`]).
     load_slots: LoadSlots,
     /// Tunables.
     pub options: FormulationOptions,
@@ -665,11 +663,10 @@ impl MultibodyDae {
             }
             k0 += n;
         }
-        // Force elements: central differences of each element's loads over its bodies' states
-        // (one scratch copy of the states and two load buffers, reused throughout).
+        // Force elements: their exact load Jacobians, else central differences of their
+        // loads over their bodies' states (one scratch copy of the states and two load
+        // buffers, made on first use and reused throughout).
         let model = self.model.clone();
-        // Scratch for the central differences (states and two load buffers), made on first
-        // use: elements with exact load Jacobians need none.
         let mut scratch: Option<(Vec<BodyState>, Vec<BodyLoad>, Vec<BodyLoad>)> = None;
         for (_, f) in model.forces() {
             let exact = if rest {
