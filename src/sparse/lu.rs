@@ -47,6 +47,14 @@ pub enum LinearSolveError {
     /// ([`BlockSchurLu`](super::BlockSchurLu)).
     #[error("invalid elimination blocks: {0}")]
     InvalidBlocks(String),
+    /// The matrix has more unknowns or entries than the factorisation's u32 addresses hold.
+    #[error("matrix too large to factorise: {unknowns} unknowns, {entries} entries (at most 2³² − 1 each)")]
+    TooLarge {
+        /// Unknowns.
+        unknowns: usize,
+        /// Stored entries.
+        entries: usize,
+    },
     /// faer reported an allocation or internal failure.
     #[error("sparse LU failed inside faer: {0}")]
     Backend(String),

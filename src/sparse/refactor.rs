@@ -45,15 +45,15 @@ struct Plan {
     /// Entries of A by step: for step j, `a_pos[a_ptr[j]..a_ptr[j+1]]` are positions in A's
     /// values and `a_row` their permuted rows.
     a_ptr: Vec<usize>,
-    a_pos: Vec<usize>,
-    a_row: Vec<usize>,
+    a_pos: Vec<u32>,
+    a_row: Vec<u32>,
     /// L by columns, strictly below the (unit) diagonal, permuted row indices.
     l_ptr: Vec<usize>,
-    l_row: Vec<usize>,
+    l_row: Vec<u32>,
     l_val: Vec<f64>,
     /// U by columns, strictly above the diagonal, permuted row indices ascending.
     u_ptr: Vec<usize>,
-    u_row: Vec<usize>,
+    u_row: Vec<u32>,
     u_val: Vec<f64>,
     /// Diagonal of U.
     u_diag: Vec<f64>,
@@ -73,7 +73,7 @@ fn choose_pivots(pattern: &CscPattern, values: &[f64], pcol: &[usize]) -> Option
     let n = pattern.ncols();
     let mut pinv = vec![usize::MAX; n];
     let mut prow = Vec::with_capacity(n);
-    let (mut l_ptr, mut l_row, mut l_val) = (vec![0], Vec::<usize>::new(), Vec::<f64>::new());
+    let (mut l_ptr, mut l_row, mut l_val) = (vec![0], Vec::<u32>::new(), Vec::<f64>::new());
     let mut x = vec![0.0; n];
     let mut mark = vec![usize::MAX; n];
     let (mut stack, mut reached, mut pivotal) = (Vec::new(), Vec::new(), Vec::new());
@@ -92,6 +92,7 @@ fn choose_pivots(pattern: &CscPattern, values: &[f64], pcol: &[usize]) -> Option
             if pinv[r] != usize::MAX {
                 let k = pinv[r];
                 for &i in &l_row[l_ptr[k]..l_ptr[k + 1]] {
+                    let i = i as usize;
                     if mark[i] != j {
                         mark[i] = j;
                         stack.push(i);
@@ -134,7 +135,7 @@ fn choose_pivots(pattern: &CscPattern, values: &[f64], pcol: &[usize]) -> Option
         prow.push(piv);
         let inv = 1.0 / x[piv];
         for &r in reached.iter().filter(|&&r| pinv[r] == usize::MAX) {
-            l_row.push(r);
+            l_row.push(r as u32);
             l_val.push(x[r] * inv);
         }
         l_ptr.push(l_row.len());
@@ -166,8 +167,8 @@ impl Plan {
             reached.clear();
             for k in pattern.col_range(c) {
                 let i = pinv[pattern.row_idx()[k]];
-                a_pos.push(k);
-                a_row.push(i);
+                a_pos.push(k as u32);
+                a_row.push(i as u32);
                 if mark[i] != j {
                     mark[i] = j;
                     stack.push(i);
@@ -178,6 +179,7 @@ impl Plan {
                 reached.push(k);
                 if k < j {
                     for &i in &l_row[l_ptr[k]..l_ptr[k + 1]] {
+                        let i = i as usize;
                         if mark[i] != j {
                             mark[i] = j;
                             stack.push(i);
@@ -192,9 +194,9 @@ impl Plan {
             // Rows above j: U (ascending, a valid elimination order since L's edges only go
             // down); below j: L.
             let split = reached.partition_point(|&k| k < j);
-            u_row.extend_from_slice(&reached[..split]);
+            u_row.extend(reached[..split].iter().map(|&k| k as u32));
             u_ptr.push(u_row.len());
-            l_row.extend_from_slice(&reached[split + 1..]);
+            l_row.extend(reached[split + 1..].iter().map(|&k| k as u32));
             l_ptr.push(l_row.len());
         }
         Some(Self {
@@ -222,11 +224,11 @@ impl Plan {
                 .iter()
                 .zip(&self.a_row[self.a_ptr[j]..self.a_ptr[j + 1]])
             {
-                x[i] += values[k];
+                x[i as usize] += values[k as usize];
             }
             let (us, ue) = (self.u_ptr[j], self.u_ptr[j + 1]);
             for p in us..ue {
-                let k = self.u_row[p];
+                let k = self.u_row[p] as usize;
                 let xk = x[k];
                 x[k] = 0.0;
                 self.u_val[p] = xk;
@@ -238,17 +240,19 @@ impl Plan {
             let pivot = x[j];
             x[j] = 0.0;
             let (ls, le) = (self.l_ptr[j], self.l_ptr[j + 1]);
-            let below = self.l_row[ls..le].iter().fold(0.0f64, |m, &i| m.max(x[i].abs()));
+            let below = self.l_row[ls..le]
+                .iter()
+                .fold(0.0f64, |m, &i| m.max(x[i as usize].abs()));
             if !(pivot.abs() > 0.0 && pivot.abs() >= threshold * below && pivot.is_finite()) {
                 for &i in &self.l_row[ls..le] {
-                    x[i] = 0.0;
+                    x[i as usize] = 0.0;
                 }
                 return false;
             }
             self.u_diag[j] = pivot;
             let inv = 1.0 / pivot;
             for p in ls..le {
-                let i = self.l_row[p];
+                let i = self.l_row[p] as usize;
                 self.l_val[p] = x[i] * inv;
                 x[i] = 0.0;
             }
@@ -285,9 +289,9 @@ impl Plan {
 
 /// x[rows[p]] −= vals[p]·a for every p: the inner loop of the factorisation and the solves.
 #[inline]
-fn scatter_sub(x: &mut [f64], rows: &[usize], vals: &[f64], a: f64) {
+fn scatter_sub(x: &mut [f64], rows: &[u32], vals: &[f64], a: f64) {
     for (&i, &v) in rows.iter().zip(vals) {
-        x[i] -= v * a;
+        x[i as usize] -= v * a;
     }
 }
 
@@ -349,6 +353,13 @@ impl RefactorLu {
     /// Prepares the factorisation of matrices on `pattern` (square), reusing pivots with
     /// [`REUSE_PIVOT_THRESHOLD`].
     pub fn new(pattern: &CscPattern) -> Result<Self, LinearSolveError> {
+        // Rows and value positions are kept as u32 (half the memory traffic of usize).
+        if u32::try_from(pattern.nnz()).is_err() || u32::try_from(pattern.ncols()).is_err() {
+            return Err(LinearSolveError::TooLarge {
+                unknowns: pattern.ncols(),
+                entries: pattern.nnz(),
+            });
+        }
         Ok(Self {
             pattern: pattern.clone(),
             order: amd_order(pattern)?,
@@ -376,7 +387,7 @@ impl RefactorLu {
             let flops = p
                 .u_row
                 .iter()
-                .map(|&k| p.l_ptr[k + 1] - p.l_ptr[k])
+                .map(|&k| p.l_ptr[k as usize + 1] - p.l_ptr[k as usize])
                 .sum::<usize>();
             (p.l_row.len(), p.u_row.len(), flops)
         })
