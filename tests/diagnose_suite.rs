@@ -212,3 +212,32 @@ fn a_suite_run_keeps_its_recordings_for_a_blind_diagnosis_when_asked() {
         .exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn another_seed_draws_other_paths_and_noise_and_the_scoreboard_names_it() {
+    use lash::diagnose::suite::run_suite;
+    let base = std::env::temp_dir().join(format!("lash-seed-{}", std::process::id()));
+    let run_with = |seed: u64| {
+        let dir = base.join(seed.to_string());
+        let opts = SuiteOptions {
+            only: vec!["null".into()],
+            keep_recordings: Some(dir.clone()),
+            seed,
+            ..SuiteOptions::lumped_reduced()
+        };
+        let board = run_suite(&opts, None, |_, _| {}).unwrap();
+        let first = std::fs::read_to_string(dir.join("null").join("recording-01.csv")).unwrap();
+        (board, first)
+    };
+    let default_seed = SuiteOptions::lumped_reduced().seed;
+    let (board_a, rec_a) = run_with(default_seed);
+    let (board_b, rec_b) = run_with(default_seed + 1);
+    assert_eq!((board_a.seed, board_b.seed), (default_seed, default_seed + 1));
+    // Other commanded paths and noise: the recordings differ after the header.
+    let body = |t: &str| t.lines().skip(1).take(50).collect::<Vec<_>>().join("\n");
+    assert_ne!(body(&rec_a), body(&rec_b));
+    // And the null case is still called a null on the new seed.
+    let null = &board_b.cases[0];
+    assert!(null.no_mismatch && null.pass, "{null:?}");
+    std::fs::remove_dir_all(&base).ok();
+}

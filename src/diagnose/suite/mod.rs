@@ -323,6 +323,8 @@ pub struct Scoreboard {
     pub design: (usize, usize, f64, f64),
     /// Sensor noise.
     pub noise: SensorNoise,
+    /// Base seed of the recordings' commanded paths and noise ([`SuiteOptions::seed`]).
+    pub seed: u64,
 }
 
 /// Errors of the suite.
@@ -670,6 +672,7 @@ fn scoreboard(opts: &SuiteOptions, results: Vec<CaseResult>) -> Scoreboard {
             opts.record.rate,
         ),
         noise: opts.record.noise,
+        seed: opts.seed,
     }
 }
 
