@@ -246,6 +246,15 @@ pub struct Diagnosis {
     /// fraction of its step kept ([`SHIFT_LINEARITY_TOLERANCE`](super::SHIFT_LINEARITY_TOLERANCE));
     /// empty without a second pass.
     pub relinearization_steps: Vec<LinearizationStep>,
+    /// Cross-validated RMS (noise units) of each re-linearised pass tried, in order: the
+    /// step from the nominal point, then the whole steps to the last pass's estimates taken
+    /// while a step was held back ([`MAX_RELINEARIZATIONS`](super::MAX_RELINEARIZATIONS)).
+    /// Empty when nothing was re-linearised.
+    pub relinearization_cv: Vec<f64>,
+    /// Re-linearised passes whose selection is reported (Gauss–Newton steps kept): 0 when
+    /// nothing was re-linearised, 1 for the step from the nominal point, more when further
+    /// whole steps cross-validated better.
+    pub relinearization_passes: usize,
     /// One-paragraph verdict.
     pub verdict: String,
     /// Leave-one-recording-out residual RMS of the final model on the fit recordings, in

@@ -44,36 +44,72 @@ pub(super) fn shift<'a>(
     cands: &[Candidate],
     fraction: &dyn Fn(&str) -> f64,
 ) -> (Shifted<'a>, Vec<(String, f64)>) {
+    shift_toward(model, &[], estimates, cands, fraction)
+}
+
+/// Each entry of `targets` with its value at `base` (the same candidate and parameter;
+/// zero if `base` lacks it), then each entry of `base` that `targets` lack, with target
+/// zero (an effect a later pass no longer holds is taken back).
+fn paired<'e>(base: &'e [Estimate], targets: &'e [Estimate]) -> Vec<(&'e Estimate, f64, f64)> {
+    let same = |a: &Estimate, b: &Estimate| a.candidate == b.candidate && a.parameter == b.parameter;
+    targets
+        .iter()
+        .map(|t| {
+            (
+                t,
+                base.iter().find(|b| same(b, t)).map_or(0.0, |b| b.value),
+                t.value,
+            )
+        })
+        .chain(
+            base.iter()
+                .filter(|b| !targets.iter().any(|t| same(b, t)))
+                .map(|b| (b, b.value, 0.0)),
+        )
+        .collect()
+}
+
+/// The model moved from the point `base` (totals per candidate and parameter, as
+/// [`point_toward`] gives them; empty: the nominal point) towards `targets`: each entry
+/// at b + f·(t − b), f the candidate's `fraction` ([`paired`] for missing entries). Returns
+/// the moved model and its (candidate, value) totals (an entry that neither moves nor was
+/// moved left out). Only
+/// effects that move the model (parameters, declared parameters, joint-position offsets)
+/// are taken.
+pub(super) fn shift_toward<'a>(
+    model: &'a dyn InverseDynamicsModel,
+    base: &[Estimate],
+    targets: &[Estimate],
+    cands: &[Candidate],
+    fraction: &dyn Fn(&str) -> f64,
+) -> (Shifted<'a>, Vec<(String, f64)>) {
     let mut delta = vec![0.0; model.parameters().len()];
     let mut q_offset = vec![0.0; model.joints()];
     let mut moved: Vec<(String, f64)> = vec![];
-    for e0 in estimates {
+    for (e0, b, t) in paired(base, targets) {
         let Some(c) = cands.iter().find(|c| c.name == e0.candidate) else {
             continue;
         };
         let f = fraction(&c.name);
-        if f == 0.0 {
+        if f == 0.0 && b == 0.0 {
             continue;
         }
-        let e = &Estimate {
-            value: f * e0.value,
-            ..e0.clone()
-        };
+        let value = b + f * (t - b);
         match (c.effect, c.joint) {
-            (Effect::Parameter { index, .. }, _) => delta[index] += e.value,
+            (Effect::Parameter { index, .. }, _) => delta[index] += value,
             (Effect::Declared { group }, _) => {
                 let (Some(g), Some(k)) = (
                     model.declared_candidates().get(group).cloned(),
-                    c.parameters.iter().position(|p| *p == e.parameter),
+                    c.parameters.iter().position(|p| *p == e0.parameter),
                 ) else {
                     continue;
                 };
-                delta[g.parameters[k]] += e.value;
+                delta[g.parameters[k]] += value;
             }
-            (Effect::PositionOffset, Some(j)) => q_offset[j] += e.value,
+            (Effect::PositionOffset, Some(j)) => q_offset[j] += value,
             _ => continue,
         }
-        moved.push((c.name.clone(), e.value));
+        moved.push((c.name.clone(), value));
     }
     let shifted = Shifted {
         inner: model,
@@ -81,6 +117,36 @@ pub(super) fn shift<'a>(
         q_offset,
     };
     (shifted, moved)
+}
+
+/// The point [`shift_toward`] moves the model to, as totals per candidate and parameter
+/// (the entries that move the model, none at zero).
+pub(super) fn point_toward(
+    base: &[Estimate],
+    targets: &[Estimate],
+    cands: &[Candidate],
+    fraction: &dyn Fn(&str) -> f64,
+) -> Vec<Estimate> {
+    let moves = |e: &Estimate| {
+        cands.iter().any(|c| {
+            c.name == e.candidate
+                && matches!(
+                    (c.effect, c.joint),
+                    (Effect::Parameter { .. }, _)
+                        | (Effect::Declared { .. }, _)
+                        | (Effect::PositionOffset, Some(_))
+                )
+        })
+    };
+    paired(base, targets)
+        .into_iter()
+        .filter(|(e, _, _)| moves(e))
+        .map(|(e, b, t)| Estimate {
+            value: b + fraction(&e.candidate) * (t - b),
+            ..e.clone()
+        })
+        .filter(|e| e.value != 0.0)
+        .collect()
 }
 
 /// Per effect the first pass would move into the model (its `estimates`, in their order),
@@ -217,6 +283,19 @@ pub(super) fn dynamic_play_references(
 /// play its candidate's columns were taken at before the selection is repeated at the
 /// estimate ([`Diagnosis::dynamic_play_reference_cv`]).
 pub const RESIZE_FACTOR: f64 = 1.25;
+
+/// The most re-linearised passes in all (Gauss–Newton steps): one from the nominal point
+/// (its effects held back where the model is not linear enough, [`SHIFT_LINEARITY_TOLERANCE`]), then,
+/// only while a step was held back, whole steps to the last pass's estimates, each kept
+/// while the selection cross-validates better. Measured (README, 2026-11-28): on the
+/// reduced suite at seed 7, tilt-under-payload's 0.5 kg payload was held back to half its
+/// step (departure 0.58 from the nominal point), and what the half step left was read as
+/// torque-sensor delays; with one further whole step the tilt is found.
+pub const MAX_RELINEARIZATIONS: usize = 3;
+
+/// A further Gauss–Newton step ([`MAX_RELINEARIZATIONS`]) is not taken when every effect
+/// would move by at most this fraction of its value: the point has converged.
+pub const CONVERGED_STEP: f64 = 0.01;
 
 /// The most passes at resized reference plays (each a whole selection): the secant
 /// iteration on the plays stops earlier once every selected play is within
@@ -586,5 +665,65 @@ mod tests {
         let moved_by = |n: &str| moved.iter().find(|(c, _)| c == n).map(|(_, v)| *v);
         assert_eq!(moved_by(&mass), Some(0.06));
         assert_eq!(moved_by(&tilt), (g.fraction > 0.0).then_some(2.5 * g.fraction));
+    }
+
+    /// A further step moves each effect from the point reached towards the next targets;
+    /// an effect the targets no longer hold is taken back towards zero, one they add joins
+    /// from zero, and effects that do not move the model (friction) are not taken.
+    #[test]
+    fn a_step_from_a_point_moves_each_effect_from_there_towards_the_targets() {
+        use crate::diagnose::candidates::{library, LibraryOptions};
+        use crate::diagnose::model::DoublePendulumModel;
+        let model = DoublePendulumModel::example();
+        let cands = library(&model, &LibraryOptions::default());
+        let find = |part: &str, parameter: bool| {
+            cands
+                .iter()
+                .find(|c| c.name.contains(part) && matches!(c.effect, Effect::Parameter { .. }) == parameter)
+                .unwrap_or_else(|| panic!("no candidate for {part}"))
+                .name
+                .clone()
+        };
+        let estimate = |candidate: &str, value: f64| Estimate {
+            candidate: candidate.to_string(),
+            parameter: String::new(),
+            value,
+            std: 0.0,
+            std_noise_only: 0.0,
+            std_jackknife: None,
+            inflation: 1.0,
+            folds: vec![],
+            stable: true,
+        };
+        let (m2, m1, tilt, friction) = (
+            find("link 2 mass", true),
+            find("link 1 inertia", true),
+            find("base tilt", true),
+            find("friction", false),
+        );
+        let base = [estimate(&m2, 0.03), estimate(&tilt, 1.0)];
+        let targets = [estimate(&m2, 0.06), estimate(&m1, 0.02), estimate(&friction, 0.1)];
+        let value = |v: &[Estimate], n: &str| v.iter().find(|e| e.candidate == n).map(|e| e.value);
+        // The whole step: the targets' model effects, the tilt taken back, no friction.
+        let whole = point_toward(&base, &targets, &cands, &|_| 1.0);
+        assert_eq!(value(&whole, &m2), Some(0.06));
+        assert_eq!(value(&whole, &m1), Some(0.02));
+        assert_eq!(value(&whole, &tilt), None);
+        assert_eq!(value(&whole, &friction), None);
+        // Half the step, and the shift agrees with the point.
+        let half = point_toward(&base, &targets, &cands, &|_| 0.5);
+        assert!((value(&half, &m2).unwrap() - 0.045).abs() < 1e-15, "{half:?}");
+        assert!((value(&half, &m1).unwrap() - 0.01).abs() < 1e-15, "{half:?}");
+        assert!((value(&half, &tilt).unwrap() - 0.5).abs() < 1e-15, "{half:?}");
+        let (_, moved) = shift_toward(&model, &base, &targets, &cands, &|_| 0.5);
+        for e in &half {
+            let v = moved.iter().find(|(n, _)| *n == e.candidate).map(|(_, v)| *v);
+            assert_eq!(v, Some(e.value), "{moved:?}");
+        }
+        // From no point, the step is the first pass's shift.
+        let (_, from_nominal) = shift(&model, &targets, &cands, &|_| 1.0);
+        let (_, toward) = shift_toward(&model, &[], &targets, &cands, &|_| 1.0);
+        assert_eq!(from_nominal, toward);
+        assert_eq!(from_nominal, vec![(m2.clone(), 0.06), (m1.clone(), 0.02)]);
     }
 }

@@ -182,6 +182,15 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             held.join("; ")
         );
     }
+    if d.relinearization_cv.len() > 1 {
+        let cv: Vec<String> = d.relinearization_cv.iter().map(|v| format!("{v:.3}")).collect();
+        let _ = writeln!(
+            m,
+            "- Re-linearisation continued (a step was held back): whole steps from the point reached to the last pass's estimates, kept while the selection cross-validates better; cross-validated RMS per pass {} noise units; {} pass(es) kept.",
+            cv.join(" → "),
+            d.relinearization_passes
+        );
+    }
     if let Some(h) = d.dynamic_play_reference {
         let _ = writeln!(
             m,

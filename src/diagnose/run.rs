@@ -280,8 +280,57 @@ fn diagnose_folds(
         }
         second.dynamic_play_reference_cv = log;
     }
+    // Gauss–Newton continued: where a step was held back (the model not linear enough
+    // between the nominal point and the first pass's estimates), a whole step from the
+    // point reached to the last pass's estimates and a pass there, at the kept damping,
+    // end-face stiffness and reference plays; kept while the selection cross-validates
+    // better, at most `MAX_RELINEARIZATIONS` passes in all.
+    let (kept_damping, kept_stiffness, kept_refs) = (
+        second.dynamic_play_damping,
+        second.dynamic_play_axial_stiffness,
+        (second.dynamic_play_reference, second.dynamic_axial_play_reference),
+    );
+    let mut shifted = shifted;
+    let mut cv_log = vec![second.cv_rms_noise_units];
+    let mut base = relinearize::point_toward(&[], &first.estimates, &cands, &fraction);
+    let held = steps.iter().any(|s| s.fraction < 1.0);
+    let mut passes = 1;
+    while held && cv_log.len() < relinearize::MAX_RELINEARIZATIONS {
+        let point = relinearize::point_toward(&base, &second.estimates, &cands2, &|_| 1.0);
+        // Converged: every effect within `relinearize::CONVERGED_STEP` of the point.
+        let converged = point.len() == base.len()
+            && point.iter().zip(&base).all(|(a, b)| {
+                a.candidate == b.candidate
+                    && a.parameter == b.parameter
+                    && (a.value - b.value).abs() <= relinearize::CONVERGED_STEP * a.value.abs()
+            });
+        if converged {
+            break;
+        }
+        let (shifted_k, moved_k) =
+            relinearize::shift_toward(model, &base, &second.estimates, &cands2, &|_| 1.0);
+        let mut o = o2.clone();
+        o.shift = moved_k;
+        if dynamic {
+            o.library.play_contact_damping = kept_damping;
+            o.library.play_axial_stiffness = kept_stiffness;
+            (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) = kept_refs;
+        }
+        let mut d = diagnose_once(&shifted_k, fit, holdout, &o, |s, f| progress(s, 0.9 + 0.05 * f))?;
+        cv_log.push(d.cv_rms_noise_units);
+        if d.cv_rms_noise_units >= second.cv_rms_noise_units {
+            break;
+        }
+        d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
+        d.dynamic_play_axial_stiffness_cv = std::mem::take(&mut second.dynamic_play_axial_stiffness_cv);
+        d.dynamic_play_reference_cv = std::mem::take(&mut second.dynamic_play_reference_cv);
+        (second, shifted, base) = (d, shifted_k, point);
+        passes += 1;
+    }
     let mut d = relinearize::against_nominal(model, first, second, &cands2);
     d.relinearization_steps = steps;
+    d.relinearization_cv = cv_log;
+    d.relinearization_passes = passes;
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
     adequacy::refresh(&mut d);
     let set: Vec<usize> = d
@@ -584,6 +633,8 @@ fn diagnose_once(
         dynamic_play_relinearized: opts.library.play_relinearize,
         dynamic_play_reference_cv: vec![],
         relinearization_steps: vec![],
+        relinearization_cv: vec![],
+        relinearization_passes: 0,
         estimates,
         correlations,
         confounded,
