@@ -525,6 +525,21 @@ mod tests {
     use crate::diagnose::transmission::TransmissionDynamics;
     use nalgebra::DMatrix;
 
+    /// An estimate of `candidate` (its one parameter unnamed) with no uncertainty.
+    fn estimate(candidate: &str, value: f64) -> Estimate {
+        Estimate {
+            candidate: candidate.to_string(),
+            parameter: String::new(),
+            value,
+            std: 0.0,
+            std_noise_only: 0.0,
+            std_jackknife: None,
+            inflation: 1.0,
+            folds: vec![],
+            stable: true,
+        }
+    }
+
     /// A one-joint model that carries transmission dynamics and its own column mapping.
     struct Driven;
 
@@ -613,19 +628,8 @@ mod tests {
                 .name
                 .clone()
         };
-        let estimate = |candidate: String, value: f64| Estimate {
-            candidate,
-            parameter: String::new(),
-            value,
-            std: 0.0,
-            std_noise_only: 0.0,
-            std_jackknife: None,
-            inflation: 1.0,
-            folds: vec![],
-            stable: true,
-        };
         let (mass, tilt) = (name("link 2 mass"), name("base tilt"));
-        let estimates = [estimate(mass.clone(), 0.06), estimate(tilt.clone(), 2.5)];
+        let estimates = [estimate(&mass, 0.06), estimate(&tilt, 2.5)];
         let steps = linear_steps(
             &model,
             &estimates,
@@ -683,17 +687,6 @@ mod tests {
                 .unwrap_or_else(|| panic!("no candidate for {part}"))
                 .name
                 .clone()
-        };
-        let estimate = |candidate: &str, value: f64| Estimate {
-            candidate: candidate.to_string(),
-            parameter: String::new(),
-            value,
-            std: 0.0,
-            std_noise_only: 0.0,
-            std_jackknife: None,
-            inflation: 1.0,
-            folds: vec![],
-            stable: true,
         };
         let (m2, m1, tilt, friction) = (
             find("link 2 mass", true),
