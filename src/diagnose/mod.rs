@@ -92,5 +92,8 @@ pub use options::DiagnoseOptions;
 pub use outcome::{
     ChannelFit, Confound, Diagnosis, Estimate, LinearizationStep, Ranked, ResidualTrace, Step,
 };
-pub use relinearize::{MAX_RELINEARIZATIONS, MAX_RESIZES, RESIZE_FACTOR, SHIFT_LINEARITY_TOLERANCE};
+pub use relinearize::{
+    CONTINUED_STEP_GAIN, CONVERGED_STEP, MAX_RELINEARIZATIONS, MAX_RESIZES, RESIZE_FACTOR,
+    SHIFT_LINEARITY_TOLERANCE,
+};
 pub use run::{diagnose, diagnose_recordings};

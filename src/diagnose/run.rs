@@ -284,7 +284,7 @@ fn diagnose_folds(
     // between the nominal point and the first pass's estimates), a whole step from the
     // point reached to the last pass's estimates and a pass there, at the kept damping,
     // end-face stiffness and reference plays; kept while the selection cross-validates
-    // better, at most `MAX_RELINEARIZATIONS` passes in all.
+    // better by `CONTINUED_STEP_GAIN`, at most `MAX_RELINEARIZATIONS` passes in all.
     let (kept_damping, kept_stiffness, kept_refs) = (
         second.dynamic_play_damping,
         second.dynamic_play_axial_stiffness,
@@ -318,7 +318,7 @@ fn diagnose_folds(
         }
         let mut d = diagnose_once(&shifted_k, fit, holdout, &o, |s, f| progress(s, 0.9 + 0.05 * f))?;
         cv_log.push(d.cv_rms_noise_units);
-        if d.cv_rms_noise_units >= second.cv_rms_noise_units {
+        if d.cv_rms_noise_units > (1.0 - relinearize::CONTINUED_STEP_GAIN) * second.cv_rms_noise_units {
             break;
         }
         d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
