@@ -70,12 +70,8 @@ fn paired<'e>(base: &'e [Estimate], targets: &'e [Estimate]) -> Vec<(&'e Estimat
 }
 
 /// The model moved from the point `base` (totals per candidate and parameter, as
-/// [`point_toward`] gives them; empty: the nominal point) towards `targets`: each entry
-/// at b + f·(t − b), f the candidate's `fraction` ([`paired`] for missing entries). Returns
-/// the moved model and its (candidate, value) totals (an entry that neither moves nor was
-/// moved left out). Only
-/// effects that move the model (parameters, declared parameters, joint-position offsets)
-/// are taken.
+/// [`point_toward`] gives them; empty: the nominal point) towards `targets` by `fraction`:
+/// the model at [`point_toward`]'s point, and its (candidate, value) totals.
 pub(super) fn shift_toward<'a>(
     model: &'a dyn InverseDynamicsModel,
     base: &[Estimate],
@@ -86,30 +82,25 @@ pub(super) fn shift_toward<'a>(
     let mut delta = vec![0.0; model.parameters().len()];
     let mut q_offset = vec![0.0; model.joints()];
     let mut moved: Vec<(String, f64)> = vec![];
-    for (e0, b, t) in paired(base, targets) {
-        let Some(c) = cands.iter().find(|c| c.name == e0.candidate) else {
+    for e in point_toward(base, targets, cands, fraction) {
+        let Some(c) = cands.iter().find(|c| c.name == e.candidate) else {
             continue;
         };
-        let f = fraction(&c.name);
-        if f == 0.0 && b == 0.0 {
-            continue;
-        }
-        let value = b + f * (t - b);
         match (c.effect, c.joint) {
-            (Effect::Parameter { index, .. }, _) => delta[index] += value,
+            (Effect::Parameter { index, .. }, _) => delta[index] += e.value,
             (Effect::Declared { group }, _) => {
                 let (Some(g), Some(k)) = (
                     model.declared_candidates().get(group).cloned(),
-                    c.parameters.iter().position(|p| *p == e0.parameter),
+                    c.parameters.iter().position(|p| *p == e.parameter),
                 ) else {
                     continue;
                 };
-                delta[g.parameters[k]] += value;
+                delta[g.parameters[k]] += e.value;
             }
-            (Effect::PositionOffset, Some(j)) => q_offset[j] += value,
+            (Effect::PositionOffset, Some(j)) => q_offset[j] += e.value,
             _ => continue,
         }
-        moved.push((c.name.clone(), value));
+        moved.push((c.name.clone(), e.value));
     }
     let shifted = Shifted {
         inner: model,

@@ -307,8 +307,7 @@ fn diagnose_folds(
         if converged {
             break;
         }
-        let (shifted_k, moved_k) =
-            relinearize::shift_toward(model, &base, &second.estimates, &cands2, &|_| 1.0);
+        let (shifted_k, moved_k) = relinearize::shift_toward(model, &[], &point, &cands2, &|_| 1.0);
         let mut o = o2.clone();
         o.shift = moved_k;
         if dynamic {
