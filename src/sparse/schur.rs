@@ -125,9 +125,11 @@ impl BlockSchurLu {
         }
         // Positions and addresses are kept as u32 (the elimination streams through them
         // at every factorisation: half the memory traffic of usize at large N).
+        let nnz = pattern.nnz();
         let narrow = |v: usize| {
-            u32::try_from(v).map_err(|_| {
-                LinearSolveError::InvalidBlocks(format!("{v} entries: more than block elimination addresses"))
+            u32::try_from(v).map_err(|_| LinearSolveError::TooLarge {
+                unknowns: n,
+                entries: v.max(nnz),
             })
         };
         narrow(pattern.nnz())?;
