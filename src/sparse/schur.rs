@@ -25,11 +25,13 @@
 //! At large N the elimination is bound by memory latency, not by arithmetic: everything a
 //! factorisation and a solve read lies in two arenas (numbers and u32 addresses), group after
 //! group in the order they are visited, and the matrix values are gathered in increasing
-//! position, one forward stream. Against nine small allocations per group, alternated in one
-//! run (`lash bench scaling`, a chain of N links, session 36): 14 % less time per step at
-//! N = 1 000 (6.4–6.7 ms against 7.6 ms) and 12 % at N = 10 000 (107 ms against 122 ms); the
-//! MR2120 L1 run (114 kept unknowns, all in cache) 1.5 % faster (`farm-bench -n 9` on the
-//! issue's command, 0.985×; the same steps and factorisations).
+//! position, one forward stream. Against nine small allocations per group, alternated
+//! (`lash bench scaling`, a chain of N links, session 36): with another process loading the
+//! memory, 14 % less time per step at N = 1 000 (6.4–6.7 ms against 7.6 ms) and 12 % at
+//! N = 10 000 (107 ms against 122 ms); on the idle machine 6.3–7.4 ms against 7.3–7.7 ms and
+//! 112–114 ms against 116–118 ms (about 4 % at N = 10 000); the MR2120 L1 run (114 kept
+//! unknowns, all in cache) 1.5 % faster (`farm-bench -n 9` on the command, 0.985×;
+//! the same steps and factorisations).
 
 use super::{CscPattern, LinearSolveError, RefactorLu, SlotIndex, SparseLu};
 
