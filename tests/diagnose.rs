@@ -1021,4 +1021,37 @@ mod declared_sensors {
         assert!((y[0].abs() - 0.5 * qa.sin()).abs() < 1e-8, "{y:?}");
         assert!(m.parameter_step(1) > 1e-9);
     }
+
+    /// Friction on the arm (`MechanismModel::arm_torque_model`, how the diagnosis moves
+    /// friction it found into the model) is a load the transmission carries: the drive
+    /// supplies it and the joint winds up further under it.
+    #[test]
+    fn friction_on_the_arm_is_a_load_the_transmission_carries() {
+        let m = pendulum()
+            .with_sensors(Sensors {
+                encoders: vec![EncoderPlacement::MotorSide {
+                    compliance: 1,
+                    rotor_inertia: 0.0,
+                    damping: 0.0,
+                }],
+                outputs: tracker("bob"),
+            })
+            .unwrap();
+        let rubbing = m.arm_torque_model(Arc::new(|_: usize, v: f64| 0.3 * v));
+        assert!(m.with_arm_torque(Arc::new(|_: usize, _: f64| 0.0)).is_some());
+        let theta = [1.0, 1e-3];
+        let (mut tau, mut y) = ([0.0], [0.0]);
+        m.evaluate(&theta, &[0.5], &[0.2], &[0.0], &mut tau, &mut y);
+        let (mut tau_f, mut y_f) = ([0.0], [0.0]);
+        rubbing.evaluate(&theta, &[0.5], &[0.2], &[0.0], &mut tau_f, &mut y_f);
+        // Quasi-static at the encoder's rate: 0.06 N m more, and the joint c·τ lower.
+        let qa = 0.5 - 1e-3 * tau_f[0];
+        assert!(
+            (tau_f[0] - (9.81 * 0.5 * qa.sin() + 0.06)).abs() < 1e-5,
+            "{tau_f:?}"
+        );
+        assert!((tau_f[0] - tau[0] - 0.06).abs() < 1e-3, "{tau:?} {tau_f:?}");
+        assert!((y_f[0].abs() - 0.5 * qa.sin()).abs() < 1e-8, "{y_f:?}");
+        assert!(y_f[0].abs() < y[0].abs() - 1e-5, "{y:?} {y_f:?}");
+    }
 }

@@ -65,7 +65,7 @@
 
 use super::error::DiagnoseError;
 use super::model::{
-    ColumnDefaults, DeclaredCandidate, InverseDynamicsModel, JointMotion, ModelParameter,
+    ArmTorque, ColumnDefaults, DeclaredCandidate, InverseDynamicsModel, JointMotion, ModelParameter,
     OutputSensitivities, PlayData, PlayDynamics, PlayPoint,
 };
 use super::transmission::{self, TransmissionDynamics};
@@ -302,6 +302,8 @@ pub struct MechanismModel {
     motions: Vec<JointMotion>,
     /// Candidates the model declares (perturbing some of its parameters together).
     declared: Vec<DeclaredCandidate>,
+    /// Friction on the arms, part of the load the drives carry (None: none).
+    arm_torque: Option<ArmTorque>,
     /// The mechanism built for the last parameter values, with its data (a cache: the
     /// diagnosis asks for torques through `&self`).
     built: RefCell<Option<Built>>,
@@ -344,6 +346,7 @@ impl MechanismModel {
             columns: ColumnDefaults::RoleNames,
             motions: vec![],
             declared: vec![],
+            arm_torque: None,
             built: RefCell::new(None),
         };
         m.ensure(&m.nominal())
@@ -520,6 +523,42 @@ impl MechanismModel {
         }
         self.series = series;
         Ok(self)
+    }
+
+    /// The same model with `torque` on the arms' side of the drives: part of the load the
+    /// transmissions carry, so with compliant drives it winds them up inside the model's own
+    /// wind-up dynamics (at the arms' rates, the encoders' less the wind-up's), and with
+    /// rigid ones it adds to the torques. The diagnosis moves friction it found into the
+    /// model this way before it linearises again ([`InverseDynamicsModel::with_arm_torque`]).
+    pub fn arm_torque_model(&self, torque: ArmTorque) -> Self {
+        Self {
+            name: self.name.clone(),
+            joints: self.joints.clone(),
+            parameters: self.parameters.clone(),
+            builder: self.builder.clone(),
+            sensors: self.sensors.clone(),
+            play: self.play.clone(),
+            tagger: self.tagger.clone(),
+            series: self.series.clone(),
+            windows: self.windows.clone(),
+            columns: self.columns.clone(),
+            motions: self.motions.clone(),
+            declared: self.declared.clone(),
+            arm_torque: Some(torque),
+            built: RefCell::new(None),
+        }
+    }
+
+    /// The joint-side torques at the arms' motion with the arms' friction
+    /// ([`Self::arm_torque_model`]) added.
+    fn loads(&self, built: &mut Built, qa: &[f64], qda: &[f64], qdd: &[f64]) -> Option<Vec<f64>> {
+        let mut tau = Self::joint_torques(built, qa, qda, qdd)?;
+        if let Some(f) = &self.arm_torque {
+            for (j, x) in tau.iter_mut().enumerate() {
+                *x += f(j, qda[j]);
+            }
+        }
+        Some(tau)
     }
 
     /// Tags configurations for the localisation.
@@ -1109,7 +1148,7 @@ impl MechanismModel {
         let mut qa: Vec<f64> = (0..n)
             .map(|j| q[j] - (2.0 * built.windup[1][j] - built.windup[0][j]))
             .collect();
-        let mut tau = Self::joint_torques(built, &qa, qd, qdd)?;
+        let mut tau = self.loads(built, &qa, qd, qdd)?;
         if c.iter().any(|&v| v != 0.0) {
             // Full passes until the wind-up moves by less than WINDUP_REFINE (one pass from a
             // warm start), then one position-only pass: the joints sit at q − c·τ with τ from
@@ -1122,7 +1161,7 @@ impl MechanismModel {
                 if change < WINDUP_REFINE {
                     break;
                 }
-                tau = Self::joint_torques(built, &qa, qd, qdd)?;
+                tau = self.loads(built, &qa, qd, qdd)?;
             }
             Self::place_joints(built, &qa, qd, qdd)?;
         }
@@ -1279,7 +1318,7 @@ impl MechanismModel {
         for _ in 0..WINDUP_CORRECTIONS {
             let qa: Vec<f64> = (0..n).map(|j| q[j] - w_at[j]).collect();
             let qda: Vec<f64> = (0..n).map(|j| qd[j] - wd_at[j]).collect();
-            let tau_s = Self::joint_torques(built, &qa, &qda, qdd)?;
+            let tau_s = self.loads(built, &qa, &qda, qdd)?;
             let m = built
                 .analysis
                 .driver_mass_matrix(&built.model, &mut built.data)
@@ -1455,6 +1494,9 @@ impl InverseDynamicsModel for MechanismModel {
     }
     fn drive_compliance(&self, theta: &[f64], j: usize) -> f64 {
         self.compliance(theta, j)
+    }
+    fn with_arm_torque(&self, torque: ArmTorque) -> Option<Box<dyn InverseDynamicsModel>> {
+        Some(Box::new(self.arm_torque_model(torque)))
     }
     fn transmission_dynamics(&self, theta: &[f64]) -> Option<TransmissionDynamics> {
         let n = self.joints.len();

@@ -6,6 +6,13 @@ use crate::mechanisms::double_pendulum::DoublePendulumParams;
 use crate::mechanisms::mr2120::lumped::{tilted_gravity, LumpedModel, LumpedState};
 use nalgebra::Vector3;
 use serde::Serialize;
+use std::sync::Arc;
+
+/// A torque on the joint side of drive `j` (its first argument, driver order) at the arm's
+/// rate (its second, rad/s or m/s): friction acting on the arm, N·m (N for a prismatic
+/// drive), positive along the motion it opposes, as the drive must supply it
+/// ([`InverseDynamicsModel::with_arm_torque`]).
+pub type ArmTorque = Arc<dyn Fn(usize, f64) -> f64 + Send + Sync>;
 
 /// The columns of the DFKI double pendulum's recordings for q1, q2, qd1, qd2, tau1, tau2
 /// (filtered positions in rad, filtered rates in rad/s, measured torques in N·m).
@@ -348,6 +355,14 @@ pub trait InverseDynamicsModel {
     /// the joint side (friction) winds it up and moves the arm against its encoder. Default 0.
     fn drive_compliance(&self, _theta: &[f64], _j: usize) -> f64 {
         0.0
+    }
+    /// The model with `torque` on the arms' side of its drives inside its own dynamics
+    /// (friction found by a first pass moved into the model before it is linearised again:
+    /// with compliant transmissions the friction winds them up nonlinearly), or None if the
+    /// model cannot take one (the default: friction then stays a column of the candidate
+    /// library).
+    fn with_arm_torque(&self, _torque: ArmTorque) -> Option<Box<dyn InverseDynamicsModel>> {
+        None
     }
     /// The drive transmissions' dynamics at the sample the model last evaluated with
     /// [`evaluate_at`](Self::evaluate_at) (mass matrix in drive coordinates, compliances,

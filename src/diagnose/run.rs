@@ -292,11 +292,11 @@ fn diagnose_folds(
     );
     let mut shifted = shifted;
     let mut cv_log = vec![second.cv_rms_noise_units];
-    let mut base = relinearize::point_toward(&[], &first.estimates, &cands, &fraction);
+    let mut base = relinearize::point_toward(model, &[], &first.estimates, &cands, &fraction);
     let held = steps.iter().any(|s| s.fraction < 1.0);
     let mut passes = 1;
     while held && cv_log.len() < relinearize::MAX_RELINEARIZATIONS {
-        let point = relinearize::point_toward(&base, &second.estimates, &cands2, &|_| 1.0);
+        let point = relinearize::point_toward(model, &base, &second.estimates, &cands2, &|_| 1.0);
         // Converged: every effect within `relinearize::CONVERGED_STEP` of the point.
         let converged = point.len() == base.len()
             && point.iter().zip(&base).all(|(a, b)| {
