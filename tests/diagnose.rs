@@ -995,9 +995,9 @@ mod declared_sensors {
         assert!(matches!(e, DiagnoseError::TooFewSamples { found: 10, .. }), "{e}");
     }
 
-    #[test]
-    fn a_motor_side_encoder_lags_the_joint_by_the_transmission_wind_up() {
-        let m = pendulum()
+    /// The pendulum with its encoder behind a compliant transmission and a tracker on the bob.
+    fn motor_side_pendulum() -> MechanismModel {
+        pendulum()
             .with_sensors(Sensors {
                 encoders: vec![EncoderPlacement::MotorSide {
                     compliance: 1,
@@ -1006,7 +1006,12 @@ mod declared_sensors {
                 }],
                 outputs: tracker("bob"),
             })
-            .unwrap();
+            .unwrap()
+    }
+
+    #[test]
+    fn a_motor_side_encoder_lags_the_joint_by_the_transmission_wind_up() {
+        let m = motor_side_pendulum();
         let theta = [1.0, 1e-3];
         // Held still at 0.5 rad (encoder): the joint sits c·τ lower, τ = m g r sin(q_joint).
         let (mut tau, mut y) = ([0.0], [0.0]);
@@ -1027,16 +1032,7 @@ mod declared_sensors {
     /// supplies it and the joint winds up further under it.
     #[test]
     fn friction_on_the_arm_is_a_load_the_transmission_carries() {
-        let m = pendulum()
-            .with_sensors(Sensors {
-                encoders: vec![EncoderPlacement::MotorSide {
-                    compliance: 1,
-                    rotor_inertia: 0.0,
-                    damping: 0.0,
-                }],
-                outputs: tracker("bob"),
-            })
-            .unwrap();
+        let m = motor_side_pendulum();
         let rubbing = m.arm_torque_model(Arc::new(|_: usize, v: f64| 0.3 * v));
         assert!(m.with_arm_torque(Arc::new(|_: usize, _: f64| 0.0)).is_some());
         let theta = [1.0, 1e-3];
