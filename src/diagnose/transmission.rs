@@ -109,7 +109,11 @@ pub struct End<'a> {
 
 /// [`SUBSTEPS`] average-acceleration Newmark steps of M·ẅ + D·ẇ + S·w = f over `h`
 /// seconds from `state`, M, S and f linear in time from `start` to `end`. None if a step's
-/// matrix is singular.
+/// matrix is singular (an exactly zero pivot) or the ends' sizes differ from the state's.
+///
+/// Called at every sample of every recording, for the nominal wind-up and for each
+/// candidate's response: the substeps work in buffers made once per call (the matrix
+/// arithmetic with nalgebra's temporaries spent a third of a diagnosis in the allocator).
 pub fn newmark_interval(
     state: &State,
     start: &End,
@@ -118,6 +122,14 @@ pub fn newmark_interval(
     h: f64,
 ) -> Option<State> {
     let n = damping.len();
+    let sized = |m: &DMatrix<f64>| m.nrows() == n && m.ncols() == n;
+    if !(sized(start.mass) && sized(end.mass) && sized(start.stiffness) && sized(end.stiffness))
+        || start.load.len() != n
+        || end.load.len() != n
+        || state.0.len() != n
+    {
+        return None;
+    }
     let hs = h / SUBSTEPS as f64;
     let (beta, gamma) = (0.25, 0.5);
     let a0 = 1.0 / (beta * hs * hs);
@@ -127,24 +139,84 @@ pub fn newmark_interval(
     let a4 = gamma / beta - 1.0;
     let a5 = hs * (gamma / (2.0 * beta) - 1.0);
     let (mut w, mut wd, mut wdd) = state.clone();
+    // Column-major n × n, as nalgebra stores them.
+    let (m0, m1) = (start.mass.as_slice(), end.mass.as_slice());
+    let (s0, s1) = (start.stiffness.as_slice(), end.stiffness.as_slice());
+    let mut m = vec![0.0; n * n];
+    let mut kh = vec![0.0; n * n];
+    let mut inertial = vec![0.0; n];
+    let mut rhs = vec![0.0; n];
     for step in 1..=SUBSTEPS {
         let f = step as f64 / SUBSTEPS as f64;
-        let load = start.load * (1.0 - f) + end.load * f;
-        let m = start.mass * (1.0 - f) + end.mass * f;
-        let mut kh = &m * a0 + start.stiffness * (1.0 - f) + end.stiffness * f;
-        for j in 0..n {
-            kh[(j, j)] += a1 * damping[j];
+        for p in 0..n * n {
+            m[p] = m0[p] * (1.0 - f) + m1[p] * f;
+            kh[p] = m[p] * a0 + (s0[p] * (1.0 - f) + s1[p] * f);
         }
-        let inertial = &w * a0 + &wd * a2 + &wdd * a3;
-        let viscous = &w * a1 + &wd * a4 + &wdd * a5;
-        let rhs = load + &m * inertial + damping.component_mul(&viscous);
-        let w1 = kh.lu().solve(&rhs)?;
-        let wdd1 = (&w1 - &w) * a0 - &wd * a2 - &wdd * a3;
-        wd = &wd + (&wdd * (1.0 - gamma) + &wdd1 * gamma) * hs;
-        wdd = wdd1;
-        w = w1;
+        for i in 0..n {
+            kh[i * n + i] += a1 * damping[i];
+            inertial[i] = w[i] * a0 + wd[i] * a2 + wdd[i] * a3;
+            let viscous = w[i] * a1 + wd[i] * a4 + wdd[i] * a5;
+            rhs[i] = (start.load[i] * (1.0 - f) + end.load[i] * f) + damping[i] * viscous;
+        }
+        for k in 0..n {
+            let x = inertial[k];
+            for i in 0..n {
+                rhs[i] += m[k * n + i] * x;
+            }
+        }
+        if !solve_dense_in_place(&mut kh, &mut rhs, n) {
+            return None;
+        }
+        for i in 0..n {
+            let w1 = rhs[i];
+            let wdd1 = (w1 - w[i]) * a0 - wd[i] * a2 - wdd[i] * a3;
+            wd[i] += (wdd[i] * (1.0 - gamma) + wdd1 * gamma) * hs;
+            wdd[i] = wdd1;
+            w[i] = w1;
+        }
     }
     Some((w, wd, wdd))
+}
+
+/// Solves A·x = b in place by Gaussian elimination with partial pivoting (`a`: n × n,
+/// column-major, overwritten; `b` becomes x). `false` on an exactly zero pivot (as
+/// nalgebra's LU reports a singular matrix).
+fn solve_dense_in_place(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
+    for k in 0..n {
+        let mut piv = k;
+        for i in k + 1..n {
+            if a[k * n + i].abs() > a[k * n + piv].abs() {
+                piv = i;
+            }
+        }
+        let pv = a[k * n + piv];
+        if pv == 0.0 {
+            return false;
+        }
+        if piv != k {
+            for c in 0..n {
+                a.swap(c * n + k, c * n + piv);
+            }
+            b.swap(k, piv);
+        }
+        for i in k + 1..n {
+            let l = a[k * n + i] / pv;
+            if l != 0.0 {
+                for c in k + 1..n {
+                    a[c * n + i] -= l * a[c * n + k];
+                }
+                b[i] -= l * b[k];
+            }
+        }
+    }
+    for k in (0..n).rev() {
+        let mut x = b[k];
+        for c in k + 1..n {
+            x -= a[c * n + k] * b[c];
+        }
+        b[k] = x / a[k * n + k];
+    }
+    true
 }
 
 /// Largest sample interval over which the response is integrated, s; a larger gap (or a
@@ -246,6 +318,84 @@ mod tests {
             windup_rate: vec![0.0],
             load_stiffness: None,
         }
+    }
+
+    /// The in-place elimination pivots (a zero leading entry) and refuses a singular matrix.
+    #[test]
+    fn the_dense_solve_pivots_and_refuses_a_singular_matrix() {
+        let a = DMatrix::from_row_slice(3, 3, &[0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 4.0]);
+        let b = DVector::from_vec(vec![1.0, -2.0, 0.5]);
+        let (mut aa, mut x) = (a.as_slice().to_vec(), b.as_slice().to_vec());
+        assert!(solve_dense_in_place(&mut aa, &mut x, 3));
+        let r = &a * DVector::from_vec(x) - &b;
+        assert!(r.amax() < 1e-14, "{r}");
+        let mut singular = vec![1.0, 2.0, 2.0, 4.0];
+        assert!(!solve_dense_in_place(&mut singular, &mut [1.0, 1.0], 2));
+    }
+
+    /// Three coupled drives over one interval: the buffered substeps give the Newmark rule
+    /// written with nalgebra's matrix arithmetic (the form this replaced), to round-off;
+    /// ends of the wrong size give None.
+    #[test]
+    fn the_coupled_newmark_interval_matches_the_matrix_form() {
+        let m0 = DMatrix::from_row_slice(
+            3,
+            3,
+            &[0.05, 0.01, -0.004, 0.01, 0.04, 0.002, -0.004, 0.002, 0.03],
+        );
+        let m1 = &m0 * 1.2;
+        let s0 = DMatrix::from_row_slice(3, 3, &[1e4, -2e3, 0.0, -1.5e3, 8e3, 500.0, 0.0, 700.0, 1.2e4]);
+        let s1 = &s0 * 0.9;
+        let (f0, f1) = (
+            DVector::from_vec(vec![0.3, -0.2, 1.0]),
+            DVector::from_vec(vec![0.5, 0.1, 0.8]),
+        );
+        let d = DVector::from_vec(vec![3.0, 0.0, 7.5]);
+        let state = (
+            DVector::from_vec(vec![1e-5, -2e-5, 3e-5]),
+            DVector::from_vec(vec![1e-3, 0.0, -2e-3]),
+            DVector::from_vec(vec![0.1, -0.3, 0.2]),
+        );
+        let h = 2e-3;
+        let start = End {
+            mass: &m0,
+            stiffness: &s0,
+            load: &f0,
+        };
+        let end = End {
+            mass: &m1,
+            stiffness: &s1,
+            load: &f1,
+        };
+        let (w, wd, wdd) = newmark_interval(&state, &start, &end, &d, h).unwrap();
+        // The matrix form.
+        let hs = h / SUBSTEPS as f64;
+        let (a0, a1, a2, a3, a4, a5) = (4.0 / (hs * hs), 2.0 / hs, 4.0 / hs, 1.0, 1.0, 0.0);
+        let (mut x, mut xd, mut xdd) = state.clone();
+        for step in 1..=SUBSTEPS {
+            let f = step as f64 / SUBSTEPS as f64;
+            let m = &m0 * (1.0 - f) + &m1 * f;
+            let kh = &m * a0 + &s0 * (1.0 - f) + &s1 * f + DMatrix::from_diagonal(&(&d * a1));
+            let rhs = &f0 * (1.0 - f)
+                + &f1 * f
+                + &m * (&x * a0 + &xd * a2 + &xdd * a3)
+                + d.component_mul(&(&x * a1 + &xd * a4 + &xdd * a5));
+            let x1 = kh.lu().solve(&rhs).unwrap();
+            let xdd1 = (&x1 - &x) * a0 - &xd * a2 - &xdd * a3;
+            xd = &xd + (&xdd + &xdd1) * (0.5 * hs);
+            xdd = xdd1;
+            x = x1;
+        }
+        assert!((&w - &x).amax() < 1e-12 * x.amax(), "{w} vs {x}");
+        assert!((&wd - &xd).amax() < 1e-10 * xd.amax(), "{wd} vs {xd}");
+        assert!((&wdd - &xdd).amax() < 1e-8 * xdd.amax(), "{wdd} vs {xdd}");
+        let short = DVector::from_vec(vec![0.3, -0.2]);
+        let bad = End {
+            mass: &m0,
+            stiffness: &s0,
+            load: &short,
+        };
+        assert!(newmark_interval(&state, &start, &bad, &d, h).is_none());
     }
 
     /// A slow load: the response is the quasi-static wind-up c·g, less the damper's share

@@ -28,6 +28,9 @@ pub(crate) struct Evaluator {
     pub offsets: Vec<[f64; 3]>,
     /// The time t0 of the offsets' quadratics, s.
     pub offset_t0: f64,
+    /// The sides (body indices) of each scalar constraint row, fixed when the scratch is made
+    /// (only a driver's motion law changes afterwards, never its bodies or its rows).
+    sides: Vec<(Option<usize>, Option<usize>)>,
 }
 
 impl Evaluator {
@@ -36,7 +39,12 @@ impl Evaluator {
         let layout = model.layout().clone();
         let nb = layout.bodies();
         let driver_block0 = blocks.len() - layout.drivers();
+        let sides = blocks
+            .iter()
+            .flat_map(|blk| std::iter::repeat_n((Self::side(blk.i), Self::side(blk.j)), blk.prim.len()))
+            .collect();
         Self {
+            sides,
             rows: vec![Row::default(); layout.constraints()],
             poses: vec![Pose::ground(); nb],
             states: vec![BodyState::ground(); nb],
@@ -92,15 +100,10 @@ impl Evaluator {
         }
     }
 
-    /// The sides (body indices) of each scalar constraint.
-    pub(crate) fn row_sides(&self) -> Vec<(Option<usize>, Option<usize>)> {
-        let mut out = vec![];
-        for blk in &self.blocks {
-            for _ in 0..blk.prim.len() {
-                out.push((Self::side(blk.i), Self::side(blk.j)));
-            }
-        }
-        out
+    /// The sides (body indices) of each scalar constraint row (found once: the analyses ask
+    /// at every evaluation).
+    pub(crate) fn row_sides(&self) -> &[(Option<usize>, Option<usize>)] {
+        &self.sides
     }
 
     /// Applied loads (gravity and force elements of `model`) at time t.

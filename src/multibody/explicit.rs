@@ -69,7 +69,7 @@ impl MultibodyOde {
     pub fn new(model: Arc<Mechanism>) -> Result<Self, ModelError> {
         model.validate()?;
         let ev = Evaluator::new(&model);
-        let sides = ev.row_sides();
+        let sides = ev.row_sides().to_vec();
         let inv_inertia = model
             .bodies()
             .bodies

@@ -150,7 +150,7 @@ impl MultibodyDae {
     pub fn with_options(model: Arc<Mechanism>, options: FormulationOptions) -> Result<Self, ModelError> {
         model.validate()?;
         let ev = Evaluator::new(&model);
-        let sides = ev.row_sides();
+        let sides = ev.row_sides().to_vec();
         let names = ev.blocks.iter().flat_map(|b| b.names.clone()).collect();
         let mut s = Self {
             model,
