@@ -55,7 +55,6 @@ impl Default for BaumgarteGains {
 pub struct MultibodyOde {
     model: Arc<Mechanism>,
     ev: Evaluator,
-    sides: Vec<(Option<usize>, Option<usize>)>,
     inv_inertia: Vec<Matrix3<f64>>,
     /// Scratch state and derivative for the second-order interface.
     y_work: Vec<f64>,
@@ -69,7 +68,6 @@ impl MultibodyOde {
     pub fn new(model: Arc<Mechanism>) -> Result<Self, ModelError> {
         model.validate()?;
         let ev = Evaluator::new(&model);
-        let sides = ev.row_sides().to_vec();
         let inv_inertia = model
             .bodies()
             .bodies
@@ -80,7 +78,6 @@ impl MultibodyOde {
         Ok(Self {
             model,
             ev,
-            sides,
             inv_inertia,
             y_work: vec![0.0; n],
             dy_work: vec![0.0; n],
@@ -95,7 +92,7 @@ impl MultibodyOde {
 
     /// B·w + Φ_t per constraint row at the evaluator's current rows and states.
     fn velocity_constraints(&self, out: &mut [f64]) {
-        for (k, &(si, sj)) in self.sides.iter().enumerate() {
+        for (k, &(si, sj)) in self.ev.row_sides().iter().enumerate() {
             let mut c = self.ev.rows[k].phi_t;
             for (side_i, b) in [(true, si), (false, sj)] {
                 if let Some(b) = b {
@@ -181,7 +178,7 @@ impl OdeSystem for MultibodyOde {
         // Constraint rows restricted to their bodies: (body, translational, rotational).
         let m = lay.constraints();
         let mut brows: Vec<[Option<BodyRow>; 2]> = Vec::with_capacity(m);
-        for (k, &(si, sj)) in self.sides.iter().enumerate() {
+        for (k, &(si, sj)) in self.ev.row_sides().iter().enumerate() {
             let mut r = [None, None];
             for (slot, (side_i, b)) in [(true, si), (false, sj)].into_iter().enumerate() {
                 if let Some(b) = b {

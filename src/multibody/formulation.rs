@@ -83,7 +83,6 @@ impl Scatter<'_> {
 pub struct MultibodyDae {
     model: Arc<Mechanism>,
     pub(crate) ev: Evaluator,
-    sides: Vec<(Option<usize>, Option<usize>)>,
     names: Vec<String>,
     pattern: Option<CscPattern>,
     /// Entry lookup on `pattern` for the analytic Jacobian.
@@ -150,12 +149,10 @@ impl MultibodyDae {
     pub fn with_options(model: Arc<Mechanism>, options: FormulationOptions) -> Result<Self, ModelError> {
         model.validate()?;
         let ev = Evaluator::new(&model);
-        let sides = ev.row_sides().to_vec();
         let names = ev.blocks.iter().flat_map(|b| b.names.clone()).collect();
         let mut s = Self {
             model,
             ev,
-            sides,
             names,
             pattern: None,
             slots: None,
@@ -222,7 +219,7 @@ impl DaeSystem for MultibodyDae {
             }
             res[lay.nu() + b] = 0.5 * (st.p.norm_squared() - 1.0);
         }
-        for (k, &(si, sj)) in self.sides.iter().enumerate() {
+        for (k, &(si, sj)) in self.ev.row_sides().iter().enumerate() {
             let lam = y[lay.lambda() + k];
             let mu = y[lay.mu() + k];
             let row = self.ev.rows[k];
@@ -345,7 +342,7 @@ impl MultibodyDae {
             }
             None => coupled[a].push((b, kind)),
         };
-        for &(si, sj) in &self.sides {
+        for &(si, sj) in self.ev.row_sides() {
             if let (Some(a), Some(b)) = (si, sj) {
                 link(a, b, Coupling::Positions);
                 link(b, a, Coupling::Positions);
@@ -388,7 +385,7 @@ impl MultibodyDae {
                 e.push((lay.nu() + b, lay.q(b) + 3 + k));
             }
         }
-        for (k, &(si, sj)) in self.sides.iter().enumerate() {
+        for (k, &(si, sj)) in self.ev.row_sides().iter().enumerate() {
             for b in [si, sj].into_iter().flatten() {
                 for col in body_cols(b) {
                     e.push((lay.lambda() + k, col));
