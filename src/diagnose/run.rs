@@ -30,7 +30,19 @@ pub fn diagnose(
     fit: &[MotionData],
     holdout: &[MotionData],
     opts: &DiagnoseOptions,
-    progress: impl FnMut(&str, f64),
+    mut progress: impl FnMut(&str, f64),
+) -> Result<Diagnosis, DiagnoseError> {
+    diagnose_dyn(model, fit, holdout, opts, &mut progress)
+}
+
+/// [`diagnose`] with the progress callback behind a reference: the diagnosis is compiled
+/// once, not once per caller's closure type (in every crate that calls it).
+fn diagnose_dyn(
+    model: &dyn InverseDynamicsModel,
+    fit: &[MotionData],
+    holdout: &[MotionData],
+    opts: &DiagnoseOptions,
+    progress: &mut dyn FnMut(&str, f64),
 ) -> Result<Diagnosis, DiagnoseError> {
     check_recordings(model, fit, holdout)?;
     if let Some(text) = super::candidates::excluded_unknown(model, &opts.library) {
@@ -141,14 +153,14 @@ fn diagnose_folds(
     fit: &[MotionData],
     holdout: &[MotionData],
     opts: &DiagnoseOptions,
-    mut progress: impl FnMut(&str, f64),
+    progress: &mut dyn FnMut(&str, f64),
 ) -> Result<Diagnosis, DiagnoseError> {
     let mut filled = opts.clone();
     if filled.library.speed_scales.is_empty() {
         filled.library.speed_scales = speed_scales(model, fit);
     }
     let opts = &filled;
-    let first = diagnose_once(model, fit, holdout, opts, |s, f| progress(s, 0.5 * f))?;
+    let first = diagnose_once(model, fit, holdout, opts, &mut |s, f| progress(s, 0.5 * f))?;
     if !opts.relinearize {
         progress("done", 1.0);
         return Ok(first);
@@ -177,7 +189,7 @@ fn diagnose_folds(
         // Nothing to re-linearise; the play-dynamics check still runs.
         let mut d = first;
         d.relinearization_steps = steps;
-        d.play_dynamics = play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, &mut progress)?;
+        d.play_dynamics = play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, &mut *progress)?;
         d.verdict = verdict_text(model, &d, &cands);
         progress("done", 1.0);
         return Ok(d);
@@ -212,7 +224,7 @@ fn diagnose_folds(
         o.library.play_contact_damping = damping;
         o.library.play_axial_stiffness = stiffness;
         (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) = refs;
-        diagnose_once(&shifted, fit, holdout, &o, |s, f| {
+        diagnose_once(&shifted, fit, holdout, &o, &mut |s, f| {
             progress(s, 0.5 + share * (k as f64 + f))
         })
     };
@@ -315,7 +327,9 @@ fn diagnose_folds(
             o.library.play_axial_stiffness = kept_stiffness;
             (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) = kept_refs;
         }
-        let mut d = diagnose_once(&shifted_k, fit, holdout, &o, |s, f| progress(s, 0.9 + 0.05 * f))?;
+        let mut d = diagnose_once(&shifted_k, fit, holdout, &o, &mut |s, f| {
+            progress(s, 0.9 + 0.05 * f)
+        })?;
         cv_log.push(d.cv_rms_noise_units);
         if d.cv_rms_noise_units > (1.0 - relinearize::CONTINUED_STEP_GAIN) * second.cv_rms_noise_units {
             break;
@@ -340,7 +354,7 @@ fn diagnose_folds(
     d.friction = super::equivalents::joint_friction(model, &set, &cands2, &d.estimates);
     if d.dynamic_play_reference.is_none() && d.dynamic_axial_play_reference.is_none() {
         d.play_dynamics =
-            play_dynamics_check(model, &shifted, &d, fit, holdout, &o2, &cands2, &mut progress)?;
+            play_dynamics_check(model, &shifted, &d, fit, holdout, &o2, &cands2, &mut *progress)?;
     }
     d.verdict = verdict_text(model, &d, &cands2);
     progress("done", 1.0);
@@ -381,7 +395,7 @@ fn play_dynamics_check(
     // (The check refits the same candidates, their quasi-static tracker rows included.)
     o3.library.dynamic_play_tracker = false;
     // A check that cannot run (a refit the data do not support) leaves the diagnosis as it is.
-    let Ok(refit) = diagnose_once(moved, fit, holdout, &o3, |_, _| {}) else {
+    let Ok(refit) = diagnose_once(moved, fit, holdout, &o3, &mut |_, _| {}) else {
         return Ok(None);
     };
     let refit_clearance = refit
@@ -478,7 +492,7 @@ fn diagnose_once(
     fit: &[MotionData],
     holdout: &[MotionData],
     opts: &DiagnoseOptions,
-    mut progress: impl FnMut(&str, f64),
+    progress: &mut dyn FnMut(&str, f64),
 ) -> Result<Diagnosis, DiagnoseError> {
     let chans = fit.first().map(MotionData::channels).unwrap_or_default();
     let nj = chans.len();
@@ -509,7 +523,7 @@ fn diagnose_once(
     progress("candidate regressors", 0.2);
     let lens: Vec<usize> = fit.iter().map(MotionData::len).collect();
     let raw = prepare(model, fit, &vec![1.0; nj], &cands, opts)?;
-    let sel = select(&raw, &cands, &lens, &sigma, opts, &mut progress)?;
+    let sel = select(&raw, &cands, &lens, &sigma, opts, &mut *progress)?;
     progress("estimates", 0.85);
     let Estimates {
         x,
@@ -664,6 +678,18 @@ pub fn diagnose_recordings(
     opts: &DiagnoseOptions,
     mut progress: impl FnMut(&str, f64),
 ) -> Result<Diagnosis, DiagnoseError> {
+    diagnose_recordings_dyn(model, fit, holdout, windows, opts, &mut progress)
+}
+
+/// [`diagnose_recordings`] compiled once (the progress callback behind a reference).
+fn diagnose_recordings_dyn(
+    model: &dyn InverseDynamicsModel,
+    fit: &[Recording],
+    holdout: &[Recording],
+    windows: &[usize],
+    opts: &DiagnoseOptions,
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<Diagnosis, DiagnoseError> {
     if windows.is_empty() || windows.contains(&0) {
         let given: Vec<String> = windows.iter().map(usize::to_string).collect();
         return Err(DiagnoseError::DerivativeWindows {
@@ -694,7 +720,7 @@ pub fn diagnose_recordings(
                 play_dynamics: false,
                 ..opts.clone()
             };
-            let d = diagnose(model, &load(fit, w)?, &[], &o, |_, _| {})?;
+            let d = diagnose_dyn(model, &load(fit, w)?, &[], &o, &mut |_, _| {})?;
             scores.push((w, d.cv_rms_noise_units));
         }
     }
@@ -703,7 +729,7 @@ pub fn diagnose_recordings(
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|s| s.0)
         .unwrap_or(windows[0]);
-    let mut d = diagnose(model, &load(fit, w)?, &load(holdout, w)?, opts, |s, f| {
+    let mut d = diagnose_dyn(model, &load(fit, w)?, &load(holdout, w)?, opts, &mut |s, f| {
         progress(s, 0.5 + 0.5 * f)
     })?;
     d.derivative_window = (w, scores);

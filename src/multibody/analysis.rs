@@ -177,11 +177,24 @@ impl Analysis {
         if !x.iter().all(|v| v.is_finite()) {
             return false;
         }
-        let res = (a * x - b).amax();
-        let a_norm = a
-            .row_iter()
-            .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
-            .fold(0.0, f64::max);
+        // A·x and the rows' absolute sums in one pass down A's columns (column-major).
+        let m = a.nrows();
+        if x.len() != a.ncols() || b.len() != m {
+            return false;
+        }
+        let mut acc = vec![0.0; 2 * m];
+        let (ax, rows) = acc.split_at_mut(m);
+        for (col, &xj) in a.as_slice().chunks_exact(m.max(1)).zip(x.iter()) {
+            for ((v, s), r) in col.iter().zip(ax.iter_mut()).zip(rows.iter_mut()) {
+                *s += v * xj;
+                *r += v.abs();
+            }
+        }
+        let res = ax
+            .iter()
+            .zip(b.iter())
+            .fold(0.0f64, |m, (s, bi)| m.max((s - bi).abs()));
+        let a_norm = rows.iter().fold(0.0f64, |m, v| m.max(*v));
         res <= LU_BACKWARD_ERROR * (a_norm * x.amax() + b.amax()).max(1e-300)
     }
 
@@ -386,11 +399,25 @@ impl Analysis {
     }
 
     /// c(q, t) = B(q, t)·w + Φ_t(q, t) for fixed w.
+    /// Row by row (a row touches at most two bodies): no dense B is built — γ takes four of
+    /// these per acceleration analysis.
     fn vel_residual(data: &mut MechanismData, t: f64, q: &[f64], w: &[f64]) -> DVector<f64> {
         data.ev.set_state(q, w);
         data.ev.eval_constraints(t);
-        let (bm, phit) = Self::velocity_system(&data.ev);
-        bm * DVector::from_column_slice(w) + phit
+        let ev = &data.ev;
+        let sides = ev.row_sides();
+        DVector::from_fn(ev.layout.constraints(), |k, _| {
+            let (si, sj) = sides[k];
+            let mut c = ev.rows[k].phi_t;
+            for (side_i, b) in [(true, si), (false, sj)] {
+                let Some(b) = b else { continue };
+                let (bt, br) = ev.b_row(k, side_i, b);
+                for i in 0..3 {
+                    c += bt[i] * w[6 * b + i] + br[i] * w[6 * b + 3 + i];
+                }
+            }
+            c
+        })
     }
 
     /// q̇ = H(q)·w.
@@ -488,10 +515,7 @@ impl Analysis {
         data.ev.set_state(q, w);
         data.ev.eval_constraints(t);
         data.ev.eval_loads(model, t);
-        let (bm, _) = Self::velocity_system(&data.ev);
         let n = 6 * lay.bodies();
-        let mut k = DMatrix::zeros(n + lay.constraints(), n + lay.constraints());
-        k.view_mut((0, 0), (n, n)).copy_from(&Self::mass_matrix(model));
         let mut rhs = DVector::zeros(n + lay.constraints());
         for (b, body) in model.bodies().bodies.iter().enumerate() {
             let st = &data.ev.states[b];
@@ -510,13 +534,22 @@ impl Analysis {
             let lu = match b_lu {
                 Some(lu) => Some(lu),
                 None => {
-                    own = DenseLu::new(&bm);
+                    own = DenseLu::new(&Self::velocity_system(&data.ev).0);
                     own.as_ref()
                 }
             };
             if let Some((lu, wdot)) = lu.and_then(|lu| lu.solve(&gamma).map(|x| (lu, x))) {
-                let m = k.view((0, 0), (n, n)).clone_owned();
-                let r: DVector<f64> = rhs.rows(0, n) - m * &wdot;
+                // r = Q − M·ẇ, M block diagonal: the mass on translations, the inertia on
+                // rotations.
+                let mut r: DVector<f64> = rhs.rows(0, n).into_owned();
+                for (b, body) in model.bodies().bodies.iter().enumerate() {
+                    let al = Vector3::new(wdot[6 * b + 3], wdot[6 * b + 4], wdot[6 * b + 5]);
+                    let ia = body.inertia * al;
+                    for c in 0..3 {
+                        r[6 * b + c] -= body.mass * wdot[6 * b + c];
+                        r[6 * b + 3 + c] -= ia[c];
+                    }
+                }
                 if let Some(lambda) = lu.solve_transpose(&r) {
                     if wdot.iter().chain(lambda.iter()).all(|v| v.is_finite()) {
                         return Ok((wdot.iter().copied().collect(), lambda.iter().copied().collect()));
@@ -524,6 +557,11 @@ impl Analysis {
                 }
             }
         }
+        // The augmented system (redundant constraints, free degrees of freedom, or B singular
+        // here).
+        let (bm, _) = Self::velocity_system(&data.ev);
+        let mut k = DMatrix::zeros(n + lay.constraints(), n + lay.constraints());
+        k.view_mut((0, 0), (n, n)).copy_from(&Self::mass_matrix(model));
         k.view_mut((0, n), (n, lay.constraints()))
             .copy_from(&bm.transpose());
         k.view_mut((n, 0), (lay.constraints(), n)).copy_from(&bm);

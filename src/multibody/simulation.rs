@@ -264,6 +264,11 @@ impl Simulation {
     /// each sample time. Stops early, with the samples so far, if the integrator fails near a
     /// singular configuration; any other failure is an error.
     pub fn run(&mut self, times: &[f64], mut progress: impl FnMut(f64)) -> Result<Trajectory, ModelError> {
+        self.run_dyn(times, &mut progress)
+    }
+
+    /// [`run`](Self::run) compiled once (the progress callback behind a reference).
+    fn run_dyn(&mut self, times: &[f64], progress: &mut dyn FnMut(f64)) -> Result<Trajectory, ModelError> {
         let mut samples = Vec::with_capacity(times.len());
         let mut warnings: Vec<SingularityEvent> = vec![];
         let mut min_seen: Option<SingularityEvent> = None;

@@ -684,7 +684,8 @@ pub fn case_names(truth: TruthSource) -> Vec<String> {
     }
 }
 
-/// Runs the suite; `progress` receives (case name, fraction done). With `reports`, each
+/// Runs the suite; `progress` receives (case name, fraction done): the first case at 0, then
+/// each case as it finishes. With `reports`, each
 /// case's diagnosis report (Markdown, JSON, plots) goes to `reports/<case>/` and the
 /// scoreboard to `reports/scoreboard.json` ([`Scoreboard::write`]). A name in
 /// [`SuiteOptions::only`] that no case's name contains is an error
@@ -693,6 +694,15 @@ pub fn run_suite(
     opts: &SuiteOptions,
     reports: Option<&std::path::Path>,
     mut progress: impl FnMut(&str, f64),
+) -> Result<Scoreboard, SuiteError> {
+    run_suite_dyn(opts, reports, &mut progress)
+}
+
+/// [`run_suite`] compiled once (the progress callback behind a reference).
+fn run_suite_dyn(
+    opts: &SuiteOptions,
+    reports: Option<&std::path::Path>,
+    progress: &mut dyn FnMut(&str, f64),
 ) -> Result<Scoreboard, SuiteError> {
     let all = case_names(opts.truth);
     if let Some(o) = opts
@@ -711,28 +721,45 @@ pub fn run_suite(
         .filter(|(_, c)| opts.only.is_empty() || opts.only.iter().any(|o| c.contains(o.as_str())))
         .collect();
     let mut results = vec![];
-    // Cases run side by side, one per core (each builds its own model); reports and
-    // results in case order.
-    let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).max(1);
+    // Cases run side by side, one per core (each builds its own model), from a shared queue:
+    // a worker that finishes takes the next case at once (in fixed batches the short cases
+    // waited for the longest of their batch). Reports and results stay in case order.
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, chosen.len().max(1));
     let run = |i: usize| match opts.truth {
         TruthSource::Multibody => multibody::run_case(&multibody::cases()[i], opts, i),
         TruthSource::Lumped => lumped::run_case(&lumped::cases()[i], opts, i),
     };
-    let mut done = 0;
-    let mut outcomes = vec![];
-    for batch in chosen.chunks(workers) {
-        progress(batch[0].1, done as f64 / chosen.len() as f64);
-        let out: Vec<Result<(CaseResult, Diagnosis), SuiteError>> = std::thread::scope(|scope| {
-            let handles: Vec<_> = batch.iter().map(|(i, _)| scope.spawn(move || run(*i))).collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-                .collect()
-        });
-        done += batch.len();
-        for ((_, name), o) in batch.iter().zip(out) {
-            outcomes.push(((*name).clone(), o?));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut slots: Vec<Option<Result<(CaseResult, Diagnosis), SuiteError>>> =
+        (0..chosen.len()).map(|_| None).collect();
+    progress(chosen.first().map_or("done", |c| c.1.as_str()), 0.0);
+    std::thread::scope(|scope| {
+        let (tx, rx) = std::sync::mpsc::channel();
+        for _ in 0..workers {
+            let tx = tx.clone();
+            let (next, chosen, run) = (&next, &chosen, &run);
+            scope.spawn(move || loop {
+                let slot = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(&(i, _)) = chosen.get(slot) else { break };
+                let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(i)));
+                if tx.send((slot, out)).is_err() {
+                    break;
+                }
+            });
         }
+        drop(tx);
+        for (done, (slot, out)) in rx.iter().enumerate() {
+            let out = out.unwrap_or_else(|p| std::panic::resume_unwind(p));
+            progress(chosen[slot].1, (done + 1) as f64 / chosen.len() as f64);
+            slots[slot] = Some(out);
+        }
+    });
+    let mut outcomes = vec![];
+    for ((_, name), o) in chosen.iter().zip(slots) {
+        let o = o.expect("every case's worker reports its result");
+        outcomes.push(((*name).clone(), o?));
     }
     for (name, (r, d)) in outcomes {
         let name = &name;
