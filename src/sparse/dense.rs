@@ -8,7 +8,9 @@
 //! what a zero cannot change: a column whose entry in the pivot row is zero is not updated,
 //! and a column is updated only in the rows where the pivot column's multiplier is nonzero.
 //! The arithmetic on the entries that are updated is the textbook right-looking elimination
-//! (the same pivots and rounding as LAPACK's unblocked `getf2`). (History: nalgebra's LU took
+//! with LAPACK's unblocked `getf2`'s pivots (its multipliers are divided by the pivot, where
+//! `getf2` multiplies by the reciprocal: the same to round-off). A matrix with a non-finite
+//! entry is refused as singular: skipping a zero times a NaN would otherwise hide it. (History: nalgebra's LU took
 //! 37 % of a multibody diagnosis; faer's dense LU was measured slower still at these sizes.)
 
 use nalgebra::{DMatrix, DVector};
@@ -27,7 +29,7 @@ pub struct DenseLu {
 
 impl DenseLu {
     /// Factorises square `a` (None if it is not square). A matrix with an exactly zero pivot
-    /// factorises and its solves come out None; a nearly singular one gives finite but
+    /// or a non-finite entry factorises and its solves come out None; a nearly singular one gives finite but
     /// inaccurate solves — callers test the backward error where it matters.
     pub fn new(a: &DMatrix<f64>) -> Option<Self> {
         if !a.is_square() {
@@ -41,7 +43,11 @@ impl DenseLu {
             swaps: (0..n).collect(),
             singular: false,
         };
-        lu.factorise();
+        if lu.lu.iter().all(|v| v.is_finite()) {
+            lu.factorise();
+        } else {
+            lu.singular = true;
+        }
         Some(lu)
     }
 
@@ -60,8 +66,7 @@ impl DenseLu {
             let mut p = k;
             let mut big = a[col + k].abs();
             for (i, v) in a[col + k + 1..col + n].iter().enumerate() {
-                // `>` keeps the first largest, as LAPACK's idamax; a NaN never wins, so a
-                // non-finite matrix factorises into non-finite factors and solves give None.
+                // `>` keeps the first largest, as LAPACK's idamax (the entries are finite).
                 if v.abs() > big {
                     big = v.abs();
                     p = k + 1 + i;
@@ -231,6 +236,20 @@ mod tests {
                 z.column_mut(n / 2).fill(0.0);
                 assert!(DenseLu::new(&z).unwrap().solve(&b).is_none(), "n = {n}");
             }
+        }
+        // A NaN or an infinity anywhere makes the solves None, even where the elimination
+        // would only have multiplied it by zero (upper and lower triangle).
+        for (a, b) in [
+            ([1.0, f64::NAN, 0.0, 1.0], [1.0, 0.0]),
+            ([1.0, 0.0, f64::NAN, 1.0], [0.0, 1.0]),
+            ([1.0, f64::INFINITY, 0.0, 1.0], [1.0, 0.0]),
+        ] {
+            let lu = DenseLu::new(&DMatrix::from_row_slice(2, 2, &a)).unwrap();
+            let b = DVector::from_column_slice(&b);
+            assert!(
+                lu.solve(&b).is_none() && lu.solve_transpose(&b).is_none(),
+                "{a:?}"
+            );
         }
     }
 }

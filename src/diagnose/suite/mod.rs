@@ -744,6 +744,10 @@ fn run_suite_dyn(
                 let slot = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(&(i, _)) = chosen.get(slot) else { break };
                 let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(i)));
+                if !matches!(out, Ok(Ok(_))) {
+                    // A failed case ends the run: no worker starts another.
+                    next.store(chosen.len(), std::sync::atomic::Ordering::Relaxed);
+                }
                 if tx.send((slot, out)).is_err() {
                     break;
                 }
@@ -757,8 +761,9 @@ fn run_suite_dyn(
         }
     });
     let mut outcomes = vec![];
+    // The first failure in case order; cases never started after it have no result.
     for ((_, name), o) in chosen.iter().zip(slots) {
-        let o = o.expect("every case's worker reports its result");
+        let Some(o) = o else { continue };
         outcomes.push(((*name).clone(), o?));
     }
     for (name, (r, d)) in outcomes {
