@@ -398,26 +398,14 @@ impl Analysis {
         Ok(((w0 - dw).iter().copied().collect(), None))
     }
 
-    /// c(q, t) = B(q, t)·w + Φ_t(q, t) for fixed w.
-    /// Row by row (a row touches at most two bodies): no dense B is built — γ takes four of
-    /// these per acceleration analysis.
+    /// c(q, t) = B(q, t)·w + Φ_t(q, t) for fixed w, row by row (no dense B: γ takes four of
+    /// these per acceleration analysis).
     fn vel_residual(data: &mut MechanismData, t: f64, q: &[f64], w: &[f64]) -> DVector<f64> {
         data.ev.set_state(q, w);
         data.ev.eval_constraints(t);
-        let ev = &data.ev;
-        let sides = ev.row_sides();
-        DVector::from_fn(ev.layout.constraints(), |k, _| {
-            let (si, sj) = sides[k];
-            let mut c = ev.rows[k].phi_t;
-            for (side_i, b) in [(true, si), (false, sj)] {
-                let Some(b) = b else { continue };
-                let (bt, br) = ev.b_row(k, side_i, b);
-                for i in 0..3 {
-                    c += bt[i] * w[6 * b + i] + br[i] * w[6 * b + 3 + i];
-                }
-            }
-            c
-        })
+        let mut c = DVector::zeros(data.ev.layout.constraints());
+        data.ev.velocity_constraints(c.as_mut_slice());
+        c
     }
 
     /// q̇ = H(q)·w.

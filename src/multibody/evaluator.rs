@@ -82,6 +82,23 @@ impl Evaluator {
         }
     }
 
+    /// B·w + Φ_t per constraint row (`out`, one entry per row) at the rows and the bodies'
+    /// velocities last set ([`set_state`](Self::set_state), [`eval_constraints`](Self::eval_constraints)):
+    /// row by row, a row touching at most two bodies.
+    pub(crate) fn velocity_constraints(&self, out: &mut [f64]) {
+        for (k, &(si, sj)) in self.sides.iter().enumerate() {
+            let mut c = self.rows[k].phi_t;
+            for (side_i, b) in [(true, si), (false, sj)] {
+                if let Some(b) = b {
+                    let (bt, br) = self.b_row(k, side_i, b);
+                    let st = &self.states[b];
+                    c += bt.dot(&st.v) + br.dot(&st.omega);
+                }
+            }
+            out[k] = c;
+        }
+    }
+
     /// Evaluates all constraint rows at time t.
     pub(crate) fn eval_constraints(&mut self, t: f64) {
         let ground = Pose::ground();

@@ -90,21 +90,6 @@ impl MultibodyOde {
         self.ev.layout.clone()
     }
 
-    /// B·w + Φ_t per constraint row at the evaluator's current rows and states.
-    fn velocity_constraints(&self, out: &mut [f64]) {
-        for (k, &(si, sj)) in self.ev.row_sides().iter().enumerate() {
-            let mut c = self.ev.rows[k].phi_t;
-            for (side_i, b) in [(true, si), (false, sj)] {
-                if let Some(b) = b {
-                    let (bt, br) = self.ev.b_row(k, side_i, b);
-                    let st = &self.ev.states[b];
-                    c += bt.dot(&st.v) + br.dot(&st.omega);
-                }
-            }
-            out[k] = c;
-        }
-    }
-
     fn qdot(&self, q: &[f64], w: &[f64], out: &mut [f64]) {
         for b in 0..self.ev.layout.bodies() {
             let p = Vector4::new(q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]);
@@ -130,7 +115,7 @@ impl MultibodyOde {
                 }
                 s.ev.set_state(&qs, w);
                 s.ev.eval_constraints(t + sign * eps);
-                s.velocity_constraints(out);
+                s.ev.velocity_constraints(out);
             }
             cp.iter()
                 .zip(&cm)
@@ -189,7 +174,7 @@ impl OdeSystem for MultibodyOde {
             brows.push(r);
         }
         let mut vel = vec![0.0; m];
-        self.velocity_constraints(&mut vel);
+        self.ev.velocity_constraints(&mut vel);
         let (wz, om, g) = (self.gains.zeta, self.gains.omega, &gamma);
         let mut rhs = DVector::zeros(m);
         let mut s = DMatrix::zeros(m, m);
