@@ -586,6 +586,48 @@ fn a_mechanism_built_with_the_api_is_a_nominal_model_too() {
     assert!((est.value / c - 1.0).abs() < 0.25, "{}", est.value);
 }
 
+/// A copy of a multibody nominal model made for another thread evaluates what the model
+/// does, and the recordings evaluated side by side on copies equal them evaluated one
+/// after another on the model itself (the diagnosis's passes run this way).
+#[test]
+fn a_forked_multibody_model_evaluates_as_the_model_side_by_side() {
+    use lash::diagnose::model::{on_copies, InverseDynamicsModel};
+    let api = api_pendulum();
+    let copy = api.fork().expect("a multibody nominal model makes copies");
+    let p = params();
+    let theta = [1.1 * p.m2];
+    for k in 0..10 {
+        let t = k as f64 * 0.37;
+        let q = [0.8 * t.sin(), 1.1 * (0.6 * t).cos()];
+        let qd = [0.8 * t.cos(), -0.66 * (0.6 * t).sin()];
+        let qdd = [-0.8 * t.sin(), -0.396 * (0.6 * t).cos()];
+        let (mut a, mut b) = ([0.0; 2], [0.0; 2]);
+        api.torques(&theta, &q, &qd, &qdd, &mut a);
+        copy.torques(&theta, &q, &qd, &qdd, &mut b);
+        for j in 0..2 {
+            assert!(
+                (a[j] - b[j]).abs() < 1e-9,
+                "joint {}: {} against {} N m",
+                j + 1,
+                a[j],
+                b[j]
+            );
+        }
+    }
+    let (fit, _) = coulomb_runs(0.05);
+    assert!(fit.len() > 1);
+    let side_by_side = on_copies(&fit, &api, &|d, m| d.model_all(m, &theta).0);
+    let fresh = api_pendulum();
+    let in_turn: Vec<Vec<Vec<f64>>> = fit.iter().map(|d| d.model_all(&fresh, &theta).0).collect();
+    let mut worst = 0.0f64;
+    for (a, b) in side_by_side.iter().zip(&in_turn) {
+        for (x, y) in a.iter().flatten().zip(b.iter().flatten()) {
+            worst = worst.max((x - y).abs());
+        }
+    }
+    assert!(worst < 1e-8, "largest torque difference {worst:e} N m");
+}
+
 /// Fit and held-out runs with an effect outside the candidate library in joint 2: cogging
 /// ripple 0.04·sin(20·q₂) N m, under friction of a law the library does not contain as
 /// such (0.05·(2/π)·atan(q̇₂ / 0.02 rad/s) N m).

@@ -38,7 +38,8 @@
 //! | output-sensor delay | −d·dy_k/dt on output k |
 use super::data::{Channel, MotionData};
 use super::model::{
-    InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily, PlayDynamics, PlayPoint,
+    on_copies, DeclaredCandidate, InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily,
+    PlayDynamics, PlayPoint,
 };
 use super::play_dynamics::{
     expanded_about, respond, BallContact, ContactDamping, HertzBalls, JointPlay, PlayResponse, PlaySample,
@@ -804,21 +805,12 @@ pub fn columns(
             .copied()
             .unwrap_or(0.05)
     };
-    // −∂(every channel)/∂q_j: how the model's channels move when arm j lags its encoder
-    // (central differences of the whole model, wind-up included).
-    let stack = |a: &[Vec<f64>], b: &[Vec<f64>], h: f64| {
-        let mut col = vec![0.0; nc * n];
-        for r in 0..nc {
-            for i in 0..n {
-                let v = (a[r][i] - b[r][i]) / (2.0 * h);
-                col[r * n + i] = if v.is_finite() { v } else { 0.0 };
-            }
-        }
-        col
-    };
+    // The columns that take whole passes of the model over the recording — a parameter's
+    // difference, an arm's lag behind its encoder (−∂(every channel)/∂q_j: how the model's
+    // channels move when arm j lags its encoder, wind-up included) — up front, side by side
+    // on copies of the model where it makes them ([`InverseDynamicsModel::fork`]).
     // The nominal channels, for one-sided differences (a model that asks for them: each
     // evaluation costs a pass through an iterative model).
-    let one_sided = model.one_sided_differences();
     let nom_channels: Vec<Vec<f64>> = chans
         .iter()
         .map(|c| match *c {
@@ -826,28 +818,32 @@ pub fn columns(
             Channel::Output(k) => y_nom[k].clone(),
         })
         .collect();
-    // (a − b)/(2h) for central differences, (a − nominal)/h for one-sided ones.
-    let difference = |plus: &dyn Fn() -> Vec<Vec<f64>>, minus: &dyn Fn() -> Vec<Vec<f64>>, h: f64| {
-        if one_sided {
-            stack(&plus(), &nom_channels, 0.5 * h)
-        } else {
-            stack(&plus(), &minus(), h)
-        }
-    };
+    let passes = passes_of(cands, &declared_groups, &compliant_drives);
+    let mut passed = on_copies(&passes, model, &|&pass, m| {
+        pass_column(pass, d, m, &theta0, &nom_channels)
+    });
     let lag: Vec<std::cell::OnceCell<Vec<f64>>> =
         (0..model.joints()).map(|_| std::cell::OnceCell::new()).collect();
+    let mut parameter_columns = std::collections::HashMap::new();
+    for (pass, col) in passes.iter().zip(passed.drain(..)) {
+        match *pass {
+            Pass::Lag(j) => {
+                let _ = lag[j].set(col);
+            }
+            Pass::Parameter(k) => {
+                parameter_columns.insert(k, col);
+            }
+        }
+    }
+    // (Any other lag a column asks for, in turn on the model itself.)
     let lag_of = |j: usize| -> &Vec<f64> {
-        lag[j].get_or_init(|| {
-            let h = 1e-6;
-            let (mut dp, mut dm) = (d.clone(), d.clone());
-            dp.q[j].iter_mut().for_each(|v| *v -= h);
-            dm.q[j].iter_mut().for_each(|v| *v += h);
-            difference(
-                &|| dp.model_channels(model, &theta0),
-                &|| dm.model_channels(model, &theta0),
-                h,
-            )
-        })
+        lag[j].get_or_init(|| pass_column(Pass::Lag(j), d, model, &theta0, &nom_channels))
+    };
+    let parameter_column = |index: usize| -> Vec<f64> {
+        parameter_columns
+            .get(&index)
+            .cloned()
+            .unwrap_or_else(|| pass_column(Pass::Parameter(index), d, model, &theta0, &nom_channels))
     };
     // A torque g(i) acting on the joint side of drive j: the torque channel, and — through
     // the wind-up of the transmission — every channel as the arm lags its encoder. With the
@@ -920,33 +916,13 @@ pub fn columns(
     let cols = cands
         .iter()
         .map(|c| match (c.effect, c.joint) {
-            (Effect::Parameter { index, .. }, _) => {
-                let h = model.parameter_step(index);
-                let (mut tp, mut tm) = (theta0.clone(), theta0.clone());
-                tp[index] += h;
-                tm[index] -= h;
-                vec![difference(
-                    &|| d.model_channels(model, &tp),
-                    &|| d.model_channels(model, &tm),
-                    h,
-                )]
-            }
+            (Effect::Parameter { index, .. }, _) => vec![parameter_column(index)],
             (Effect::Declared { group }, _) => declared_groups
                 .get(group)
                 .map(|g| {
                     g.parameters
                         .iter()
-                        .map(|&index| {
-                            let h = model.parameter_step(index);
-                            let (mut tp, mut tm) = (theta0.clone(), theta0.clone());
-                            tp[index] += h;
-                            tm[index] -= h;
-                            difference(
-                                &|| d.model_channels(model, &tp),
-                                &|| d.model_channels(model, &tm),
-                                h,
-                            )
-                        })
+                        .map(|&index| parameter_column(index))
                         .collect()
                 })
                 .unwrap_or_default(),
@@ -1102,14 +1078,103 @@ pub fn columns(
             (_, None) => vec![vec![0.0; nc * n]],
         })
         .collect();
-    let nominal = chans
-        .iter()
-        .map(|c| match *c {
-            Channel::Torque(j) => tau_nom[j].clone(),
-            Channel::Output(k) => y_nom[k].clone(),
-        })
-        .collect();
-    (cols, nominal)
+    (cols, nom_channels)
+}
+
+/// A sensitivity column that takes whole passes of the model over a recording.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Pass {
+    /// The difference in parameter k.
+    Parameter(usize),
+    /// The lag of arm j behind its encoder: −∂(every channel)/∂q_j.
+    Lag(usize),
+}
+
+/// Step of the lag's central difference, rad (or m).
+const LAG_STEP: f64 = 1e-6;
+
+/// The passes the candidates' columns will ask for: every parameter a candidate perturbs,
+/// every arm whose encoder offset or backlash is a candidate, and — where friction or play
+/// acts through a compliant transmission — the compliant drives' lags.
+fn passes_of(cands: &[Candidate], declared: &[DeclaredCandidate], compliant_drives: &[usize]) -> Vec<Pass> {
+    let mut out: Vec<Pass> = vec![];
+    let mut add = |p: Pass| {
+        if !out.contains(&p) {
+            out.push(p);
+        }
+    };
+    let mut through_drives = false;
+    for c in cands {
+        match (c.effect, c.joint) {
+            (Effect::Parameter { index, .. }, _) => add(Pass::Parameter(index)),
+            (Effect::Declared { group }, _) => {
+                for &index in declared.get(group).map_or(&[][..], |g| &g.parameters[..]) {
+                    add(Pass::Parameter(index));
+                }
+            }
+            (Effect::PositionOffset | Effect::Backlash, Some(j)) => add(Pass::Lag(j)),
+            (
+                Effect::Viscous
+                | Effect::AsymmetricViscous
+                | Effect::Coulomb { .. }
+                | Effect::Stribeck { .. }
+                | Effect::AsymmetricFriction { .. }
+                | Effect::Play { .. },
+                _,
+            ) => through_drives = true,
+            _ => {}
+        }
+    }
+    if through_drives {
+        for &j in compliant_drives {
+            add(Pass::Lag(j));
+        }
+    }
+    out
+}
+
+/// One pass's column (channels stacked as in [`columns`]): central differences, or
+/// one-sided ones from `nominal` where the model asks for them.
+fn pass_column(
+    pass: Pass,
+    d: &MotionData,
+    model: &dyn InverseDynamicsModel,
+    theta0: &[f64],
+    nominal: &[Vec<f64>],
+) -> Vec<f64> {
+    let h = match pass {
+        Pass::Parameter(k) => model.parameter_step(k),
+        Pass::Lag(_) => LAG_STEP,
+    };
+    let side = |sign: f64| match pass {
+        Pass::Parameter(k) => {
+            let mut theta = theta0.to_vec();
+            theta[k] += sign * h;
+            d.model_channels(model, &theta)
+        }
+        Pass::Lag(j) => {
+            // The arm lags: the model sees the encoder less the lag.
+            let mut moved = d.clone();
+            moved.q[j].iter_mut().for_each(|v| *v -= sign * h);
+            moved.model_channels(model, theta0)
+        }
+    };
+    let plus = side(1.0);
+    let (minus, width) = if model.one_sided_differences() {
+        (None, h)
+    } else {
+        (Some(side(-1.0)), 2.0 * h)
+    };
+    let minus = minus.as_deref().unwrap_or(nominal);
+    let n = d.len();
+    let mut col = vec![0.0; plus.len() * n];
+    for (r, (a, b)) in plus.iter().zip(minus).enumerate() {
+        for i in 0..n {
+            let v = (a[i] - b[i]) / width;
+            col[r * n + i] = if v.is_finite() { v } else { 0.0 };
+        }
+    }
+    col
 }
 
 /// The recording that would separate two candidates the data cannot tell apart, as a clause

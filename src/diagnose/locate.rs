@@ -3,7 +3,7 @@
 //! high speed).
 
 use super::data::{ModelValues, MotionData};
-use super::model::InverseDynamicsModel;
+use super::model::{on_copies, InverseDynamicsModel};
 use super::signal::rms;
 use serde::Serialize;
 
@@ -246,7 +246,7 @@ pub fn locate(
     let mut windows: Vec<(usize, f64, Vec<String>, Finding)> = vec![];
     // The nominal model along every recording, once (each evaluation is a pass of the
     // model's analyses along the recording).
-    let values: Vec<ModelValues> = data.iter().map(|d| d.model_all(model, theta)).collect();
+    let values: Vec<ModelValues> = on_copies(data, model, &|d, m| d.model_all(m, theta));
     for (d, v) in data.iter().zip(&values) {
         let nominal = d.channels_of(&v.0, &v.1);
         for (a, b, tags) in tagged_windows(model, d, theta, v, sigma, &scales, opts) {

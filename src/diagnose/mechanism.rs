@@ -321,6 +321,28 @@ impl std::fmt::Debug for MechanismModel {
     }
 }
 
+/// The same model with an empty cache (the copy builds its mechanism when first evaluated).
+impl Clone for MechanismModel {
+    fn clone(&self) -> Self {
+        Self {
+            name: self.name.clone(),
+            joints: self.joints.clone(),
+            parameters: self.parameters.clone(),
+            builder: self.builder.clone(),
+            sensors: self.sensors.clone(),
+            play: self.play.clone(),
+            tagger: self.tagger.clone(),
+            series: self.series.clone(),
+            windows: self.windows.clone(),
+            columns: self.columns.clone(),
+            motions: self.motions.clone(),
+            declared: self.declared.clone(),
+            arm_torque: self.arm_torque.clone(),
+            built: RefCell::new(None),
+        }
+    }
+}
+
 impl MechanismModel {
     /// A model named `name` with torque channels `joints` (names, one per driver), the
     /// perturbable `parameters` and the `builder`; every encoder on its joint, no outputs.
@@ -532,20 +554,8 @@ impl MechanismModel {
     /// model this way before it linearises again ([`InverseDynamicsModel::with_arm_torque`]).
     pub fn arm_torque_model(&self, torque: ArmTorque) -> Self {
         Self {
-            name: self.name.clone(),
-            joints: self.joints.clone(),
-            parameters: self.parameters.clone(),
-            builder: self.builder.clone(),
-            sensors: self.sensors.clone(),
-            play: self.play.clone(),
-            tagger: self.tagger.clone(),
-            series: self.series.clone(),
-            windows: self.windows.clone(),
-            columns: self.columns.clone(),
-            motions: self.motions.clone(),
-            declared: self.declared.clone(),
             arm_torque: Some(torque),
-            built: RefCell::new(None),
+            ..self.clone()
         }
     }
 
@@ -1495,8 +1505,11 @@ impl InverseDynamicsModel for MechanismModel {
     fn drive_compliance(&self, theta: &[f64], j: usize) -> f64 {
         self.compliance(theta, j)
     }
-    fn with_arm_torque(&self, torque: ArmTorque) -> Option<Box<dyn InverseDynamicsModel>> {
+    fn with_arm_torque(&self, torque: ArmTorque) -> Option<Box<dyn InverseDynamicsModel + Send>> {
         Some(Box::new(self.arm_torque_model(torque)))
+    }
+    fn fork(&self) -> Option<Box<dyn InverseDynamicsModel + Send>> {
+        Some(Box::new(self.clone()))
     }
     fn transmission_dynamics(&self, theta: &[f64]) -> Option<TransmissionDynamics> {
         let n = self.joints.len();

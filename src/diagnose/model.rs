@@ -246,6 +246,30 @@ impl JointMotion {
     }
 }
 
+/// `f` on every item, side by side on copies of `model` where it makes them
+/// ([`InverseDynamicsModel::fork`]: one copy per item, so no copy's cache depends on another
+/// item's order), else one after another on `model` itself. Results in the items' order.
+pub fn on_copies<I: Sync, T: Send>(
+    items: &[I],
+    model: &dyn InverseDynamicsModel,
+    f: &(dyn Fn(&I, &dyn InverseDynamicsModel) -> T + Sync),
+) -> Vec<T> {
+    use rayon::prelude::*;
+    let forks: Option<Vec<Box<dyn InverseDynamicsModel + Send>>> = if items.len() > 1 {
+        items.iter().map(|_| model.fork()).collect()
+    } else {
+        None
+    };
+    match forks {
+        Some(forks) => forks
+            .into_par_iter()
+            .zip(items.par_iter())
+            .map(|(m, item)| f(item, m.as_ref()))
+            .collect(),
+        None => items.iter().map(|item| f(item, model)).collect(),
+    }
+}
+
 /// A nominal model in equation-error form: τ = ID(θ; q, q̇, q̈).
 pub trait InverseDynamicsModel {
     /// Model name for reports.
@@ -361,7 +385,15 @@ pub trait InverseDynamicsModel {
     /// with compliant transmissions the friction winds them up nonlinearly), or None if the
     /// model cannot take one (the default: friction then stays a column of the candidate
     /// library).
-    fn with_arm_torque(&self, _torque: ArmTorque) -> Option<Box<dyn InverseDynamicsModel>> {
+    fn with_arm_torque(&self, _torque: ArmTorque) -> Option<Box<dyn InverseDynamicsModel + Send>> {
+        None
+    }
+    /// An independent copy of the model that another thread may evaluate: the same model
+    /// with caches of its own (the diagnosis then evaluates a recording's perturbed passes
+    /// side by side), or None if the model cannot be copied (the default: the passes run
+    /// one after another). The copy must give what the model gives, to its evaluations'
+    /// tolerance.
+    fn fork(&self) -> Option<Box<dyn InverseDynamicsModel + Send>> {
         None
     }
     /// The drive transmissions' dynamics at the sample the model last evaluated with

@@ -51,7 +51,7 @@ pub(super) fn shift<'a>(
     estimates: &[Estimate],
     cands: &[Candidate],
     fraction: &dyn Fn(&str) -> f64,
-) -> (Shifted<'a>, Vec<(String, f64)>) {
+) -> (Shifted<Borrowed<'a>>, Vec<(String, f64)>) {
     shift_toward(model, &[], estimates, cands, fraction)
 }
 
@@ -86,7 +86,7 @@ pub(super) fn shift_toward<'a>(
     targets: &[Estimate],
     cands: &[Candidate],
     fraction: &dyn Fn(&str) -> f64,
-) -> (Shifted<'a>, Vec<(String, f64)>) {
+) -> (Shifted<Borrowed<'a>>, Vec<(String, f64)>) {
     let mut delta = vec![0.0; model.parameters().len()];
     let mut q_offset = vec![0.0; model.joints()];
     let mut moved: Vec<(String, f64)> = vec![];
@@ -422,17 +422,39 @@ pub(super) fn against_nominal(
 }
 
 /// The nominal model with its parameters moved by `delta` and its joint positions read with
-/// `q_offset` removed.
-pub(super) struct Shifted<'a> {
-    inner: &'a dyn InverseDynamicsModel,
+/// `q_offset` removed (the model borrowed; a copy made for another thread owns its own,
+/// [`InverseDynamicsModel::fork`]).
+pub(super) struct Shifted<B> {
+    inner: B,
     /// `inner` with the moved friction on its arms ([`InverseDynamicsModel::with_arm_torque`]),
     /// when friction moved.
-    with_friction: Option<Box<dyn InverseDynamicsModel>>,
+    with_friction: Option<Box<dyn InverseDynamicsModel + Send>>,
     delta: Vec<f64>,
     q_offset: Vec<f64>,
 }
 
-impl Shifted<'_> {
+/// A borrowed nominal model.
+pub(super) type Borrowed<'a> = &'a dyn InverseDynamicsModel;
+
+/// What a [`Shifted`] model moves: a borrowed model, or an owned copy.
+pub(super) trait Base {
+    /// The model.
+    fn model(&self) -> &dyn InverseDynamicsModel;
+}
+
+impl Base for &dyn InverseDynamicsModel {
+    fn model(&self) -> &dyn InverseDynamicsModel {
+        *self
+    }
+}
+
+impl Base for Box<dyn InverseDynamicsModel + Send> {
+    fn model(&self) -> &dyn InverseDynamicsModel {
+        self.as_ref()
+    }
+}
+
+impl<B: Base> Shifted<B> {
     fn q(&self, q: &[f64]) -> Vec<f64> {
         q.iter().zip(&self.q_offset).map(|(a, b)| a - b).collect()
     }
@@ -441,12 +463,12 @@ impl Shifted<'_> {
     fn base(&self) -> &dyn InverseDynamicsModel {
         match &self.with_friction {
             Some(m) => m.as_ref(),
-            None => self.inner,
+            None => self.inner.model(),
         }
     }
 }
 
-impl InverseDynamicsModel for Shifted<'_> {
+impl<B: Base> InverseDynamicsModel for Shifted<B> {
     fn name(&self) -> String {
         self.base().name()
     }
@@ -569,6 +591,14 @@ impl InverseDynamicsModel for Shifted<'_> {
     fn configuration_tag(&self, theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
         self.base().configuration_tag(theta, &self.q(q), y)
     }
+    fn fork(&self) -> Option<Box<dyn InverseDynamicsModel + Send>> {
+        Some(Box::new(Shifted {
+            inner: self.base().fork()?,
+            with_friction: None,
+            delta: self.delta.clone(),
+            q_offset: self.q_offset.clone(),
+        }))
+    }
 }
 
 #[cfg(test)]
@@ -633,7 +663,7 @@ mod tests {
     fn the_shifted_model_keeps_the_transmission_dynamics_and_column_mapping() {
         let inner = Driven;
         let shifted = Shifted {
-            inner: &inner,
+            inner: &inner as Borrowed,
             with_friction: None,
             delta: vec![],
             q_offset: vec![0.0],
@@ -793,7 +823,7 @@ mod tests {
         fn torques(&self, _theta: &[f64], _q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
             tau[0] = 0.1 * qdd[0] + self.0.as_ref().map_or(0.0, |f| f(0, qd[0]));
         }
-        fn with_arm_torque(&self, torque: ArmTorque) -> Option<Box<dyn InverseDynamicsModel>> {
+        fn with_arm_torque(&self, torque: ArmTorque) -> Option<Box<dyn InverseDynamicsModel + Send>> {
             Some(Box::new(Rubbing(Some(torque))))
         }
     }

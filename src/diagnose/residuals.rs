@@ -10,7 +10,7 @@
 use super::candidates::{columns, Candidate};
 use super::data::MotionData;
 use super::error::DiagnoseError;
-use super::model::InverseDynamicsModel;
+use super::model::{on_copies, InverseDynamicsModel};
 use super::options::DiagnoseOptions;
 use super::stats::Gram;
 
@@ -39,11 +39,12 @@ pub(super) fn prepare(
 ) -> Result<Prepared, DiagnoseError> {
     let mut cols_of = vec![];
     let mut blocks = vec![];
-    for d in data {
+    // Every recording's columns (side by side on copies of the model where it makes them).
+    let all = on_copies(data, model, &|d, m| columns(cands, d, m, &opts.library));
+    for (d, (mut per, nominal)) in data.iter().zip(all) {
         let n = d.len();
         let chans = d.channels();
         let nc = chans.len();
-        let (mut per, nominal) = columns(cands, d, model, &opts.library);
         let mut b = vec![0.0; nc * n];
         for (j, &c) in chans.iter().enumerate() {
             let meas = d.measured(c);

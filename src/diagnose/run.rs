@@ -8,7 +8,7 @@ use super::candidates::library;
 use super::data::{Channel, MotionData};
 use super::error::DiagnoseError;
 use super::locate::{locate, tagged_windows, StateScales};
-use super::model::InverseDynamicsModel;
+use super::model::{on_copies, InverseDynamicsModel};
 use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, ResidualTrace};
 use super::play_dynamics::{ContactDamping, BALL_CONTACT};
@@ -555,10 +555,12 @@ fn diagnose_once(
     let basis_data = if held_out { holdout } else { fit };
     let scales = StateScales::of(model, basis_data);
     let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    let basis_values = on_copies(basis_data, model, &|d, m| d.model_all(m, &theta));
     let basis: Vec<BasisResidual> = basis_data
         .iter()
+        .zip(&basis_values)
         .enumerate()
-        .map(|(r, d)| BasisResidual {
+        .map(|(r, (d, values))| BasisResidual {
             name: &d.name,
             t: &d.t,
             after: if held_out {
@@ -569,15 +571,7 @@ fn diagnose_once(
             } else {
                 fit_after[r].clone()
             },
-            windows: tagged_windows(
-                model,
-                d,
-                &theta,
-                &d.model_all(model, &theta),
-                &sigma,
-                &scales,
-                &opts.locate,
-            ),
+            windows: tagged_windows(model, d, &theta, values, &sigma, &scales, &opts.locate),
         })
         .collect();
     let mut adequacy = adequacy::assess(
