@@ -12,7 +12,7 @@
 use super::body::Attach;
 use super::body::BodyHandle;
 use super::constraints::{Pose, Row};
-use super::data::MechanismData;
+use super::data::{MechanismData, VelocityLu};
 use super::error::ModelError;
 use super::evaluator::Evaluator;
 use super::joints::Joint;
@@ -34,6 +34,10 @@ pub const LU_BACKWARD_ERROR: f64 = 1e-10;
 /// accepted when it shrinks the constraint residual at least by this factor; otherwise the
 /// Jacobian is factorised afresh.
 pub const CHORD_CONTRACTION: f64 = 0.25;
+
+/// The contraction a chord step on the previous assembly's factorisation must reach
+/// ([`Analysis::assemble`] starts with them): else the Jacobian is factorised afresh.
+pub const INHERITED_CHORD_CONTRACTION: f64 = 0.01;
 
 /// A consistent state of the mechanism at time t. Typed access by handle:
 /// [`body_position`](Self::body_position), [`body_velocity`](Self::body_velocity),
@@ -288,25 +292,40 @@ impl Analysis {
         // Chord steps: the factorisation of a square Jacobian is kept while the steps it
         // gives contract the residual by CHORD_CONTRACTION or better (near a solution, where
         // assembly usually starts along a trajectory, one factorisation serves every
-        // iteration); otherwise the Jacobian is factorised afresh.
-        let mut chord: Option<DenseLu> = None;
+        // iteration, and the last assembly's serves the next: its first step is a chord
+        // step on it); otherwise the Jacobian is factorised afresh.
+        let n_eq = lay.constraints() + lay.bodies();
+        let mut chord: Option<DenseLu> = data
+            .position_lu
+            .take()
+            .filter(|lu| lu.order() == n_eq && n_eq == 7 * lay.bodies());
+        // (The last assembly's factors must contract the residual faster: they were made at
+        // another configuration, and a slow chord costs more evaluations than it saves.)
+        let mut inherited = chord.is_some();
         let (mut f, mut j) = Self::position_system(&mut data.ev, t, &q);
         for _ in 0..self.options.max_iterations {
             let norm = f.amax();
             if norm <= self.options.tolerance {
+                data.position_lu = chord;
                 return Ok(q);
             }
             if let Some(lu) = &chord {
                 if let Some(step) = lu.solve(&f) {
                     let trial: Vec<f64> = q.iter().zip(step.iter()).map(|(a, b)| a - b).collect();
                     let (ft, jt) = Self::position_system(&mut data.ev, t, &trial);
-                    if ft.amax() <= CHORD_CONTRACTION * norm {
+                    let contraction = if inherited {
+                        INHERITED_CHORD_CONTRACTION
+                    } else {
+                        CHORD_CONTRACTION
+                    };
+                    if ft.amax() <= contraction * norm {
                         (q, f, j) = (trial, ft, jt);
                         last = norm;
                         continue;
                     }
                 }
                 chord = None;
+                inherited = false;
             }
             let step = if let Some(lu) = DenseLu::new(&j) {
                 match lu.solve(&f) {
@@ -340,6 +359,7 @@ impl Analysis {
         }
         let (f, _) = Self::position_system(&mut data.ev, t, &q);
         if f.amax() <= self.options.tolerance * 10.0 {
+            data.position_lu = chord;
             return Ok(q);
         }
         let mut res: Vec<(String, f64)> = (0..f.len())
@@ -398,16 +418,6 @@ impl Analysis {
         Ok(((w0 - dw).iter().copied().collect(), None))
     }
 
-    /// c(q, t) = B(q, t)·w + Φ_t(q, t) for fixed w, row by row (no dense B: γ takes four of
-    /// these per acceleration analysis).
-    fn vel_residual(data: &mut MechanismData, t: f64, q: &[f64], w: &[f64]) -> DVector<f64> {
-        data.ev.set_state(q, w);
-        data.ev.eval_constraints(t);
-        let mut c = DVector::zeros(data.ev.layout.constraints());
-        data.ev.velocity_constraints(c.as_mut_slice());
-        c
-    }
-
     /// q̇ = H(q)·w.
     fn qdot(data: &MechanismData, q: &[f64], w: &[f64]) -> Vec<f64> {
         let nb = data.ev.layout.bodies();
@@ -422,21 +432,12 @@ impl Analysis {
         qd
     }
 
-    /// γ = −d/dt(B·w + Φ_t) at ẇ = 0: central differences along (q̇, 1) with Richardson
-    /// extrapolation (error O(ε⁴)).
+    /// γ = −d/dt(B·w + Φ_t) at ẇ = 0 ([`Evaluator::gamma`]).
     fn gamma(data: &mut MechanismData, t: f64, q: &[f64], w: &[f64]) -> DVector<f64> {
         let qd = Self::qdot(data, q, w);
-        let scale = 1.0 + qd.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-        let mut central = |eps: f64| {
-            let qp: Vec<f64> = q.iter().zip(&qd).map(|(a, b)| a + eps * b).collect();
-            let qm: Vec<f64> = q.iter().zip(&qd).map(|(a, b)| a - eps * b).collect();
-            (Self::vel_residual(data, t + eps, &qp, w) - Self::vel_residual(data, t - eps, &qm, w))
-                / (2.0 * eps)
-        };
-        let h = 1e-3 / scale;
-        let d1 = central(h);
-        let d2 = central(0.5 * h);
-        -(4.0 * d2 - d1) / 3.0
+        let mut g = DVector::zeros(data.ev.layout.constraints());
+        data.ev.gamma(t, q, &qd, w, g.as_mut_slice());
+        g
     }
 
     /// The bodies' mass matrix in the velocity coordinates (per body: its mass on the three
@@ -660,6 +661,7 @@ impl Analysis {
         // One factorisation of B(q, t) for the velocities, the accelerations and λ.
         let (w, b_lu) = self.velocities_factorised(model, data, t, &q, w_guess)?;
         let (wdot, lambda) = self.accelerations_factorised(model, data, t, &q, &w, b_lu.as_ref())?;
+        data.velocity_lu = b_lu.map(|lu| VelocityLu { t, q: q.clone(), lu });
         let s = Snapshot {
             t,
             q,
@@ -740,12 +742,20 @@ impl Analysis {
                 lay.constraints()
             )));
         }
-        let (q, w) = (data.q.clone(), data.w.clone());
-        data.ev.set_state(&q, &w);
-        data.ev.eval_constraints(data.t);
-        let (bm, _) = Self::velocity_system(&data.ev);
-        let lu = DenseLu::new(&bm)
-            .ok_or_else(|| ModelError::Output(format!("singular velocity Jacobian at t = {} s", data.t)))?;
+        // B at the stored state: the LU the last state analysis made there, else afresh.
+        let stored = data.velocity_lu.take().filter(|f| f.t == data.t && f.q == data.q);
+        let lu = match stored {
+            Some(f) => f.lu,
+            None => {
+                let (q, w) = (data.q.clone(), data.w.clone());
+                data.ev.set_state(&q, &w);
+                data.ev.eval_constraints(data.t);
+                let (bm, _) = Self::velocity_system(&data.ev);
+                DenseLu::new(&bm).ok_or_else(|| {
+                    ModelError::Output(format!("singular velocity Jacobian at t = {} s", data.t))
+                })?
+            }
+        };
         let rows: Vec<usize> = model
             .drivers()
             .filter_map(|(h, _)| lay.driver_lambda(h))
@@ -772,7 +782,13 @@ impl Analysis {
                 }
             }
         }
-        Ok(v.transpose() * mv)
+        let m = v.transpose() * mv;
+        data.velocity_lu = Some(VelocityLu {
+            t: data.t,
+            q: data.q.clone(),
+            lu,
+        });
+        Ok(m)
     }
 
     /// First-order displacement (m, base frame) of the point `s` (body frame, m) of body

@@ -43,6 +43,25 @@ pub struct MechanismData {
     pub(crate) ev: Evaluator,
     /// The [`Mechanism::version`] this data was made for.
     pub(crate) model_version: u64,
+    /// The LU of the velocity Jacobian B that the last [`Analysis::state_at`](super::Analysis::state_at)
+    /// factorised, with the time and positions it holds at (the driver mass matrix at that
+    /// state solves with it again).
+    pub(crate) velocity_lu: Option<VelocityLu>,
+    /// The LU of the assembly Jacobian that the last position assembly ended with: the next
+    /// assembly (the next sample along a trajectory, or the same sample with the drivers
+    /// moved a little) starts with chord steps on it ([`Analysis::assemble`](super::Analysis::assemble)).
+    pub(crate) position_lu: Option<crate::sparse::DenseLu>,
+}
+
+/// An LU of the velocity Jacobian B(q, t) and the (t, q) it was factorised at.
+#[derive(Debug, Clone)]
+pub(crate) struct VelocityLu {
+    /// Time, s.
+    pub t: f64,
+    /// Positions.
+    pub q: Vec<f64>,
+    /// The factors.
+    pub lu: crate::sparse::DenseLu,
 }
 
 impl MechanismData {
@@ -59,6 +78,8 @@ impl MechanismData {
             w,
             ev,
             model_version: model.version(),
+            velocity_lu: None,
+            position_lu: None,
         }
     }
 

@@ -100,32 +100,13 @@ impl MultibodyOde {
         }
     }
 
-    /// γ by Richardson-extrapolated central differences of B·w + Φ_t along (q̇, 1).
+    /// γ along the stabilised q̇ ([`Evaluator::gamma`]).
     fn gamma(&mut self, t: f64, q: &[f64], w: &[f64]) -> Vec<f64> {
-        let m = self.ev.layout.constraints();
         let mut qd = vec![0.0; q.len()];
         self.qdot(q, w, &mut qd);
-        let scale = 1.0 + qd.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-        let mut qs = vec![0.0; q.len()];
-        let (mut cp, mut cm) = (vec![0.0; m], vec![0.0; m]);
-        let mut central = |s: &mut Self, eps: f64| {
-            for (sign, out) in [(1.0, &mut cp), (-1.0, &mut cm)] {
-                for i in 0..q.len() {
-                    qs[i] = q[i] + sign * eps * qd[i];
-                }
-                s.ev.set_state(&qs, w);
-                s.ev.eval_constraints(t + sign * eps);
-                s.ev.velocity_constraints(out);
-            }
-            cp.iter()
-                .zip(&cm)
-                .map(|(a, b)| (a - b) / (2.0 * eps))
-                .collect::<Vec<_>>()
-        };
-        let h = 1e-3 / scale;
-        let d1 = central(self, h);
-        let d2 = central(self, 0.5 * h);
-        d1.iter().zip(&d2).map(|(a, b)| -(4.0 * b - a) / 3.0).collect()
+        let mut g = vec![0.0; self.ev.layout.constraints()];
+        self.ev.gamma(t, q, &qd, w, &mut g);
+        g
     }
 }
 
