@@ -818,7 +818,14 @@ pub fn columns(
             Channel::Output(k) => y_nom[k].clone(),
         })
         .collect();
-    let passes = passes_of(cands, &declared_groups, &compliant_drives);
+    // The compliant drives' lags, where a torque through a drive moves channels by them:
+    // every channel with the quasi-static wind-up, the outputs with the dynamic one.
+    let drive_lags: &[usize] = if dynamic && output_rows.is_empty() {
+        &[]
+    } else {
+        &compliant_drives
+    };
+    let passes = passes_of(cands, &declared_groups, drive_lags);
     let mut passed = on_copies(&passes, model, &|&pass, m| {
         pass_column(pass, d, m, &theta0, &nom_channels)
     });
@@ -856,7 +863,12 @@ pub fn columns(
         let mut c = vec![0.0; nc * n];
         if dynamic {
             let nj = model.joints();
-            let drives = &compliant_drives;
+            // (The arms' lag moves only the outputs here: none recorded, no lag walks.)
+            let drives: &[usize] = if output_rows.is_empty() {
+                &[]
+            } else {
+                &compliant_drives
+            };
             let response = transmission::joint_torque_response(&d.t, &dynamics, j, g);
             for (i, x) in response.iter().enumerate() {
                 let Some((w, wd)) = x else { continue };
@@ -1095,8 +1107,8 @@ const LAG_STEP: f64 = 1e-6;
 
 /// The passes the candidates' columns will ask for: every parameter a candidate perturbs,
 /// every arm whose encoder offset or backlash is a candidate, and — where friction or play
-/// acts through a compliant transmission — the compliant drives' lags.
-fn passes_of(cands: &[Candidate], declared: &[DeclaredCandidate], compliant_drives: &[usize]) -> Vec<Pass> {
+/// acts through the drives — the lags of `drive_lags`.
+fn passes_of(cands: &[Candidate], declared: &[DeclaredCandidate], drive_lags: &[usize]) -> Vec<Pass> {
     let mut out: Vec<Pass> = vec![];
     let mut add = |p: Pass| {
         if !out.contains(&p) {
@@ -1126,7 +1138,7 @@ fn passes_of(cands: &[Candidate], declared: &[DeclaredCandidate], compliant_driv
         }
     }
     if through_drives {
-        for &j in compliant_drives {
+        for &j in drive_lags {
             add(Pass::Lag(j));
         }
     }
