@@ -354,8 +354,8 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
         board.noise.torque, board.noise.tracker, board.noise.encoder, board.noise.rate, board.seed
     );
     println!(
-        "{:<24} {:>7} {:>6}  {:<6} {:<22} {:>8} {:>9}  {:<5}  found first",
-        "case", "<noise", "peak", "ranked", "estimate (rel. err.)", "held/σ", "explained", "pass"
+        "{:<24} {:>7} {:>6}  {:<6} {:<22} {:>8} {:>9}  {:<5} {:>6}  found first",
+        "case", "<noise", "peak", "ranked", "estimate (rel. err.)", "held/σ", "explained", "pass", "time"
     );
     for c in &board.cases {
         let est: Vec<String> = c
@@ -368,7 +368,7 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
             })
             .collect();
         println!(
-            "{:<24} {:>6.0}% {:>6.1}  {:<6} {:<22} {:>8.2} {:>8.0}%  {:<5}  {}",
+            "{:<24} {:>6.0}% {:>6.1}  {:<6} {:<22} {:>8.2} {:>8.0}%  {:<5} {:>4.0} s  {}",
             c.case,
             100.0 * c.below_noise_fraction,
             c.peak_snr,
@@ -385,6 +385,7 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
             c.holdout_noise_ratio,
             100.0 * c.explained_fraction,
             if c.pass { "yes" } else { "NO" },
+            c.seconds,
             c.found_text()
         );
         if let Some(x) = &c.confounded {

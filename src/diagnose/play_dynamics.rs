@@ -469,8 +469,19 @@ fn contacts(p: &PlayDynamics) -> Option<[Contact; 8]> {
     Some(out)
 }
 
-fn dot(r: &[f64; NP], x: &[f64]) -> f64 {
-    r.iter().zip(x).map(|(a, b)| a * b).sum()
+/// The sums rows[k]·x and rows[k]·ẋ for every row at once (each summed in the order of the
+/// coordinates, as one dot product after the other would): independent sums side by side,
+/// in the contact loads of the play model's substeps (most of its time).
+fn dots<const R: usize>(rows: [&[f64; NP]; R], x: &[f64], xd: &[f64]) -> ([f64; R], [f64; R]) {
+    let (x, xd) = (&x[..NP], &xd[..NP]);
+    let (mut a, mut b) = ([0.0; R], [0.0; R]);
+    for k in 0..NP {
+        for r in 0..R {
+            a[r] += rows[r][k] * x[k];
+            b[r] += rows[r][k] * xd[k];
+        }
+    }
+    (a, b)
 }
 
 /// The generalised load of one contact at (x, ẋ) (play and cross coordinates) for the
@@ -496,23 +507,26 @@ fn contact_load_one(
     };
     match k {
         Contact::Radial(jb) => {
-            let b = [dot(&jb[0], x), dot(&jb[1], x)];
+            let (b, bd) = dots([&jb[0], &jb[1]], x, xd);
             let r = b[0].hypot(b[1]);
             if r <= h {
                 return 0.0;
             }
             // Normal: the penalty and its damping, never pulling; tangential (along the
-            // bore's wall): the constant damping, while in contact.
+            // bore's wall): the constant damping, while in contact. In the bore's plane
+            // (the rates there, the force back through the two rows): the contact is
+            // evaluated at every substep of the play model, most of its time.
             let (nb, tb) = ([b[0] / r, b[1] / r], [-b[1] / r, b[0] / r]);
-            let un: [f64; NP] = std::array::from_fn(|kk| nb[0] * jb[0][kk] + nb[1] * jb[1][kk]);
-            let ut: [f64; NP] = std::array::from_fn(|kk| tb[0] * jb[0][kk] + tb[1] * jb[1][kk]);
             let cd = c.damping_at(true, r - h);
-            let f = (-c.spring(true, r - h) - cd * dot(&un, xd)).min(0.0);
-            let ft = -c.damping * dot(&ut, xd);
+            let f = (-c.spring(true, r - h) - cd * (nb[0] * bd[0] + nb[1] * bd[1])).min(0.0);
+            let ft = -c.damping * (tb[0] * bd[0] + tb[1] * bd[1]);
+            let g = [f * nb[0] + ft * tb[0], f * nb[1] + ft * tb[1]];
             for (kk, o) in out.iter_mut().enumerate() {
-                *o += f * un[kk] + ft * ut[kk];
+                *o += g[0] * jb[0][kk] + g[1] * jb[1][kk];
             }
             if let Some(damp) = damp {
+                let un: [f64; NP] = std::array::from_fn(|kk| nb[0] * jb[0][kk] + nb[1] * jb[1][kk]);
+                let ut: [f64; NP] = std::array::from_fn(|kk| tb[0] * jb[0][kk] + tb[1] * jb[1][kk]);
                 if f < 0.0 {
                     add_outer(damp, cd, &un);
                 }
@@ -521,12 +535,13 @@ fn contact_load_one(
             -f
         }
         Contact::Axial(row) => {
-            let d = dot(row, x) - 0.5 * play.axial;
+            let ([rx], [rxd]) = dots([row], x, xd);
+            let d = rx - 0.5 * play.axial;
             if d <= 0.0 {
                 return 0.0;
             }
             let cd = c.damping_at(false, d);
-            let f = (-c.spring(false, d) - cd * dot(row, xd)).min(0.0);
+            let f = (-c.spring(false, d) - cd * rxd).min(0.0);
             for (kk, o) in out.iter_mut().enumerate() {
                 *o += f * row[kk];
             }
@@ -889,10 +904,18 @@ fn advance(
     };
     if !steps.implicit {
         let minv = sys.mass.clone().try_inverse()?;
+        // In place (hundreds of substeps per sample interval): rhs = g − K·x − C·v + loads.
+        let mut rhs = DVector::zeros(x.len());
         for _ in 0..steps.n {
             let lc = contact_load(ks, &x.as_slice()[nj..], &v.as_slice()[nj..], play, contact);
-            *v += &minv * force(x, v, &lc) * dt;
-            *x += &*v * dt;
+            rhs.copy_from(&sys.load);
+            rhs.gemv(-1.0, &sys.stiffness, x, 1.0);
+            rhs.gemv(-1.0, &sys.damping, v, 1.0);
+            for r in 0..NP {
+                rhs[nj + r] += lc[r];
+            }
+            v.gemv(dt, &minv, &rhs, 1.0);
+            x.axpy(dt, v, 1.0);
         }
         return Some(());
     }

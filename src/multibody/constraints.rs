@@ -159,6 +159,101 @@ impl Primitive {
     }
 }
 
+/// The motion of one side that [`Primitive::velocity_rate`] needs: its pose, the rates its
+/// velocities w = (v, ω') give the coordinates, and the direction q̇ = (ṙ, ṗ) the
+/// coordinates move along (which may differ from the rates by a stabilisation term).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SideMotion {
+    pub pose: Pose,
+    /// ṙ by the velocities: v, m/s.
+    pub v: Vector3<f64>,
+    /// ṙ along the motion (the r part of q̇), m/s.
+    pub rd: Vector3<f64>,
+    /// ṗ by the velocities: u = ½·L(p)ᵀ·ω', 1/s.
+    pub u: Vector4<f64>,
+    /// ṗ along the motion (the p part of q̇), 1/s.
+    pub pd: Vector4<f64>,
+    /// The rate of u along the motion at fixed ω': ½·L(ṗ)ᵀ·ω', 1/s².
+    pub ud: Vector4<f64>,
+}
+
+impl SideMotion {
+    /// The ground: at rest.
+    pub(crate) fn ground() -> Self {
+        Self {
+            pose: Pose::ground(),
+            v: Vector3::zeros(),
+            rd: Vector3::zeros(),
+            u: Vector4::zeros(),
+            pd: Vector4::zeros(),
+            ud: Vector4::zeros(),
+        }
+    }
+
+    /// The body vector s in the world and its rates: [g, g_u, g_d, g_du] with g = A(p)·s,
+    /// g_u = ∂g/∂p·u (its rate by the velocities), g_d = ∂g/∂p·ṗ (along the motion) and
+    /// g_du the rate of g_u along the motion, ∂²g/∂p²[ṗ, u] + ∂g/∂p·u̇ (A(p)·s is quadratic
+    /// in p, so ∂g/∂p is linear in p and the second derivative is exact).
+    fn vector(&self, s: &Vector3<f64>) -> [Vector3<f64>; 4] {
+        let b = d_rot(&self.pose.p, s);
+        [
+            self.pose.a * s,
+            b * self.u,
+            b * self.pd,
+            d_rot(&self.pd, s) * self.u + b * self.ud,
+        ]
+    }
+}
+
+impl Primitive {
+    /// The rate of each equation's velocity constraint c = Φ_q·H(q)·w + Φ_t along the motion
+    /// (q moving with q̇, t with 1) at fixed velocities w, into `out`: −γ in closed form
+    /// (the second derivatives of the rotated body vectors and the drivers' accelerations;
+    /// Haug, ch. 6 and 11).
+    pub(crate) fn velocity_rate(&self, mi: &SideMotion, mj: &SideMotion, t: f64, out: &mut [f64]) {
+        match self {
+            Primitive::Point { si, sj } => {
+                let (a, b) = (mi.vector(si), mj.vector(sj));
+                let d = b[3] - a[3];
+                out[..3].copy_from_slice(d.as_slice());
+            }
+            Primitive::Dot1 { ai, aj, .. } => {
+                let [g, gu, gd, gdu] = mi.vector(ai);
+                let [h, hu, hd, hdu] = mj.vector(aj);
+                out[0] = gdu.dot(&h) + gu.dot(&hd) + gd.dot(&hu) + g.dot(&hdu);
+            }
+            Primitive::Dot2 { ai, si, sj, law } => {
+                let [g, gu, gd, gdu] = mi.vector(ai);
+                let (a, b) = (mi.vector(si), mj.vector(sj));
+                let d = mj.pose.r + b[0] - mi.pose.r - a[0];
+                let du = mj.v + b[1] - mi.v - a[1];
+                let dd = mj.rd + b[2] - mi.rd - a[2];
+                let ddu = b[3] - a[3];
+                let ctt = law.as_ref().map_or(0.0, |l| l.eval(t)[2]);
+                out[0] = gdu.dot(&d) + gu.dot(&dd) + gd.dot(&du) + g.dot(&ddu) - ctt;
+            }
+            Primitive::Angle { xi, yi, xj, law } => {
+                // Φ = (A_i·a)·(A_j·x_j) with a(θ) = y_i·cos θ − x_i·sin θ; Φ_t = θ̇·(A_i·b)·(A_j·x_j)
+                // with b = ∂a/∂θ = −y_i·sin θ − x_i·cos θ, and ∂b/∂θ = −a.
+                let [th, thd, thdd] = law.eval(t);
+                let (s, c) = th.sin_cos();
+                let av = yi * c - xi * s;
+                let bv = -(yi * s) - xi * c;
+                let [g, gu, gd, gdu] = mi.vector(&av);
+                let [k, ku, kd, _] = mi.vector(&bv);
+                let [h, hu, hd, hdu] = mj.vector(xj);
+                out[0] = gdu.dot(&h)
+                    + gu.dot(&hd)
+                    + gd.dot(&hu)
+                    + g.dot(&hdu)
+                    + thd * (ku.dot(&h) + k.dot(&hu) + kd.dot(&h) + k.dot(&hd))
+                    + thdd * k.dot(&h)
+                    - thd * thd * g.dot(&h);
+            }
+        }
+    }
+}
+
 /// Offsets of the (r_i, p_i, r_j, p_j) blocks in a 14-vector.
 const RI: usize = 0;
 const PI: usize = 3;
@@ -252,7 +347,7 @@ impl Primitive {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::multibody::rotation::from_axis_angle;
+    use crate::multibody::rotation::{from_axis_angle, l_matrix};
 
     fn poses() -> (Pose, Pose) {
         (
@@ -386,6 +481,108 @@ mod tests {
             for e in 0..n {
                 let fd = (plus[e].phi - minus[e].phi) / (2.0 * eps);
                 assert!((fd - rows[e].phi_t).abs() < 1e-8, "{prim:?} phi_t");
+            }
+        }
+    }
+
+    /// The closed-form rate of the velocity constraint against central differences of
+    /// c = Φ_r·v + Φ_p·u(p) + Φ_t along (q̇, 1) built from the rows' gradients, on poses whose
+    /// Euler parameters are off the unit sphere and a q̇ with a stabilisation-like term (so
+    /// the rate's two directions differ), drivers with accelerating laws.
+    #[test]
+    fn the_velocity_constraint_rate_matches_differences_along_the_motion() {
+        let (p0, p1) = poses();
+        let law = MotionLaw::Polynomial {
+            coeffs: vec![0.3, 0.8, -0.5, 0.7],
+        };
+        let prims = [
+            Primitive::Point {
+                si: Vector3::new(0.1, 0.2, -0.3),
+                sj: Vector3::new(-0.5, 0.1, 0.4),
+            },
+            Primitive::Dot1 {
+                ai: Vector3::x(),
+                aj: Vector3::new(0.0, 0.6, 0.8),
+                c: 0.1,
+            },
+            Primitive::Dot2 {
+                ai: Vector3::y(),
+                si: Vector3::new(0.2, 0.0, 0.1),
+                sj: Vector3::new(0.0, -0.3, 0.2),
+                law: Some(law.clone()),
+            },
+            Primitive::Angle {
+                xi: Vector3::x(),
+                yi: Vector3::y(),
+                xj: Vector3::x(),
+                law,
+            },
+        ];
+        let side = |pose: &Pose, scale: f64, v: Vector3<f64>, om: Vector3<f64>, kappa: f64| {
+            let p = pose.p * scale;
+            let u = 0.5 * l_matrix(&p).transpose() * om;
+            let pd = u - kappa * (p.norm_squared() - 1.0) * p;
+            SideMotion {
+                pose: Pose::new(pose.r, p),
+                v,
+                rd: v,
+                u,
+                pd,
+                ud: 0.5 * l_matrix(&pd).transpose() * om,
+            }
+        };
+        let mi = side(
+            &p0,
+            1.01,
+            Vector3::new(0.3, -0.1, 0.2),
+            Vector3::new(1.5, -0.7, 2.1),
+            5.0,
+        );
+        let mj = side(
+            &p1,
+            0.98,
+            Vector3::new(-0.2, 0.4, 0.1),
+            Vector3::new(-0.8, 1.2, 0.4),
+            5.0,
+        );
+        // c(ε) at q + ε·q̇, t + ε, fixed (v, ω').
+        let c = |prim: &Primitive, eps: f64, out: &mut Vec<f64>| {
+            let at = |m: &SideMotion| Pose::new(m.pose.r + eps * m.rd, m.pose.p + eps * m.pd);
+            let (a, b) = (at(&mi), at(&mj));
+            let omega = |m: &SideMotion| 2.0 * l_matrix(&m.pose.p) * m.u / m.pose.p.norm_squared();
+            let (ua, ub) = (
+                0.5 * l_matrix(&a.p).transpose() * omega(&mi),
+                0.5 * l_matrix(&b.p).transpose() * omega(&mj),
+            );
+            let mut rows = vec![Row::default(); prim.len()];
+            prim.eval(&a, &b, 0.37 + eps, &mut rows);
+            out.clear();
+            out.extend(rows.iter().map(|r| {
+                r.d_ri.dot(&mi.v) + r.d_pi.dot(&ua) + r.d_rj.dot(&mj.v) + r.d_pj.dot(&ub) + r.phi_t
+            }));
+        };
+        let (mut plus, mut minus, mut plus2, mut minus2) = (vec![], vec![], vec![], vec![]);
+        let h = 1e-3;
+        for prim in &prims {
+            let mut rate = vec![0.0; prim.len()];
+            prim.velocity_rate(&mi, &mj, 0.37, &mut rate);
+            c(prim, h, &mut plus);
+            c(prim, -h, &mut minus);
+            c(prim, 0.5 * h, &mut plus2);
+            c(prim, -0.5 * h, &mut minus2);
+            for e in 0..prim.len() {
+                let d1 = (plus[e] - minus[e]) / (2.0 * h);
+                let d2 = (plus2[e] - minus2[e]) / h;
+                let fd = (4.0 * d2 - d1) / 3.0;
+                assert!(
+                    (fd - rate[e]).abs() < 1e-9 * (1.0 + fd.abs()),
+                    "{prim:?} eq {e}: differences {fd}, closed form {}",
+                    rate[e]
+                );
+                assert!(
+                    rate[e].abs() > 1e-3,
+                    "{prim:?} eq {e}: a rate this small tests little"
+                );
             }
         }
     }

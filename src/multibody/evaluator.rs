@@ -2,16 +2,12 @@
 //! DAE residual, the explicit ODE and the analyses.
 
 use super::body::Attach;
-use super::constraints::{Pose, Row};
+use super::constraints::{Pose, Row, SideMotion};
 use super::forces::{BodyLoad, BodyState};
 use super::layout::Layout;
 use super::model::{ConstraintBlock, Mechanism};
 use super::rotation::l_matrix;
 use nalgebra::{Vector3, Vector4};
-
-/// The larger step of [`Evaluator::gamma`]'s central differences along (q̇, 1), s (divided
-/// by 1 + max|q̇|).
-pub const GAMMA_STEP: f64 = 1e-3;
 
 /// Scratch of one evaluation of kinematics, constraints and loads: shared by the DAE
 /// residual, the explicit ODE and the analyses (through [`MechanismData`](super::MechanismData)).
@@ -35,6 +31,8 @@ pub(crate) struct Evaluator {
     /// The sides (body indices) of each scalar constraint row, fixed when the scratch is made
     /// (only a driver's motion law changes afterwards, never its bodies or its rows).
     sides: Vec<(Option<usize>, Option<usize>)>,
+    /// Per body, the motion [`gamma`](Self::gamma) last used (scratch).
+    motions: Vec<SideMotion>,
 }
 
 impl Evaluator {
@@ -49,6 +47,7 @@ impl Evaluator {
             .collect();
         Self {
             sides,
+            motions: Vec::with_capacity(nb),
             rows: vec![Row::default(); layout.constraints()],
             poses: vec![Pose::ground(); nb],
             states: vec![BodyState::ground(); nb],
@@ -105,31 +104,41 @@ impl Evaluator {
 
     /// γ = −d/dt(B·w + Φ_t) at ẇ = 0 (`out`, one entry per constraint row) at positions `q`
     /// moving with `qd` (q̇ = H(q)·w, or with the Euler parameters' stabilisation) and
-    /// velocities `w`: central differences along (q̇, 1) at steps h and h/2,
-    /// h = [`GAMMA_STEP`]/(1 + max|q̇|), with Richardson extrapolation (error O(h⁴)). (One
-    /// central difference, two evaluations instead of four, was tried: its truncation and
-    /// rounding errors balance near 5e-10 N·m in the DFKI pendulum's torques, above the
-    /// 1e-10 N·m that `tests/urdf.rs` holds the multibody model to against the closed form.)
-    /// Leaves the rows and the bodies' states at the last point evaluated.
+    /// velocities `w`, in closed form ([`Primitive::velocity_rate`](super::constraints::Primitive::velocity_rate)
+    /// per row, the offsets' accelerations added). It replaced central differences of B·w + Φ_t
+    /// along (q̇, 1) with Richardson extrapolation (four constraint evaluations, 16 % of a
+    /// multibody diagnosis; their steps straddled the knots of sampled drives). Leaves the
+    /// bodies' states at (q, w); the rows are not evaluated.
     pub(crate) fn gamma(&mut self, t: f64, q: &[f64], qd: &[f64], w: &[f64], out: &mut [f64]) {
-        let m = self.layout.constraints();
-        let scale = 1.0 + qd.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-        let h = GAMMA_STEP / scale;
-        let mut qs = vec![0.0; q.len()];
-        let mut c = vec![0.0; 4 * m];
-        // c = [c(+h), c(−h), c(+h/2), c(−h/2)].
-        for (k, eps) in [h, -h, 0.5 * h, -0.5 * h].into_iter().enumerate() {
-            for (x, (a, b)) in qs.iter_mut().zip(q.iter().zip(qd)) {
-                *x = a + eps * b;
-            }
-            self.set_state(&qs, w);
-            self.eval_constraints(t + eps);
-            self.velocity_constraints(&mut c[k * m..(k + 1) * m]);
+        self.set_state(q, w);
+        self.motions.clear();
+        for b in 0..self.layout.bodies() {
+            let st = &self.states[b];
+            let pd = Vector4::new(qd[7 * b + 3], qd[7 * b + 4], qd[7 * b + 5], qd[7 * b + 6]);
+            self.motions.push(SideMotion {
+                pose: self.poses[b],
+                v: st.v,
+                rd: Vector3::new(qd[7 * b], qd[7 * b + 1], qd[7 * b + 2]),
+                u: 0.5 * l_matrix(&st.p).transpose() * st.omega,
+                pd,
+                ud: 0.5 * l_matrix(&pd).transpose() * st.omega,
+            });
         }
-        for (r, g) in out[..m].iter_mut().enumerate() {
-            let d1 = (c[r] - c[m + r]) / (2.0 * h);
-            let d2 = (c[2 * m + r] - c[3 * m + r]) / h;
-            *g = -(4.0 * d2 - d1) / 3.0;
+        let ground = SideMotion::ground();
+        let mut k = 0;
+        for blk in &self.blocks {
+            let mi = Self::side(blk.i).map_or(ground, |b| self.motions[b]);
+            let mj = Self::side(blk.j).map_or(ground, |b| self.motions[b]);
+            let n = blk.prim.len();
+            blk.prim.velocity_rate(&mi, &mj, t, &mut out[k..k + n]);
+            k += n;
+        }
+        // Φ_k − ε_k(t) with ε = x + v·(t − t0) + ½a·(t − t0)²: Φ_tt gains −a.
+        for (o, &[_, _, a]) in out.iter_mut().zip(&self.offsets) {
+            *o -= a;
+        }
+        for o in out[..k].iter_mut() {
+            *o = -*o;
         }
     }
 

@@ -270,6 +270,9 @@ pub struct CaseResult {
     pub pass: bool,
     /// The diagnosis' verdict.
     pub verdict: String,
+    /// Wall time of the case (its truths simulated, recorded and diagnosed), s: measured by
+    /// the suite's runner (0 until then), for the queue's order and the reader's planning.
+    pub seconds: f64,
 }
 
 impl CaseResult {
@@ -623,6 +626,7 @@ pub(crate) fn score(
         confounded,
         pass,
         verdict: d.verdict.clone(),
+        seconds: 0.0,
     }
 }
 
@@ -743,7 +747,11 @@ fn run_suite_dyn(
             scope.spawn(move || loop {
                 let slot = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(&(i, _)) = chosen.get(slot) else { break };
-                let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(i)));
+                let start = std::time::Instant::now();
+                let mut out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(i)));
+                if let Ok(Ok((r, _))) = &mut out {
+                    r.seconds = start.elapsed().as_secs_f64();
+                }
                 if !matches!(out, Ok(Ok(_))) {
                     // A failed case ends the run: no worker starts another.
                     next.store(chosen.len(), std::sync::atomic::Ordering::Relaxed);
@@ -820,6 +828,7 @@ mod tests {
             confounded: None,
             pass: true,
             verdict: String::new(),
+            seconds: 0.0,
         }
     }
 
