@@ -38,6 +38,54 @@ fn ideal_trajectory_follows_the_kinematic_path_and_reports_the_singular_end() {
     assert!(last.torque[0].abs() > 10.0 * run.samples[0].torque[0].abs());
 }
 
+/// Without the singularity measure at every output sample (`measure_singularity: false`,
+/// what the multibody truths use) the run ends as it does with it: the same samples, and a
+/// failure near M3 still stops at the singular configuration with the same time and
+/// measure (taken at the last sample when it decides); the samples' measure is NaN and no
+/// warnings are recorded.
+#[test]
+fn a_run_without_the_per_sample_singularity_measure_ends_as_one_with_it() {
+    use lash::mechanisms::mr2120::{ideal_model, paper::TABLE2};
+    use lash::multibody::Simulation;
+    let g = Geometry::default();
+    let run = |measure: bool| {
+        let m1 = nalgebra::Vector3::from(TABLE2[0].m);
+        let model = ideal_model(
+            &g,
+            &MassProperties::default(),
+            m1,
+            Some(trajectory::drive_laws(&g)),
+        )
+        .unwrap();
+        let opts = SimulationOptions {
+            measure_singularity: measure,
+            ..SimulationOptions::default()
+        };
+        let mut sim = Simulation::new(std::sync::Arc::new(model.mechanism), 0.0, opts).unwrap();
+        let times: Vec<f64> = (1..=200).map(|k| k as f64 * 0.02).collect();
+        sim.run(&times, |_| {}).unwrap()
+    };
+    let (on, off) = (run(true), run(false));
+    assert!(!on.singularity_warnings.is_empty() && off.singularity_warnings.is_empty());
+    assert_eq!(on.samples.len(), off.samples.len());
+    for (a, b) in on.samples.iter().zip(&off.samples) {
+        assert_eq!((a.t, &a.q), (b.t, &b.q));
+        assert!(a.singularity.is_finite() && b.singularity.is_nan());
+    }
+    match (&on.end, &off.end) {
+        (RunEnd::Completed, RunEnd::Completed) => {}
+        (
+            RunEnd::StoppedAtSingularity { t, measure, .. },
+            RunEnd::StoppedAtSingularity {
+                t: t_off,
+                measure: m_off,
+                ..
+            },
+        ) => assert_eq!((t, measure), (t_off, m_off)),
+        (a, b) => panic!("with the measure {a:?}, without {b:?}"),
+    }
+}
+
 /// The clearance model of `set` along the trajectory, sampled every 20 ms.
 fn clearance_run(set: &lash::mechanisms::mr2120::paper::ClearanceSet) -> trajectory::ClearanceRun {
     use lash::mechanisms::mr2120::clearance::DEFAULT_DAMPING;

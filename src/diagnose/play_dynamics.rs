@@ -904,7 +904,7 @@ fn advance(
     };
     if !steps.implicit {
         let minv = sys.mass.clone().try_inverse()?;
-        // In place (hundreds of substeps per sample interval): rhs = g − K·x − C·v + loads.
+        // In place (~2 000 substeps per 2 ms sample interval on the unit tests' joint): rhs = g − K·x − C·v + loads.
         let mut rhs = DVector::zeros(x.len());
         for _ in 0..steps.n {
             let lc = contact_load(ks, &x.as_slice()[nj..], &v.as_slice()[nj..], play, contact);

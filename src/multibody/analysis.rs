@@ -125,17 +125,39 @@ impl Analysis {
 
     /// Φ and [Φ; normalisation] Jacobian (dense) at (q, t).
     fn position_system(ev: &mut Evaluator, t: f64, q: &[f64]) -> (DVector<f64>, DMatrix<f64>) {
-        let lay = ev.layout.clone();
-        let zeros = vec![0.0; 6 * lay.bodies()];
+        let f = Self::position_residual(ev, t, q);
+        (f, Self::position_jacobian(ev, q))
+    }
+
+    /// [Φ; normalisation] at (q, t), the rows left evaluated there (for
+    /// [`position_jacobian`](Self::position_jacobian) at the same point): a trial step of
+    /// assembly needs no Jacobian unless it is factorised.
+    fn position_residual(ev: &mut Evaluator, t: f64, q: &[f64]) -> DVector<f64> {
+        let lay = &ev.layout;
+        let (nc, nb) = (lay.constraints(), lay.bodies());
+        let zeros = vec![0.0; 6 * nb];
         ev.set_state(q, &zeros);
         ev.eval_constraints(t);
+        let mut f = DVector::zeros(nc + nb);
+        for (k, row) in ev.rows.iter().enumerate() {
+            f[k] = row.phi;
+        }
+        for b in 0..nb {
+            let p = &q[7 * b + 3..7 * b + 7];
+            f[nc + b] = 0.5 * (p.iter().map(|v| v * v).sum::<f64>() - 1.0);
+        }
+        f
+    }
+
+    /// The [Φ; normalisation] Jacobian (dense) at `q`, from the rows
+    /// [`position_residual`](Self::position_residual) last evaluated there.
+    fn position_jacobian(ev: &Evaluator, q: &[f64]) -> DMatrix<f64> {
+        let lay = &ev.layout;
         let sides = ev.row_sides();
         let n_eq = lay.constraints() + lay.bodies();
-        let mut f = DVector::zeros(n_eq);
         let mut j = DMatrix::zeros(n_eq, 7 * lay.bodies());
         for (k, &(si, sj)) in sides.iter().enumerate() {
             let row = &ev.rows[k];
-            f[k] = row.phi;
             if let Some(b) = si {
                 for c in 0..3 {
                     j[(k, 7 * b + c)] += row.d_ri[c];
@@ -154,13 +176,11 @@ impl Analysis {
             }
         }
         for b in 0..lay.bodies() {
-            let p = &q[7 * b + 3..7 * b + 7];
-            f[lay.constraints() + b] = 0.5 * (p.iter().map(|v| v * v).sum::<f64>() - 1.0);
             for c in 0..4 {
-                j[(lay.constraints() + b, 7 * b + 3 + c)] = p[c];
+                j[(lay.constraints() + b, 7 * b + 3 + c)] = q[7 * b + 3 + c];
             }
         }
-        (f, j)
+        j
     }
 
     /// The minimum-norm least-squares solution by SVD; an error for a non-finite system.
@@ -255,7 +275,7 @@ impl Analysis {
 
     /// [`constraint_residual`](Self::constraint_residual) in the given scratch.
     pub(crate) fn residual_in(ev: &mut Evaluator, t: f64, q: &[f64]) -> f64 {
-        Self::position_system(ev, t, q).0.amax()
+        Self::position_residual(ev, t, q).amax()
     }
 
     /// Position assembly: Gauss–Newton with minimum-norm steps on Φ(q, t) = 0 and the
@@ -302,7 +322,11 @@ impl Analysis {
         // (The last assembly's factors must contract the residual faster: they were made at
         // another configuration, and a slow chord costs more evaluations than it saves.)
         let mut inherited = chord.is_some();
-        let (mut f, mut j) = Self::position_system(&mut data.ev, t, &q);
+        // The residual at q; its Jacobian only when it is factorised (a chord step or a
+        // damped trial that is kept needs none): built from the rows evaluated at q, or
+        // evaluated again when a rejected trial left them elsewhere.
+        let mut f = Self::position_residual(&mut data.ev, t, &q);
+        let mut rows_at_q = true;
         for _ in 0..self.options.max_iterations {
             let norm = f.amax();
             if norm <= self.options.tolerance {
@@ -312,21 +336,26 @@ impl Analysis {
             if let Some(lu) = &chord {
                 if let Some(step) = lu.solve(&f) {
                     let trial: Vec<f64> = q.iter().zip(step.iter()).map(|(a, b)| a - b).collect();
-                    let (ft, jt) = Self::position_system(&mut data.ev, t, &trial);
+                    let ft = Self::position_residual(&mut data.ev, t, &trial);
                     let contraction = if inherited {
                         INHERITED_CHORD_CONTRACTION
                     } else {
                         CHORD_CONTRACTION
                     };
                     if ft.amax() <= contraction * norm {
-                        (q, f, j) = (trial, ft, jt);
+                        (q, f, rows_at_q) = (trial, ft, true);
                         last = norm;
                         continue;
                     }
+                    rows_at_q = false;
                 }
                 chord = None;
                 inherited = false;
             }
+            if !rows_at_q {
+                Self::position_residual(&mut data.ev, t, &q);
+            }
+            let j = Self::position_jacobian(&data.ev, &q);
             let step = if let Some(lu) = DenseLu::new(&j) {
                 match lu.solve(&f) {
                     Some(x) if Self::backward_stable(&j, &x, &f) => {
@@ -340,11 +369,12 @@ impl Analysis {
             };
             let mut alpha = 1.0;
             // Damped step: halve while the residual grows a lot (far from the solution).
+            rows_at_q = false;
             for _ in 0..10 {
                 let trial: Vec<f64> = q.iter().zip(step.iter()).map(|(a, b)| a - alpha * b).collect();
-                let (ft, jt) = Self::position_system(&mut data.ev, t, &trial);
+                let ft = Self::position_residual(&mut data.ev, t, &trial);
                 if ft.amax() < norm.max(1e-300) * 1.5 || alpha < 1e-3 {
-                    (q, f, j) = (trial, ft, jt);
+                    (q, f, rows_at_q) = (trial, ft, true);
                     break;
                 }
                 alpha *= 0.5;
@@ -357,7 +387,7 @@ impl Analysis {
             }
             last = norm;
         }
-        let (f, _) = Self::position_system(&mut data.ev, t, &q);
+        let f = Self::position_residual(&mut data.ev, t, &q);
         if f.amax() <= self.options.tolerance * 10.0 {
             data.position_lu = chord;
             return Ok(q);
@@ -500,8 +530,8 @@ impl Analysis {
             }
             return Ok((wdot, vec![]));
         }
+        // (γ leaves the bodies' states at (q, w).)
         let gamma = Self::gamma(data, t, q, w);
-        data.ev.set_state(q, w);
         data.ev.eval_constraints(t);
         data.ev.eval_loads(model, t);
         let n = 6 * lay.bodies();

@@ -271,7 +271,7 @@ pub struct CaseResult {
     /// The diagnosis' verdict.
     pub verdict: String,
     /// Wall time of the case (its truths simulated, recorded and diagnosed), s: measured by
-    /// the suite's runner (0 until then), for the queue's order and the reader's planning.
+    /// the suite's runner (0 until then).
     pub seconds: f64,
 }
 
