@@ -362,13 +362,9 @@ mod tests {
         )
     }
 
-    #[test]
-    fn gradients_and_time_derivatives_match_finite_differences() {
-        let (pi, pj) = poses();
-        let law = MotionLaw::Polynomial {
-            coeffs: vec![0.3, 0.8, -0.5],
-        };
-        let prims = [
+    /// One primitive of each kind, the drivers following `law`.
+    fn primitives(law: MotionLaw) -> [Primitive; 4] {
+        [
             Primitive::Point {
                 si: Vector3::new(0.1, 0.2, -0.3),
                 sj: Vector3::new(-0.5, 0.1, 0.4),
@@ -390,7 +386,16 @@ mod tests {
                 xj: Vector3::x(),
                 law,
             },
-        ];
+        ]
+    }
+
+    #[test]
+    fn gradients_and_time_derivatives_match_finite_differences() {
+        let (pi, pj) = poses();
+        let law = MotionLaw::Polynomial {
+            coeffs: vec![0.3, 0.8, -0.5],
+        };
+        let prims = primitives(law);
         let t = 0.37;
         let eps = 1e-6;
         for prim in &prims {
@@ -495,29 +500,7 @@ mod tests {
         let law = MotionLaw::Polynomial {
             coeffs: vec![0.3, 0.8, -0.5, 0.7],
         };
-        let prims = [
-            Primitive::Point {
-                si: Vector3::new(0.1, 0.2, -0.3),
-                sj: Vector3::new(-0.5, 0.1, 0.4),
-            },
-            Primitive::Dot1 {
-                ai: Vector3::x(),
-                aj: Vector3::new(0.0, 0.6, 0.8),
-                c: 0.1,
-            },
-            Primitive::Dot2 {
-                ai: Vector3::y(),
-                si: Vector3::new(0.2, 0.0, 0.1),
-                sj: Vector3::new(0.0, -0.3, 0.2),
-                law: Some(law.clone()),
-            },
-            Primitive::Angle {
-                xi: Vector3::x(),
-                yi: Vector3::y(),
-                xj: Vector3::x(),
-                law,
-            },
-        ];
+        let prims = primitives(law);
         let side = |pose: &Pose, scale: f64, v: Vector3<f64>, om: Vector3<f64>, kappa: f64| {
             let p = pose.p * scale;
             let u = 0.5 * l_matrix(&p).transpose() * om;
