@@ -257,8 +257,11 @@ mod tests {
     #[test]
     fn a_model_file_diagnoses_its_own_simulation_as_matching() {
         let nominal = std::fs::read_to_string(models().join("linear_axis.toml")).unwrap();
-        let dir = std::env::temp_dir().join(format!("lash-model-file-diagnose-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let scratch = tempfile::Builder::new()
+            .prefix("lash-model-file-diagnose-")
+            .tempdir()
+            .unwrap();
+        let dir = scratch.path();
         // Deterministic pseudo-noise (xorshift and Box–Muller).
         let mut state = 0x2545F4914F6CDD1Du64;
         let mut gauss = move || {
@@ -335,7 +338,6 @@ mod tests {
             |_, _| {},
         )
         .unwrap();
-        let _ = std::fs::remove_dir_all(&dir);
         assert!(
             d.steps.is_empty(),
             "named {:?}: {}",

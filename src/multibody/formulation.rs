@@ -326,7 +326,7 @@ impl MultibodyDae {
         // element through its load, which may depend on positions and velocities. A body's
         // kinematic rows (q' = T(p)·w + G(q)ᵀμ) depend on its own velocities only. Declaring no
         // more than this
-        // keeps the LU fill down (`tests/multibody_jacobian.rs` checks that the pattern covers
+        // keeps the LU fill down (`tests/integration/multibody_jacobian.rs` checks that the pattern covers
         // every nonzero derivative).
         #[derive(Clone, Copy, PartialEq)]
         enum Coupling {

@@ -13,7 +13,7 @@
 //! with Jx the matrix of rows (M + P_i − D_i)ᵀ, Jq_i = (M + P_i − D_i)·D_i', the arm inertia
 //! I_i = m_a a_i²/3 plus (m_f/2) a_i² (slender arm about its pivot, half a forearm at the
 //! elbow) and m_P the platform, payload and the other halves of the forearms. Each forearm is
-//! lumped into two point masses at its ends (the one approximation; `tests/mr2120_lumped.rs`
+//! lumped into two point masses at its ends (the one approximation; `tests/integration/mr2120_lumped.rs`
 //! measures it against the multibody ideal model). μ_i is the force of forearm i on the
 //! platform per unit of (M + P_i − D_i): the forearm tension is −μ_i L2_i.
 //!

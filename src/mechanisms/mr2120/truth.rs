@@ -356,7 +356,7 @@ pub struct SensorModel {
 ///
 /// Measured with the defaults against 10× tighter tolerances (rtol, atol / 10, h_max / √10;
 /// 2 s at 500 Hz, `Excitation::random(11, …)`, `measure_tolerance_and_timing` in
-/// `tests/mr2120_truth.rs`), in units of the default sensor noise (0.02 N·m, 5 µm):
+/// `tests/integration/mr2120_truth.rs`), in units of the default sensor noise (0.02 N·m, 5 µm):
 /// * ideal joints: torques max 0.001 (gentle) and 0.011 (shaken), tracker ≤ 0.002 — the
 ///   integration error is far below the noise;
 /// * 6 µm play in leg C's joints F and R (default contact damping): gentle path torques max

@@ -24,10 +24,8 @@ fn models() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models")
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lash-transmission-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch(name: &str) -> crate::scratch::Dir {
+    crate::scratch::dir(&format!("transmission-{name}"))
 }
 
 /// Deterministic standard normal numbers (xorshift and Box–Muller).
@@ -293,7 +291,6 @@ fn friction_behind_a_compliant_transmission_is_found_from_the_motor_side_encoder
     std::fs::write(&rigid_path, rigid).unwrap();
     let r = diagnose(&rigid_path, &recs);
     eprintln!("without it: {}", r.verdict);
-    let _ = std::fs::remove_dir_all(&dir);
     let rc = &r.channels[0];
     assert!(
         rc.holdout_after > 3.0 * ch.holdout_after,
@@ -339,5 +336,4 @@ fn the_diagnosis_refuses_sensors_it_cannot_place() {
     );
     let e = model_from_file(mixed).unwrap_err().to_string();
     assert!(e.contains("on one side"), "{e}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

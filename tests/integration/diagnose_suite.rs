@@ -182,11 +182,11 @@ fn the_multibody_nominal_model_follows_a_payload_truth_through_the_direct_singul
 
 #[test]
 fn a_suite_run_keeps_its_recordings_for_a_blind_diagnosis_when_asked() {
-    let dir = std::env::temp_dir().join(format!("lash-keep-{}", std::process::id()));
+    let dir = crate::scratch::dir("keep");
     let all = cases();
     let i = all.iter().position(|c| c.name == "null").unwrap();
     let opts = SuiteOptions {
-        keep_recordings: Some(dir.clone()),
+        keep_recordings: Some(dir.to_path_buf()),
         ..SuiteOptions::lumped_reduced()
     };
     let kept = run_case(&all[i], &opts, i).unwrap().0;
@@ -210,13 +210,12 @@ fn a_suite_run_keeps_its_recordings_for_a_blind_diagnosis_when_asked() {
         .join("null")
         .join(format!("recording-{:02}.csv", n + 1))
         .exists());
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn another_seed_draws_other_paths_and_noise_and_the_scoreboard_names_it() {
     use lash::diagnose::suite::run_suite;
-    let base = std::env::temp_dir().join(format!("lash-seed-{}", std::process::id()));
+    let base = crate::scratch::dir("seed");
     let run_with = |seed: u64| {
         let dir = base.join(seed.to_string());
         let opts = SuiteOptions {
@@ -239,5 +238,4 @@ fn another_seed_draws_other_paths_and_noise_and_the_scoreboard_names_it() {
     // And the null case is still called a null on the new seed.
     let null = &board_b.cases[0];
     assert!(null.no_mismatch && null.pass, "{null:?}");
-    std::fs::remove_dir_all(&base).ok();
 }

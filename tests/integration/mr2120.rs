@@ -127,7 +127,7 @@ fn refused_with_exit_2(cases: &[&[&str]]) {
 #[test]
 #[cfg(all(feature = "cli", feature = "plot", feature = "peers"))]
 fn trajectory_command_writes_csv_and_plots() {
-    let dir = std::env::temp_dir().join(format!("lash-traj-{}", std::process::id()));
+    let dir = crate::scratch::dir("traj");
     let out = lash(&[
         "mr2120",
         "trajectory",
@@ -160,7 +160,6 @@ fn trajectory_command_writes_csv_and_plots() {
     let csv = std::fs::read_to_string(dir.join("trajectory_ideal.csv")).unwrap();
     assert!(csv.starts_with("t_s,q1_deg,q2_deg,q3_deg,xM_m,yM_m,zM_m"));
     assert!(csv.lines().count() > 70);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -391,7 +390,7 @@ fn design_clearance_refuses_bad_accuracies_and_points_with_exit_2() {
 #[cfg(all(feature = "cli", feature = "plot", feature = "peers"))]
 #[test]
 fn design_map_writes_both_methods_and_refuses_bad_grids() {
-    let dir = std::env::temp_dir().join(format!("lash-design-map-{}", std::process::id()));
+    let dir = crate::scratch::dir("design-map");
     let d = dir.to_string_lossy().to_string();
     refused_with_exit_2(&[
         &["design", "map", "--n", "1", "--out", &d][..],
@@ -446,7 +445,6 @@ fn design_map_writes_both_methods_and_refuses_bad_grids() {
     ] {
         assert!(dir.join(f).exists(), "{f}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `lash design map --shard K/N` then `lash design merge`: the same CSV, JSON (but for the
@@ -455,7 +453,7 @@ fn design_map_writes_both_methods_and_refuses_bad_grids() {
 #[cfg(all(feature = "cli", feature = "plot", feature = "peers"))]
 #[test]
 fn sharded_maps_merge_into_the_unsharded_output() {
-    let dir = std::env::temp_dir().join(format!("lash-design-shard-{}", std::process::id()));
+    let dir = crate::scratch::dir("design-shard");
     let d = |s: &str| dir.join(s).to_string_lossy().to_string();
     let common = [
         "design",
@@ -513,5 +511,4 @@ fn sharded_maps_merge_into_the_unsharded_output() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }

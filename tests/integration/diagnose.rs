@@ -209,8 +209,7 @@ fn rotor_inertia_of_joint_1_and_link_1_inertia_are_flagged_as_confounded() {
 
 #[test]
 fn bad_recordings_name_file_and_line() {
-    let dir = std::env::temp_dir().join(format!("lash-diagnose-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::scratch::dir("diagnose");
     let map: Vec<(String, String)> = vec![("tau1".into(), "tau".into())];
     let mut good = "time,tau\n".to_string();
     for k in 0..60 {
@@ -819,7 +818,7 @@ fn dfki_report_opens_with_what_stays_unexplained_in_both_joints() {
         .all(|e| e.std >= e.std_noise_only && e.std.is_finite()));
     assert!(d.estimates.iter().any(|e| e.std > 3.0 * e.std_noise_only));
     // The report's first lines after the title: per joint, unexplained, with the ratio.
-    let out = std::env::temp_dir().join(format!("lash-adequacy-dfki-{}", std::process::id()));
+    let out = crate::scratch::dir("adequacy-dfki");
     let md = lash::diagnose::report::write_report(&d, &out).unwrap();
     let text = std::fs::read_to_string(&md).unwrap();
     let lines: Vec<&str> = text.lines().filter(|l| !l.is_empty()).collect();
@@ -858,7 +857,6 @@ fn dfki_report_opens_with_what_stays_unexplained_in_both_joints() {
     ] {
         assert!(json["channels"][0].get(key).is_some(), "channels lack {key}");
     }
-    let _ = std::fs::remove_dir_all(&out);
 }
 
 #[test]

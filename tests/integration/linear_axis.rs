@@ -114,8 +114,7 @@ fn record_runs(
 
 #[test]
 fn the_linear_axis_is_diagnosed_from_its_model_file_with_defaults_only() {
-    let dir = std::env::temp_dir().join(format!("lash-linear-axis-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::scratch::dir("linear-axis");
     let nominal = std::fs::read_to_string(models().join("linear_axis.toml")).unwrap();
     assert!(nominal.contains("nominal = 8.0"), "the nominal cart is 8 kg");
     let friction = r#"
@@ -153,7 +152,6 @@ smoothing = "algebraic"
         ])
         .output()
         .unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let verdict = d["verdict"].as_str().unwrap();
@@ -219,8 +217,7 @@ smoothing = "algebraic"
 /// is a forward simulation, the diagnosis an inverse one.)
 #[test]
 fn a_declared_candidate_is_fitted_from_one_long_recording_cut_into_folds() {
-    let dir = std::env::temp_dir().join(format!("lash-linear-axis-user-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::scratch::dir("linear-axis-user");
     let base = std::fs::read_to_string(models().join("linear_axis.toml")).unwrap();
     let spring = |stiffness: &str| {
         format!(
@@ -290,7 +287,6 @@ parameters = ["k_cable"]
     };
     let bad = run(&["--exclude", "no such effect"]);
     let out = run(&["--exclude", "sensor delay"]);
-    let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(
         bad.status.code(),
         Some(2),

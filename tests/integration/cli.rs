@@ -81,7 +81,7 @@ fn mr2120_kinematics_reproduces_table2_within_002_degrees() {
 
 #[test]
 fn mr2120_record_writes_csv_and_truth_and_refuses_unknown_effects() {
-    let dir = std::env::temp_dir().join(format!("lash-record-{}", std::process::id()));
+    let dir = crate::scratch::dir("record");
     let d = dir.to_string_lossy().to_string();
     let out = lash(&[
         "mr2120",
@@ -196,7 +196,7 @@ fn a_failed_target_exits_with_1_and_says_so() {
     // The closed-form suite's known miss alone: a 0.2 mrad base tilt under a payload, below
     // the noise, is not ranked first, so the scoreboard's targets are not met (about 10 s in
     // release).
-    let dir = std::env::temp_dir().join(format!("lash-suite-miss-{}", std::process::id()));
+    let dir = crate::scratch::dir("suite-miss");
     let d = dir.to_string_lossy().to_string();
     let out = lash(&[
         "--quiet",
@@ -224,7 +224,6 @@ fn a_failed_target_exits_with_1_and_says_so() {
         serde_json::from_str(&std::fs::read_to_string(dir.join("scoreboard.json")).unwrap()).unwrap();
     assert_eq!(board["targets_met"], serde_json::Value::Bool(false));
     assert!(dir.join("tilt-under-payload").is_dir());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -150,7 +150,7 @@ fn arm(mass: &str, jtype: &str, axis: &str) -> String {
 
 #[test]
 fn urdf_faults_name_the_urdf_line_and_what_is_wrong() {
-    let dir = std::env::temp_dir().join(format!("lash-urdf-{}", std::process::id()));
+    let dir = crate::scratch::dir("urdf");
     let cases = [
         (
             "zero_mass.urdf",
@@ -208,7 +208,6 @@ fn urdf_faults_name_the_urdf_line_and_what_is_wrong() {
         "the side TOML's body replaces the link"
     );
     assert_eq!(check.joints[0].limits, None, "a continuous joint has no limits");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// `lash diagnose --model pendubot-rigid.urdf --side models/dfki_pendulum.toml` with nothing
@@ -217,7 +216,7 @@ fn urdf_faults_name_the_urdf_line_and_what_is_wrong() {
 /// least 40 %).
 #[test]
 fn the_dfki_recordings_diagnosed_through_the_urdf_reproduce_the_built_in_result() {
-    let report = std::env::temp_dir().join(format!("lash-urdf-dfki-{}", std::process::id()));
+    let report = crate::scratch::dir("urdf-dfki");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_lash"))
         .args([
             "diagnose",
@@ -229,10 +228,9 @@ fn the_dfki_recordings_diagnosed_through_the_urdf_reproduce_the_built_in_result(
             "-q",
             "--report",
         ])
-        .arg(&report)
+        .arg(report.as_os_str())
         .output()
         .unwrap();
-    let _ = std::fs::remove_dir_all(&report);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let ch = d["channels"].as_array().unwrap();
