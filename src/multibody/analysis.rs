@@ -19,7 +19,7 @@ use super::joints::Joint;
 #[cfg(doc)]
 use super::layout::Layout;
 use super::model::Mechanism;
-use super::rotation::{d_rot, l_matrix};
+use super::rotation::{d_rot, l_matrix, position_rates};
 use crate::sparse::DenseLu;
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
@@ -387,7 +387,11 @@ impl Analysis {
             }
             last = norm;
         }
-        let f = Self::position_residual(&mut data.ev, t, &q);
+        // `f` is the residual at q; the rows are evaluated there again only when a rejected
+        // trial left them elsewhere (the evaluator is left at the returned configuration).
+        if !rows_at_q {
+            Self::position_residual(&mut data.ev, t, &q);
+        }
         if f.amax() <= self.options.tolerance * 10.0 {
             data.position_lu = chord;
             return Ok(q);
@@ -450,15 +454,8 @@ impl Analysis {
 
     /// q̇ = H(q)·w.
     fn qdot(data: &MechanismData, q: &[f64], w: &[f64]) -> Vec<f64> {
-        let nb = data.ev.layout.bodies();
-        let mut qd = vec![0.0; 7 * nb];
-        for b in 0..nb {
-            let p = nalgebra::Vector4::new(q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]);
-            let om = Vector3::new(w[6 * b + 3], w[6 * b + 4], w[6 * b + 5]);
-            let pd = 0.5 * l_matrix(&p).transpose() * om;
-            qd[7 * b..7 * b + 3].copy_from_slice(&w[6 * b..6 * b + 3]);
-            qd[7 * b + 3..7 * b + 7].copy_from_slice(pd.as_slice());
-        }
+        let mut qd = vec![0.0; 7 * data.ev.layout.bodies()];
+        position_rates(q, w, 0.0, &mut qd);
         qd
     }
 

@@ -21,10 +21,10 @@ use super::error::ModelError;
 use super::evaluator::Evaluator;
 use super::layout::Layout;
 use super::model::Mechanism;
-use super::rotation::l_matrix;
+use super::rotation::position_rates;
 use crate::dae::explicit::{OdeSystem, SecondOrderSystem};
 use crate::dae::EvalError;
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use std::sync::Arc;
 
 /// Baumgarte stabilisation and normalisation gains of [`MultibodyOde`].
@@ -91,13 +91,7 @@ impl MultibodyOde {
     }
 
     fn qdot(&self, q: &[f64], w: &[f64], out: &mut [f64]) {
-        for b in 0..self.ev.layout.bodies() {
-            let p = Vector4::new(q[7 * b + 3], q[7 * b + 4], q[7 * b + 5], q[7 * b + 6]);
-            let om = Vector3::new(w[6 * b + 3], w[6 * b + 4], w[6 * b + 5]);
-            let pd = 0.5 * l_matrix(&p).transpose() * om - self.gains.kappa * (p.norm_squared() - 1.0) * p;
-            out[7 * b..7 * b + 3].copy_from_slice(&w[6 * b..6 * b + 3]);
-            out[7 * b + 3..7 * b + 7].copy_from_slice(pd.as_slice());
-        }
+        position_rates(q, w, self.gains.kappa, out);
     }
 
     /// γ along the stabilised q̇ ([`Evaluator::gamma`]).

@@ -60,6 +60,25 @@ pub fn l_matrix(p: &Vector4<f64>) -> Matrix3x4<f64> {
     l
 }
 
+/// The position coordinates' rates of a mechanism's bodies, q̇ = (v, ½·L(p)ᵀ·ω' − κ·(pᵀp − 1)·p)
+/// per body, from positions `q` (7 per body: r in m, then p) and velocities `w` (6 per body:
+/// v in m/s, then ω' in rad/s) into `out` (7 per body). `kappa` (1/s) pulls the Euler
+/// parameters back to the unit sphere (the explicit ODE form's stabilisation); 0 gives the
+/// plain kinematic rates.
+pub(crate) fn position_rates(q: &[f64], w: &[f64], kappa: f64, out: &mut [f64]) {
+    for ((qb, wb), ob) in q
+        .chunks_exact(7)
+        .zip(w.chunks_exact(6))
+        .zip(out.chunks_exact_mut(7))
+    {
+        let p = Vector4::new(qb[3], qb[4], qb[5], qb[6]);
+        let om = Vector3::new(wb[3], wb[4], wb[5]);
+        let pd = 0.5 * l_matrix(&p).transpose() * om - kappa * (p.norm_squared() - 1.0) * p;
+        ob[..3].copy_from_slice(&wb[..3]);
+        ob[3..].copy_from_slice(pd.as_slice());
+    }
+}
+
 /// Euler parameters of a rotation by `angle` (rad) about the unit `axis`.
 pub fn from_axis_angle(axis: &Vector3<f64>, angle: f64) -> Vector4<f64> {
     let a = axis.normalize();
