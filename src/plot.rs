@@ -52,7 +52,8 @@ const COLOURS: [RGBColor; 6] = [
 
 fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for x in v.filter(|x| x.is_finite()) {
+    // Values beyond ±1e300 are drawn at it (the axis's span and padding stay finite).
+    for x in v.filter(|x| x.is_finite()).map(|x| x.clamp(-1e300, 1e300)) {
         lo = lo.min(x);
         hi = hi.max(x);
     }
@@ -394,7 +395,20 @@ fn plain_tick(v: f64, span: f64) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::plain_tick;
+    use super::{plain_tick, range};
+
+    /// An axis over values near the largest float keeps a finite span (an infinite one
+    /// hung the tick search).
+    #[test]
+    fn an_axis_over_huge_values_stays_finite() {
+        let (lo, hi) = range([-1.7e308, 0.0, 1.7e308].into_iter());
+        assert!(
+            lo.is_finite() && hi.is_finite() && lo < -1e299 && hi > 1e299,
+            "{lo} {hi}"
+        );
+        let (lo, hi) = range([2.0, 4.0].into_iter());
+        assert_eq!((lo, hi), (1.9, 4.1));
+    }
 
     /// Tick labels carry the digits the axis's span resolves, no float noise.
     #[test]

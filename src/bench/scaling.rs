@@ -37,6 +37,10 @@ pub struct ScalingRow {
     pub failure: Option<String>,
 }
 
+/// Longest chain the benchmark builds: each link takes ~150 kB of memory in a run (1.45 GB
+/// at N = 10 000, README), so 20 000 links need ~3 GB.
+pub const MAX_LINKS: usize = 20_000;
+
 /// Issue #16's target for the log-log slope of the time per step against N (N ≥ 100).
 pub const TARGET_SLOPE_TIME: f64 = 1.1;
 /// Issue #16's target for the log-log slope of the resident memory against N.

@@ -263,8 +263,13 @@ fn scaling(links: &str, t_end: f64, out: &Path, as_json: bool) -> Result<Output,
         .map(|s| {
             s.parse::<usize>()
                 .ok()
-                .filter(|n| *n > 0)
-                .ok_or_else(|| CliError::Input(format!("--links: '{s}' is not a positive integer")))
+                .filter(|n| (1..=lash::bench::scaling::MAX_LINKS).contains(n))
+                .ok_or_else(|| {
+                    CliError::Input(format!(
+                        "--links: '{s}' is not an integer from 1 to {}",
+                        lash::bench::scaling::MAX_LINKS
+                    ))
+                })
         })
         .collect::<Result<Vec<usize>, _>>()?;
     if lengths.is_empty() {

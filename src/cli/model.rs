@@ -219,6 +219,8 @@ pub fn simulate_cmd(a: SimulateArgs) -> Result<Output, CliError> {
     if !(a.rtol > 0.0 && a.rtol < 1.0 && a.atol > 0.0) {
         return Err(CliError::input("--rtol must be in (0, 1) and --atol positive"));
     }
+    lash::multibody::output_count(a.t_end, a.dt)
+        .map_err(|e| CliError::input(format!("--t-end and --dt: {e}")))?;
     let file = ModelFile::load_with_side(&a.model, a.side.as_deref()).map_err(CliError::input)?;
     let values: Vec<f64> = file.parameters.iter().map(|p| p.nominal).collect();
     let built = file

@@ -331,6 +331,8 @@ fn trajectory_cmd(
     if !(dt > 0.0 && dt <= 0.5) {
         return Err(CliError::Input(format!("--dt must be in (0, 0.5] s, got {dt}")));
     }
+    lash::multibody::output_count(trajectory::DURATION, dt)
+        .map_err(|e| CliError::Input(format!("--dt: {e}")))?;
     if sets.is_empty() {
         ideal_trajectory(out, dt, as_json)
     } else {

@@ -23,6 +23,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// Most cells a map may have in either direction.
 pub const MAX_CELLS_PER_SIDE: usize = 1000;
 
+/// Largest |coordinate| of a map's grid, m (the mechanism spans decimetres; the plots draw
+/// millimetres).
+pub const MAX_GRID_COORDINATE: f64 = 1e3;
+
 /// A grid of platform-centre positions in the plane z = `z` (base frame, m).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MapGrid {
@@ -269,10 +273,10 @@ fn check_grid(grid: &MapGrid) -> Result<(), DesignError> {
     let sides_ok = |n: usize| (2..=MAX_CELLS_PER_SIDE).contains(&n);
     let finite = [grid.z, grid.x[0], grid.x[1], grid.y[0], grid.y[1]]
         .iter()
-        .all(|v| v.is_finite());
+        .all(|v| v.is_finite() && v.abs() <= MAX_GRID_COORDINATE);
     if !(sides_ok(grid.nx) && sides_ok(grid.ny) && finite && grid.x[0] < grid.x[1] && grid.y[0] < grid.y[1]) {
         return Err(DesignError::BadGrid(format!(
-            "x [{}, {}] m, y [{}, {}] m, z {} m, {} × {} cells: the ranges must be finite and increasing, 2 to {MAX_CELLS_PER_SIDE} cells a side",
+            "x [{}, {}] m, y [{}, {}] m, z {} m, {} × {} cells: the ranges must be increasing and within ±{MAX_GRID_COORDINATE} m, 2 to {MAX_CELLS_PER_SIDE} cells a side",
             grid.x[0], grid.x[1], grid.y[0], grid.y[1], grid.z, grid.nx, grid.ny
         )));
     }
@@ -492,6 +496,25 @@ fn evaluate(
 mod tests {
     use super::*;
     use crate::mechanisms::mr2120::clearance::clearance_set;
+
+    /// A grid out to ±1e306 m (finite, but not in millimetres) is refused.
+    #[test]
+    fn a_grid_beyond_the_largest_coordinate_is_refused() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let set = clearance_set("L1").unwrap();
+        let grid = MapGrid {
+            z: 0.5,
+            x: [-1e306, 1e306],
+            y: [-1.0, 1.0],
+            nx: 2,
+            ny: 2,
+            nonlinear_every: 2,
+        };
+        let e = error_map(&g, &mp, &grid, &set, |_, _| {})
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("within ±1000 m"), "{e}");
+    }
 
     /// A small map at the height of M1: the centre cell is M1 itself and agrees with the
     /// first-order envelope there; cells far outside are unreachable; the nonlinear cells

@@ -48,7 +48,7 @@ pub fn derivative(t: &[f64], x: &[f64], half: usize) -> Vec<f64> {
     (0..n)
         .map(|i| {
             let a = i.saturating_sub(half);
-            let b = (i + half + 1).min(n);
+            let b = i.saturating_add(half).saturating_add(1).min(n);
             let m = (b - a) as f64;
             let tm = t[a..b].iter().sum::<f64>() / m;
             let xm = x[a..b].iter().sum::<f64>() / m;
@@ -74,7 +74,7 @@ pub fn derivative_cubic(t: &[f64], x: &[f64], half: usize) -> Vec<f64> {
     (0..n)
         .map(|i| {
             let a = i.saturating_sub(half);
-            let b = (i + half + 1).min(n);
+            let b = i.saturating_add(half).saturating_add(1).min(n);
             if b - a < 5 {
                 return derivative(&t[a..b], &x[a..b], half)[i - a];
             }
@@ -108,7 +108,7 @@ pub fn derivative_cubic(t: &[f64], x: &[f64], half: usize) -> Vec<f64> {
 /// window): √(Σ w_k²)·σ, the derivative filter's weights w_k found by differentiating unit
 /// impulses. In x's unit per second.
 pub fn derivative_noise(t: &[f64], half: usize, sigma: f64) -> f64 {
-    let m = (2 * half + 1).min(t.len());
+    let m = half.saturating_mul(2).saturating_add(1).min(t.len());
     if m < 2 || sigma == 0.0 {
         return 0.0;
     }
@@ -221,6 +221,17 @@ pub fn autocorrelation(segments: &[&[f64]], max_lag: usize) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A window wider than the recording (up to usize::MAX samples, from `--derivative-window`)
+    /// is the whole recording: no index wraps around.
+    #[test]
+    fn a_window_wider_than_the_recording_is_the_whole_recording() {
+        let t: Vec<f64> = (0..40).map(|k| k as f64 * 0.01).collect();
+        let x: Vec<f64> = t.iter().map(|t| 3.0 * t + t * t * t).collect();
+        assert_eq!(derivative(&t, &x, usize::MAX), derivative(&t, &x, 40));
+        assert_eq!(derivative_cubic(&t, &x, usize::MAX), derivative_cubic(&t, &x, 40));
+        assert!(derivative_noise(&t, usize::MAX, 1.0).is_finite());
+    }
 
     /// Deterministic standard normal numbers (an LCG and Box–Muller) from `seed`.
     fn gaussians(mut s: u64) -> impl FnMut() -> f64 {

@@ -31,15 +31,7 @@ pub fn simulate(
     opts: SimulationOptions,
     progress: impl FnMut(f64),
 ) -> Result<(BuiltModel, SensorRecord), ModelError> {
-    if !(t_end > 0.0 && t_end.is_finite() && dt > 0.0 && dt.is_finite()) {
-        return Err(ModelError::Output(format!(
-            "the end time ({t_end} s) and the sample interval ({dt} s) must be positive and finite"
-        )));
-    }
-    let n = (t_end / dt).round().max(1.0) as usize;
-    let times: Vec<f64> = (1..=n)
-        .map(|k| (k as f64 * t_end / n as f64).min(t_end))
-        .collect();
+    let times = crate::multibody::output_times(t_end, dt)?;
     let BuiltModel {
         mechanism,
         bodies,

@@ -66,17 +66,45 @@ impl Frame {
     }
 }
 
+/// The value of attribute `key` in a start tag's attribute text: `key="v"` or `key='v'`,
+/// with any white space around the `=` (as XML allows).
+fn attribute<'t>(attrs: &'t str, key: &str) -> Option<&'t str> {
+    let mut from = 0;
+    while let Some(k) = attrs[from..].find(key) {
+        let at = from + k;
+        from = at + key.len();
+        if !attrs[..at].is_empty() && !attrs[..at].ends_with(char::is_whitespace) {
+            continue;
+        }
+        let Some(rest) = attrs[from..].trim_start().strip_prefix('=') else {
+            continue;
+        };
+        let rest = rest.trim_start();
+        let quote = rest.chars().next().filter(|&q| q == '"' || q == '\'')?;
+        let body = &rest[1..];
+        return body.find(quote).map(|end| &body[..end]);
+    }
+    None
+}
+
 /// Where elements start in the URDF text (for messages).
 struct Places<'a> {
     text: &'a str,
 }
 
 impl Places<'_> {
-    /// Byte offset of the start tag `<tag … name="name" …>` (the first that also has
-    /// `required` among its attributes, if given), or 0.
+    /// Byte offset of the start tag `<tag … name="name" …>` (the first that also has the
+    /// attribute `required`, if given), or 0.
     fn element(&self, tag: &str, name: &str, required: Option<&str>) -> usize {
+        self.nth_element(tag, name, required, 0).unwrap_or(0)
+    }
+
+    /// Byte offset of the `n`-th (from 0) start tag `<tag … name="name" …>` that also has the
+    /// attribute `required`, if given.
+    fn nth_element(&self, tag: &str, name: &str, required: Option<&str>, n: usize) -> Option<usize> {
         let open = format!("<{tag}");
         let mut from = 0;
+        let mut seen = 0;
         while let Some(k) = self.text[from..].find(&open) {
             let at = from + k;
             let rest = &self.text[at + open.len()..];
@@ -86,13 +114,15 @@ impl Places<'_> {
             }
             let end = rest.find('>').unwrap_or(rest.len());
             let attrs = &rest[..end];
-            let named =
-                attrs.contains(&format!("name=\"{name}\"")) || attrs.contains(&format!("name='{name}'"));
-            if named && required.is_none_or(|r| attrs.contains(r)) {
-                return at;
+            let named = attribute(attrs, "name") == Some(name);
+            if named && required.is_none_or(|r| attribute(attrs, r).is_some()) {
+                if seen == n {
+                    return Some(at);
+                }
+                seen += 1;
             }
         }
-        0
+        None
     }
 
     /// Byte offset of the first `<tag` inside the element starting at `start` (before its
@@ -123,6 +153,32 @@ fn nums(at: usize, xs: &[f64]) -> Val {
     spanned(at, Value::Array(xs.iter().map(|x| Value::Float(*x)).collect()))
 }
 
+/// Deepest element nesting a URDF may have (a robot's links and joints nest a few levels;
+/// the reader recurses once per level).
+pub const MAX_NESTING: usize = 64;
+
+/// Byte offset of the first start tag nested deeper than `limit` elements, if any (comments,
+/// declarations and processing instructions do not nest; `<x/>` closes itself).
+fn too_deep(text: &str, limit: usize) -> Option<usize> {
+    let mut depth = 0usize;
+    let mut from = 0;
+    while let Some(k) = text[from..].find('<') {
+        let at = from + k;
+        let rest = &text[at + 1..];
+        let end = rest.find('>').map_or(text.len(), |e| at + 1 + e);
+        from = (at + 1).max(end);
+        if rest.starts_with('/') {
+            depth = depth.saturating_sub(1);
+        } else if !(rest.starts_with('!') || rest.starts_with('?') || text[..end].ends_with('/')) {
+            depth += 1;
+            if depth > limit {
+                return Some(at);
+            }
+        }
+    }
+    None
+}
+
 /// Reads a URDF file into model-file tables located in its text.
 ///
 /// `alone`: the URDF is the model by itself (no side TOML), so each moving joint gets the
@@ -130,6 +186,15 @@ fn nums(at: usize, xs: &[f64]) -> Val {
 /// `<joint>_effort` (joint position, velocity and actuator effort).
 pub(crate) fn import(path: &Path, text: String, alone: bool) -> Result<Parsed, ModelFileError> {
     let src = Source::new(path, text);
+    // The URDF reader recurses once per nested element: refuse absurd nesting before it
+    // overflows the stack.
+    if let Some(at) = too_deep(&src.text, MAX_NESTING) {
+        return Err(src.error(
+            at,
+            Problem::Syntax,
+            format!("elements nested more than {MAX_NESTING} deep (a URDF nests a few levels)"),
+        ));
+    }
     let robot = urdf_rs::read_from_string(&src.text).map_err(|e| ModelFileError::File {
         file: src.file.clone(),
         problem: Problem::Syntax,
@@ -216,14 +281,12 @@ fn tables(src: &Source, robot: &urdf_rs::Robot) -> Result<FileDoc, ModelFileErro
         .iter()
         .map(|l| (l.name.as_str(), places.element("link", &l.name, None)))
         .collect();
-    let joint_at = |j: &urdf_rs::Joint| places.element("joint", &j.name, Some("type="));
+    let joint_at = |j: &urdf_rs::Joint| places.element("joint", &j.name, Some("type"));
     // Names: unique links and joints.
     for (k, l) in robot.links.iter().enumerate() {
         if robot.links[..k].iter().any(|o| o.name == l.name) {
-            let at = src.text[link_at[l.name.as_str()] + 1..]
-                .find(&format!("name=\"{}\"", l.name))
-                .map(|x| x + link_at[l.name.as_str()] + 1)
-                .unwrap_or(0);
+            // The second `<link>` of that name.
+            let at = places.nth_element("link", &l.name, None, 1).unwrap_or(0);
             return Err(src.error(at, Problem::Duplicate, format!("duplicate link '{}'", l.name)));
         }
     }

@@ -48,5 +48,8 @@ pub use forces::{BodyLoad, BodyState, ForceElement, LoadDerivative, PointForce, 
 pub use formulation::{FormulationOptions, Layout, MultibodyDae};
 pub use joints::{Joint, JointFrame, JointHandle, JointKind};
 pub use model::{Driver, DriverHandle, ForceHandle, Marker, MarkerHandle, Mechanism, STANDARD_GRAVITY};
-pub use simulation::{RunEnd, Sample, Simulation, SimulationOptions, SingularityEvent, Trajectory};
+pub use simulation::{
+    output_count, output_times, RunEnd, Sample, Simulation, SimulationOptions, SingularityEvent, Trajectory,
+    MAX_OUTPUT_TIMES,
+};
 pub use statics::{static_equilibrium, Equilibrium, Statics, StaticsOptions, STATICS_REJECT_FACTOR};

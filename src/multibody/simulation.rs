@@ -171,6 +171,42 @@ pub struct Trajectory {
     pub end: RunEnd,
 }
 
+/// Most output times one run may ask for (each sample keeps every body's state: for the
+/// MR2120's 13 bodies ~1 kB, so 10⁷ samples ~10 GB).
+pub const MAX_OUTPUT_TIMES: usize = 10_000_000;
+
+/// How many output times a run sampled every `dt` s up to `t_end` s has: t_end/dt rounded,
+/// at least 1. Refused ([`ModelError::Output`]) unless both are positive and finite, the
+/// times are finite and there are at most [`MAX_OUTPUT_TIMES`].
+pub fn output_count(t_end: f64, dt: f64) -> Result<usize, ModelError> {
+    if !(t_end > 0.0 && t_end.is_finite() && dt > 0.0 && dt.is_finite()) {
+        return Err(ModelError::Output(format!(
+            "the end time ({t_end:e} s) and the sample interval ({dt:e} s) must be positive and finite"
+        )));
+    }
+    let n = (t_end / dt).round().max(1.0);
+    if n > MAX_OUTPUT_TIMES as f64 {
+        return Err(ModelError::Output(format!(
+            "{t_end:e} s sampled every {dt:e} s is {n:.3e} output times, more than the {MAX_OUTPUT_TIMES} one run may keep"
+        )));
+    }
+    if !(n * t_end).is_finite() {
+        return Err(ModelError::Output(format!(
+            "the end time {t_end:e} s is too large"
+        )));
+    }
+    Ok(n as usize)
+}
+
+/// The output times of a run sampled every `dt` s up to `t_end` s: k·t_end/n for k = 1…n,
+/// n = [`output_count`].
+pub fn output_times(t_end: f64, dt: f64) -> Result<Vec<f64>, ModelError> {
+    let n = output_count(t_end, dt)?;
+    Ok((1..=n)
+        .map(|k| (k as f64 * t_end / n as f64).min(t_end))
+        .collect())
+}
+
 /// A running simulation of a mechanism.
 #[derive(Debug)]
 pub struct Simulation {

@@ -245,3 +245,53 @@ fn out_of_range_settings_exit_with_2_before_running() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("unknown method 'sideways'"), "{err}");
 }
+
+/// Inputs found by a panic audit (2026-11-29): each is refused with exit 2 and a message
+/// that says what is wrong, where it panicked, aborted or overflowed the stack before.
+#[test]
+fn extreme_inputs_are_refused_not_panicked_on() {
+    let dir = crate::scratch::dir("extreme-inputs");
+    // A URDF that starts with a byte-order mark and repeats a link whose name attribute has
+    // spaces around its `=`: the duplicate is named at its own line.
+    let dup = dir.join("dup.urdf");
+    std::fs::write(
+        &dup,
+        "\u{feff}<robot name=\"r\">\n<link name=\"base\"/>\n<link name = \"a\"/>\n<link name = \"a\"/>\n</robot>\n",
+    )
+    .unwrap();
+    let (code, err) = status(&["check", &dup.to_string_lossy()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("duplicate link 'a'") && err.contains(":4:"), "{err}");
+    // Nesting deep enough to overflow the URDF reader's recursion.
+    let deep = dir.join("deep.urdf");
+    let mut text = String::from("<robot name=\"r\">");
+    text.push_str(&"<x>".repeat(15_000));
+    text.push_str(&"</x>".repeat(15_000));
+    text.push_str("</robot>");
+    std::fs::write(&deep, text).unwrap();
+    let (code, err) = status(&["check", &deep.to_string_lossy()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("nested more than 64"), "{err}");
+    // Sample intervals that ask for more output times than a run may keep.
+    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    let axis = models.join("linear_axis.toml");
+    for dt in ["1e-300", "1e-11"] {
+        let (code, err) = status(&["simulate", &axis.to_string_lossy(), "--t-end", "1", "--dt", dt]);
+        assert_eq!(code, Some(2), "--dt {dt}: {err}");
+        assert!(err.contains("output times"), "--dt {dt}: {err}");
+    }
+    let (code, err) = status(&[
+        "mr2120",
+        "trajectory",
+        "--dt",
+        "1e-300",
+        "--out",
+        &dir.to_string_lossy(),
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("output times"), "{err}");
+    // A chain longer than the scaling benchmark builds.
+    let (code, err) = status(&["bench", "scaling", "--links", "18446744073709551615"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("is not an integer from 1 to"), "{err}");
+}

@@ -121,7 +121,7 @@ pub fn run_ideal(
     let platform = model.platform;
     let laws = drive_laws(g);
     let mut sim = Simulation::new(Arc::new(model.mechanism), 0.0, opts)?;
-    let n = (t_end / dt).round() as usize;
+    let n = crate::multibody::output_count(t_end, dt)?;
     let times: Vec<f64> = (1..=n).map(|k| k as f64 * dt).collect();
     let traj = sim.run(&times, progress)?;
     let mech = sim.model();
@@ -238,7 +238,7 @@ pub fn run_clearance(
     let model = clearance_model(g, mp, m1, Some(drive_laws(g)), &bearing_design(set, damping))?;
     let platform = model.platform;
     let mut sim = Simulation::new(Arc::new(model.mechanism), 0.0, opts)?;
-    let n = (t_end / dt).round() as usize;
+    let n = crate::multibody::output_count(t_end, dt)?;
     let times: Vec<f64> = (1..=n).map(|k| k as f64 * dt).collect();
     let traj = sim.run(&times, progress)?;
     let zl = platform_law();
