@@ -137,6 +137,22 @@ pub enum DiagnoseError {
         /// Time at the previous sample, s (−∞ for the first).
         previous: f64,
     },
+    /// The residual (measured − nominal model) is not finite at more than
+    /// [`MAX_UNDEFINED_FRACTION`](super::MAX_UNDEFINED_FRACTION) of a recording's
+    /// samples: the recording does not fit the model.
+    #[error(
+        "recording '{recording}': the residual (measured − nominal model) is not finite at {undefined} of its {samples} samples (the first at t = {t} s): the model cannot be evaluated there (a pose the mechanism cannot reach?) or the values are out of range"
+    )]
+    ResidualUndefined {
+        /// The recording.
+        recording: String,
+        /// Samples with an undefined residual.
+        undefined: usize,
+        /// Samples in the recording.
+        samples: usize,
+        /// Time of the first such sample, s.
+        t: f64,
+    },
     /// The nominal model cannot serve the diagnosis (e.g. a mechanism builder that fails, or
     /// attaches a driver count other than the torque channels').
     #[error("model '{model}': {message}")]

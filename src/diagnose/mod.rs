@@ -96,4 +96,5 @@ pub use relinearize::{
     CONTINUED_STEP_GAIN, CONVERGED_STEP, MAX_RELINEARIZATIONS, MAX_RESIZES, RESIZE_FACTOR,
     SHIFT_LINEARITY_TOLERANCE,
 };
+pub use residuals::MAX_UNDEFINED_FRACTION;
 pub use run::{diagnose, diagnose_recordings};

@@ -14,6 +14,11 @@ use super::model::{on_copies, InverseDynamicsModel};
 use super::options::DiagnoseOptions;
 use super::stats::Gram;
 
+/// Largest share of a recording's samples at which the residual (measured − nominal model)
+/// may be undefined (not finite); beyond it the recording is refused
+/// ([`DiagnoseError::ResidualUndefined`]).
+pub const MAX_UNDEFINED_FRACTION: f64 = 0.5;
+
 /// The weighted residuals and candidate columns of a set of recordings.
 pub(super) struct Prepared {
     /// The candidate library.
@@ -51,6 +56,20 @@ pub(super) fn prepare(
             for i in 0..n {
                 b[j * n + i] = (meas[i] - nominal[j][i]) / sigma[j];
             }
+        }
+        // A recording whose residual is mostly undefined does not fit the model (a pose the
+        // mechanism cannot reach, values out of range): refused, not diagnosed from the few
+        // samples left (which read as "no mismatch").
+        let undefined: Vec<usize> = (0..n)
+            .filter(|&i| (0..nc).any(|j| !b[j * n + i].is_finite()))
+            .collect();
+        if undefined.len() as f64 > MAX_UNDEFINED_FRACTION * n as f64 {
+            return Err(DiagnoseError::ResidualUndefined {
+                recording: d.name.clone(),
+                undefined: undefined.len(),
+                samples: n,
+                t: d.t[undefined[0]],
+            });
         }
         // Samples the model cannot evaluate (e.g. beyond a singular configuration), or where
         // a candidate's column is undefined (e.g. a time derivative next to such a sample),

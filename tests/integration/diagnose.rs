@@ -263,6 +263,40 @@ fn an_empty_fit_set_is_an_error_not_a_panic() {
     assert_eq!(e, DiagnoseError::NoFitRecordings, "{e}");
 }
 
+/// A recording at whose samples the model mostly cannot be evaluated (here the joint
+/// positions are not numbers at 60 % of them; in the panic audit, MR2120 drive angles the
+/// mechanism cannot reach) is refused with its name, not diagnosed from the samples left
+/// as "no significant mismatch".
+#[test]
+fn a_recording_the_model_mostly_cannot_evaluate_is_refused() {
+    let (mut fit, held) = runs(&|_, _, _| 0.0);
+    let n = fit[0].len();
+    for i in 0..(6 * n / 10) {
+        fit[0].q[0][i] = f64::NAN;
+    }
+    let model = DoublePendulumModel { params: params() };
+    let e = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap_err();
+    match &e {
+        DiagnoseError::ResidualUndefined {
+            recording,
+            undefined,
+            samples,
+            ..
+        } => {
+            assert_eq!(recording, &fit[0].name);
+            assert_eq!((*undefined, *samples), (6 * n / 10, n));
+        }
+        other => panic!("{other}"),
+    }
+    assert!(e.to_string().contains("is not finite at"), "{e}");
+    // A few such samples (a tenth) are left out of the fit, as before.
+    let (mut fit, held) = runs(&|_, _, _| 0.0);
+    for i in 0..n / 10 {
+        fit[0].q[0][i] = f64::NAN;
+    }
+    assert!(diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).is_ok());
+}
+
 #[test]
 fn one_fit_recording_too_short_for_folds_and_an_unknown_exclusion_are_errors() {
     let (fit, held) = runs(&|_, _, _| 0.0);
