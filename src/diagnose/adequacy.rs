@@ -368,7 +368,7 @@ pub(super) fn refresh(d: &mut Diagnosis) {
     d.adequacy.explained_fraction = overall_explained_fraction(&ratios);
     d.adequacy.unexplained = d.adequacy.channels.iter().any(|c| c.unexplained);
     d.adequacy.unstable = unstable_names(&d.estimates);
-    d.found = found_effects(&d.selected, &d.estimates);
+    d.found = found_effects(&d.selected, &d.estimates, &d.unresolved_play);
     d.explained_fraction = d.adequacy.explained_fraction;
     d.unexplained = d.adequacy.unexplained;
     d.no_significant_mismatch = no_significant_mismatch(&d.found, d.unexplained);
@@ -380,12 +380,18 @@ pub(super) fn no_significant_mismatch(found: &[String], unexplained: bool) -> bo
     found.is_empty() && !unexplained
 }
 
-/// The selected effects whose estimates are all stable, in selection order.
-pub(super) fn found_effects(selected: &[String], estimates: &[Estimate]) -> Vec<String> {
+/// The selected effects whose estimates are all stable, in selection order, each under the
+/// name it is claimed by ([`claimed_name`](super::outcome::claimed_name): a play that
+/// resolved no play is its joint's contact compliance).
+pub(super) fn found_effects(
+    selected: &[String],
+    estimates: &[Estimate],
+    unresolved: &[super::outcome::UnresolvedPlay],
+) -> Vec<String> {
     selected
         .iter()
         .filter(|s| estimates.iter().filter(|e| &e.candidate == *s).all(|e| e.stable))
-        .cloned()
+        .map(|s| super::outcome::claimed_name(s, unresolved))
         .collect()
 }
 

@@ -363,6 +363,27 @@ pub struct Candidate {
     pub bounds: Vec<(f64, f64)>,
 }
 
+/// Per candidate, the candidates (indices into `cands`) that are the contact compliance of a
+/// play candidate's joint ([`InverseDynamicsModel::play_site_compliance`]); empty for the
+/// others.
+pub fn compliance_of(model: &dyn InverseDynamicsModel, cands: &[Candidate]) -> Vec<Vec<usize>> {
+    cands
+        .iter()
+        .map(|c| match c.effect {
+            Effect::Play { site, .. } => {
+                let params = model.play_site_compliance(site);
+                cands
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, d)| matches!(d.effect, Effect::Parameter { index, .. } if params.contains(&index)))
+                    .map(|(k, _)| k)
+                    .collect()
+            }
+            _ => vec![],
+        })
+        .collect()
+}
+
 /// Builds the candidate library for a model.
 pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<Candidate> {
     let mut out = vec![];
@@ -600,16 +621,43 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
     out
 }
 
-/// Regressor columns of every candidate on one recording: `cols[c][k]` is column k of
-/// candidate c, stacked channel by channel in the order of [`MotionData::channels`] (the
-/// first channel's samples, then the second's, ...). Also returns the nominal model's value
-/// of every channel (as [`MotionData::model_channels`]), which the columns are built around.
+/// The candidates' regressor columns on one recording ([`columns`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Columns {
+    /// `cols[c][k]` is column k of candidate c, stacked channel by channel in the order of
+    /// [`MotionData::channels`] (the first channel's samples, then the second's, ...).
+    pub cols: Vec<Vec<Vec<f64>>>,
+    /// The nominal model's value of every channel (as [`MotionData::model_channels`]),
+    /// which the columns are built around.
+    pub nominal: Vec<Vec<f64>>,
+    /// Per candidate, where its column carries its joint's contact compliance (a radial play
+    /// in the reduced dynamic model on linear ball contacts: the balls' compression comes
+    /// with the clearance and scales with it): the RMS over the recording of the most
+    /// compressed ball's penetration under the joint's own load, m ([`compression_rms`]).
+    /// A play estimate below it resolves no play: what the column fits is that compliance.
+    pub compression: Vec<Option<f64>>,
+}
+
+/// RMS over the samples (those with a response) of the largest penetration of a joint's
+/// balls, m: each ball's wall force (N) over the linear `stiffness` (N/m).
+pub fn compression_rms(responses: &[Option<PlayResponse>], stiffness: f64) -> Option<f64> {
+    let (ss, count) = responses
+        .iter()
+        .flatten()
+        .map(|r| r.radial_forces.iter().fold(0.0f64, |m, f| m.max(*f)) / stiffness)
+        .filter(|v| v.is_finite())
+        .fold((0.0, 0usize), |(ss, k), v| (ss + v * v, k + 1));
+    (count > 0 && stiffness > 0.0).then(|| (ss / count as f64).sqrt())
+}
+
+/// Regressor columns of every candidate on one recording, with the nominal model's value of
+/// every channel and the play candidates' compressions ([`Columns`]).
 pub fn columns(
     cands: &[Candidate],
     d: &MotionData,
     model: &dyn InverseDynamicsModel,
     opts: &LibraryOptions,
-) -> (Vec<Vec<Vec<f64>>>, Vec<Vec<f64>>) {
+) -> Columns {
     let chans = d.channels();
     let nc = chans.len();
     let n = d.len();
@@ -1090,7 +1138,26 @@ pub fn columns(
             (_, None) => vec![vec![0.0; nc * n]],
         })
         .collect();
-    (cols, nom_channels)
+    // A radial play's column on linear contacts carries the balls' compression (under
+    // Hertz's law, or axially, the response is taken less the joint's without play).
+    let compression = cands
+        .iter()
+        .map(|c| match c.effect {
+            Effect::Play {
+                site,
+                direction: PlayDirection::Radial,
+                ..
+            } if !opts.play_contact_hertz => {
+                compression_rms(response_of(site, PlayDirection::Radial)?.1, contact.stiffness)
+            }
+            _ => None,
+        })
+        .collect();
+    Columns {
+        cols,
+        nominal: nom_channels,
+        compression,
+    }
 }
 
 /// A sensitivity column that takes whole passes of the model over a recording.
@@ -1212,10 +1279,16 @@ pub fn separating_experiment(a: &Candidate, b: &Candidate, joints: usize) -> Str
 /// The recording that separates two candidates (a noun phrase).
 fn recording_for(a: &Candidate, b: &Candidate) -> String {
     use Effect::*;
-    let joint = |c: &Candidate| {
-        c.joint
-            .map(|j| format!("joint {}", j + 1))
-            .unwrap_or("the joints".into())
+    let joint = |c: &Candidate| match (c.joint, c.effect) {
+        (Some(j), _) => format!("joint {}", j + 1),
+        // A play or clearance names its place: "radial clearance in joint F (…)".
+        (None, Play { .. } | Clearance { .. }) => c
+            .name
+            .split(" (")
+            .next()
+            .and_then(|head| head.rsplit_once(" in "))
+            .map_or("the joints".into(), |(_, place)| place.to_string()),
+        (None, _) => "the joints".into(),
     };
     let friction = |e: Effect| {
         matches!(
@@ -1279,6 +1352,26 @@ mod tests {
     use crate::diagnose::model::{ModelParameter, PlayData};
     use crate::diagnose::play_dynamics::fixtures;
     use nalgebra::Vector3;
+
+    /// Two joints' plays are told apart by a recording that names both joints (the
+    /// candidates carry no drive index: the place comes from the name).
+    #[test]
+    fn the_experiment_separating_two_plays_names_their_joints() {
+        let play = |joint: &str, site| Candidate {
+            name: format!("radial clearance in joint {joint} (reduced dynamic model)"),
+            effect: Effect::Play {
+                site,
+                direction: PlayDirection::Radial,
+                load_scale: 5.0,
+            },
+            joint: None,
+            parameters: vec!["h [m]".into()],
+            grid_parameters: 0,
+            bounds: vec![(0.0, 0.01)],
+        };
+        let text = separating_experiment(&play("F", 2), &play("R", 5), 3);
+        assert!(text.contains("in joint F and in joint R"), "{text}");
+    }
 
     /// Torque on the drive per metre of the joint's shift along z, N·m/m.
     const TAU_PER_M: f64 = 1000.0;
@@ -1436,10 +1529,10 @@ mod tests {
             .position(|c| c.name.starts_with("radial clearance in joint F"))
             .expect("a radial play candidate");
         EXPANSIONS.with(|c| c.set(0));
-        let (once, _) = columns(&cands, &d, &Carried, &opts);
+        let once = columns(&cands, &d, &Carried, &opts).cols;
         assert_eq!(EXPANSIONS.with(|c| c.get()), 0, "not asked to");
         opts.play_relinearize = true;
-        let (twice, _) = columns(&cands, &d, &Carried, &opts);
+        let twice = columns(&cands, &d, &Carried, &opts).cols;
         let (a, b) = (&once[radial][0][..n], &twice[radial][0][..n]);
         // The samples whose first response reaches a tenth of its largest.
         let largest = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -1496,9 +1589,9 @@ mod tests {
             .position(|c| c.name.starts_with("axial play in joint F"))
             .expect("an axial play candidate");
         let radial_before = radial;
-        let (quasi_static, _) = columns(&cands, &d, &Carried, &opts);
+        let quasi_static = columns(&cands, &d, &Carried, &opts).cols;
         opts.dynamic_play_clearance = Some(h);
-        let (dynamic, _) = columns(&cands, &d, &Carried, &opts);
+        let dynamic = columns(&cands, &d, &Carried, &opts).cols;
         // Rows: the torque's samples, then the tracker's.
         let torque = |cols: &Vec<Vec<Vec<f64>>>, c: usize| cols[c][0][..n].to_vec();
         let tracker = |cols: &Vec<Vec<Vec<f64>>>, c: usize| cols[c][0][n..].to_vec();
@@ -1522,7 +1615,7 @@ mod tests {
         // instead of the linear law's 200 N/k (2.00 µm), less what the same balls give
         // without play (conformal, far stiffer): the column is the play's own part.
         opts.play_contact_hertz = true;
-        let (hertz, _) = columns(&cands, &d, &Carried, &opts);
+        let hertz = columns(&cands, &d, &Carried, &opts).cols;
         let balls = |h: f64| {
             HertzBalls::of(&fixtures::hanging_joint(0.0, 0.0).play, h)
                 .unwrap()
@@ -1546,7 +1639,7 @@ mod tests {
         opts.play_contact_hertz = false;
         let h_a = 2.0 * h;
         opts.dynamic_axial_play = Some(h_a);
-        let (both, _) = columns(&cands, &d, &Carried, &opts);
+        let both = columns(&cands, &d, &Carried, &opts).cols;
         assert_eq!(torque(&both, radial), col);
         let col = torque(&both, axial);
         assert!(
@@ -1569,7 +1662,7 @@ mod tests {
             "radial clearance in joint F (reduced dynamic model)"
         );
         assert_eq!(cands[radial].grid_parameters, 0);
-        let (dynamic, _) = columns(&cands, &d, &Carried, &opts);
+        let dynamic = columns(&cands, &d, &Carried, &opts).cols;
         let col = tracker(&dynamic, radial);
         // The shift at the wall (per metre of clearance) less the arm's lag c·T_e·shift.
         let shift = (2.0 * h + 200.0 / BALL_CONTACT.stiffness) / h;

@@ -172,6 +172,10 @@ pub struct PlaySite {
     /// Mass of its cross, kg (in the nominal model it is part of a link; the reduced play
     /// model lets it move between the joint's sides).
     pub cross_mass: f64,
+    /// The model's parameters (indices) that are this joint's contact compliance: what its
+    /// balls' compression reads as where the diagnosis resolves no play
+    /// ([`InverseDynamicsModel::play_site_compliance`]). May be empty.
+    pub compliance: Vec<usize>,
 }
 
 struct Built {
@@ -504,6 +508,13 @@ impl MechanismModel {
                     return Err(self.error(format!(
                         "joint '{}' is a {:?} joint: only the play of universal joints is modelled",
                         s.joint, j.kind
+                    )));
+                }
+                if let Some(k) = s.compliance.iter().find(|&&k| k >= self.parameters.len()) {
+                    return Err(self.error(format!(
+                        "joint '{}': its compliance is parameter {k}, but the model has {} parameters",
+                        s.joint,
+                        self.parameters.len()
                     )));
                 }
                 if !(s.play.ball_spacing.is_finite() && s.play.ball_spacing > 0.0) {
@@ -1544,6 +1555,12 @@ impl InverseDynamicsModel for MechanismModel {
     }
     fn play_sites(&self) -> Vec<String> {
         self.play.iter().map(|s| s.joint.clone()).collect()
+    }
+    fn play_site_compliance(&self, site: usize) -> Vec<usize> {
+        self.play
+            .get(site)
+            .map(|s| s.compliance.clone())
+            .unwrap_or_default()
     }
     /// Per play site: how the outputs move when the joint's side j shifts along base x, y,
     /// z or tilts about z_i × z_j (first order, from the assembled configuration of this

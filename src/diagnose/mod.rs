@@ -90,7 +90,8 @@ mod verdict;
 pub use error::DiagnoseError;
 pub use options::DiagnoseOptions;
 pub use outcome::{
-    ChannelFit, Confound, Diagnosis, Estimate, LinearizationStep, Ranked, ResidualTrace, Step,
+    claimed_name, ChannelFit, Confound, Diagnosis, Estimate, LinearizationStep, Ranked, ResidualTrace, Step,
+    UnresolvedPlay,
 };
 pub use relinearize::{
     CONTINUED_STEP_GAIN, CONVERGED_STEP, MAX_RELINEARIZATIONS, MAX_RESIZES, RESIZE_FACTOR,

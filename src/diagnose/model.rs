@@ -447,6 +447,13 @@ pub trait InverseDynamicsModel {
     fn play_sites(&self) -> Vec<String> {
         vec![]
     }
+    /// The parameters (indices into [`parameters`](Self::parameters)) that are the contact
+    /// compliance of play site `site`'s joint in the nominal model's terms: what the
+    /// compression of its balls under the joint's own load reads as where no play is
+    /// resolved (a play estimate below that compression). Default: none.
+    fn play_site_compliance(&self, _site: usize) -> Vec<usize> {
+        vec![]
+    }
     /// Clearance sites (names), in the order of [`OutputSensitivities::sites`].
     fn clearance_sites(&self) -> Vec<String> {
         vec![]

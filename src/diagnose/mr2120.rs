@@ -224,10 +224,14 @@ pub fn mr2120_model(g: &Geometry, mp: &MassProperties) -> Result<MechanismModel,
     let sites = ELBOW_JOINTS
         .iter()
         .chain(PLATFORM_JOINTS.iter())
-        .map(|j| PlaySite {
+        .enumerate()
+        // Site s is in leg s mod 3 (elbows, then platform joints): its contact compliance
+        // is the leg's joint compliance, isotropic and of the axial contacts.
+        .map(|(s, j)| PlaySite {
             joint: (*j).into(),
             play,
             cross_mass: mp0.cross,
+            compliance: vec![JOINT_COMPLIANCE + s % 3, AXIAL_JOINT_COMPLIANCE + s % 3],
         })
         .collect();
     type Gain = fn(&Geometry, usize, f64, &[f64]) -> f64;

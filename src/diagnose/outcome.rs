@@ -67,6 +67,56 @@ pub struct Estimate {
     pub stable: bool,
 }
 
+/// A joint's play whose estimate fell below its balls' compression under the joint's own
+/// load: the diagnosis resolved no play there, and what the play's column fitted (its reduced
+/// dynamic model on linear contacts carries the balls' compliance) is the joint's contact
+/// compliance.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UnresolvedPlay {
+    /// The play candidate the selection chose.
+    pub play: String,
+    /// Its joint's name.
+    pub joint: String,
+    /// Its estimate, m.
+    pub estimate: f64,
+    /// The RMS compression of the joint's most loaded ball under the joint's own load in
+    /// the reduced dynamic play model, m.
+    pub compression: f64,
+    /// The joint's contact-compliance candidate named instead (the one that fits best),
+    /// where it fits within the confounding tolerance; `None`: none does, the play candidate
+    /// stays selected and the verdict says what it stands for.
+    pub compliance: Option<String>,
+    /// The best of the joint's compliance candidates, whether or not it replaced the play.
+    pub alternative: Option<String>,
+    /// Cross-validated RMS with that compliance candidate in the play's place / with the
+    /// play.
+    pub cv_ratio: Option<f64>,
+}
+
+impl UnresolvedPlay {
+    /// What the diagnosis claims the play stands for where no compliance candidate took its
+    /// place: "contact compliance of joint F, fitted as radial clearance in joint F (reduced
+    /// dynamic model)". None where one did (the selection names that candidate).
+    pub fn claim(&self) -> Option<String> {
+        self.compliance.is_none().then(|| {
+            format!(
+                "contact compliance of joint {}, fitted as {}",
+                self.joint, self.play
+            )
+        })
+    }
+}
+
+/// The name under which a selected candidate `name` is claimed as physics: an unresolved
+/// play's [`claim`](UnresolvedPlay::claim), else its own.
+pub fn claimed_name(name: &str, unresolved: &[UnresolvedPlay]) -> String {
+    unresolved
+        .iter()
+        .find(|u| u.play == name)
+        .and_then(UnresolvedPlay::claim)
+        .unwrap_or_else(|| name.to_string())
+}
+
 /// A pair of effects the data cannot tell apart.
 #[derive(Debug, Clone, Serialize)]
 pub struct Confound {
@@ -174,7 +224,9 @@ pub struct Diagnosis {
     pub selected: Vec<String>,
 
     /// The selected effects whose estimates are all stable (see the `adequacy` module): the
-    /// physics the diagnosis claims as found. The others only soak up model error.
+    /// physics the diagnosis claims as found. The others only soak up model error. A play
+    /// that resolved no play is claimed as its joint's contact compliance
+    /// ([`UnresolvedPlay::claim`]; its estimates keep the play's name).
     pub found: Vec<String>,
     /// Estimates.
     pub estimates: Vec<Estimate>,
@@ -182,6 +234,9 @@ pub struct Diagnosis {
     pub correlations: Vec<(String, String, f64)>,
     /// Effects the data cannot separate.
     pub confounded: Vec<Confound>,
+    /// Plays the selection chose whose estimates fell below their balls' compression: the
+    /// joints' contact compliance, not play ([`UnresolvedPlay`]).
+    pub unresolved_play: Vec<UnresolvedPlay>,
     /// Per joint with selected Coulomb-type friction: the laws summed into the friction at
     /// speed, and an asymmetry read together with an offset ([`super::equivalents`]).
     pub friction: Vec<super::equivalents::JointFriction>,

@@ -534,6 +534,9 @@ impl<B: Base> InverseDynamicsModel for Shifted<B> {
     fn play_sites(&self) -> Vec<String> {
         self.base().play_sites()
     }
+    fn play_site_compliance(&self, site: usize) -> Vec<usize> {
+        self.base().play_site_compliance(site)
+    }
     fn derivative_windows(&self) -> Vec<usize> {
         self.base().derivative_windows()
     }

@@ -31,6 +31,54 @@ pub(super) struct Prepared {
     pub grams: Vec<Gram>,
     /// Their sum.
     total: Gram,
+    /// Per candidate, the contact compression its column carries, m
+    /// ([`Columns::compression`](super::candidates::Columns::compression)), over all
+    /// recordings.
+    pub compression: Vec<Option<f64>>,
+}
+
+/// A recording whose residual `b` (measured − nominal, channel by channel) is undefined at
+/// more than [`MAX_UNDEFINED_FRACTION`] of its samples does not fit the model (a pose the
+/// mechanism cannot reach, values out of range): refused
+/// ([`DiagnoseError::ResidualUndefined`]), not diagnosed from the few samples left (which
+/// read as "no mismatch").
+fn refuse_undefined(d: &MotionData, b: &[f64]) -> Result<(), DiagnoseError> {
+    let n = d.len();
+    let nc = b.len() / n.max(1);
+    let undefined: Vec<usize> = (0..n)
+        .filter(|&i| (0..nc).any(|j| !b[j * n + i].is_finite()))
+        .collect();
+    if undefined.len() as f64 > MAX_UNDEFINED_FRACTION * n as f64 {
+        return Err(DiagnoseError::ResidualUndefined {
+            recording: d.name.clone(),
+            undefined: undefined.len(),
+            samples: n,
+            t: d.t[undefined[0]],
+        });
+    }
+    Ok(())
+}
+
+/// Refuses, before any candidate's column is made, a recording whose residual at the
+/// nominal parameters is mostly undefined (as [`prepare`] would, after one pass of the
+/// nominal model instead of the columns' many).
+pub(super) fn check_defined(
+    model: &dyn InverseDynamicsModel,
+    data: &[&MotionData],
+) -> Result<(), DiagnoseError> {
+    let theta0: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    let nominal = on_copies(data, model, &|d, m| d.model_channels(m, &theta0));
+    for (&d, nominal) in data.iter().zip(nominal) {
+        let n = d.len();
+        let b: Vec<f64> = d
+            .channels()
+            .iter()
+            .zip(&nominal)
+            .flat_map(|(&c, nom)| (0..n).map(move |i| d.measured(c)[i] - nom[i]))
+            .collect();
+        refuse_undefined(d, &b)?;
+    }
+    Ok(())
 }
 
 /// Weighted residuals (channel j divided by `sigma[j]`) and columns of `cands` on `data`
@@ -46,7 +94,22 @@ pub(super) fn prepare(
     let mut blocks = vec![];
     // Every recording's columns (side by side on copies of the model where it makes them).
     let all = on_copies(data, model, &|d, m| columns(cands, d, m, &opts.library));
-    for (d, (mut per, nominal)) in data.iter().zip(all) {
+    // The play candidates' compressions over all recordings (RMS, weighted by samples).
+    let mut compression_ss: Vec<Option<(f64, usize)>> = vec![None; cands.len()];
+    for (d, cs) in data.iter().zip(&all) {
+        for (acc, v) in compression_ss.iter_mut().zip(&cs.compression) {
+            if let Some(v) = v {
+                let (ss, k) = acc.unwrap_or((0.0, 0));
+                *acc = Some((ss + v * v * d.len() as f64, k + d.len()));
+            }
+        }
+    }
+    let compression: Vec<Option<f64>> = compression_ss
+        .iter()
+        .map(|a| a.filter(|&(_, k)| k > 0).map(|(ss, k)| (ss / k as f64).sqrt()))
+        .collect();
+    for (d, c) in data.iter().zip(all) {
+        let (mut per, nominal) = (c.cols, c.nominal);
         let n = d.len();
         let chans = d.channels();
         let nc = chans.len();
@@ -57,20 +120,7 @@ pub(super) fn prepare(
                 b[j * n + i] = (meas[i] - nominal[j][i]) / sigma[j];
             }
         }
-        // A recording whose residual is mostly undefined does not fit the model (a pose the
-        // mechanism cannot reach, values out of range): refused, not diagnosed from the few
-        // samples left (which read as "no mismatch").
-        let undefined: Vec<usize> = (0..n)
-            .filter(|&i| (0..nc).any(|j| !b[j * n + i].is_finite()))
-            .collect();
-        if undefined.len() as f64 > MAX_UNDEFINED_FRACTION * n as f64 {
-            return Err(DiagnoseError::ResidualUndefined {
-                recording: d.name.clone(),
-                undefined: undefined.len(),
-                samples: n,
-                t: d.t[undefined[0]],
-            });
-        }
+        refuse_undefined(d, &b)?;
         // Samples the model cannot evaluate (e.g. beyond a singular configuration), or where
         // a candidate's column is undefined (e.g. a time derivative next to such a sample),
         // carry no weight.
@@ -121,24 +171,28 @@ pub(super) fn prepare(
         cols_of = idx;
         blocks.push((flat, b));
     }
-    Prepared::new(cands.to_vec(), cols_of, blocks)
+    let mut prep = Prepared::new(cands.to_vec(), cols_of, blocks)?;
+    prep.compression = compression;
+    Ok(prep)
 }
 
 impl Prepared {
     /// Accumulates the Gram matrices of `blocks` (one per recording; none is an error).
-    fn new(
+    pub(super) fn new(
         cands: Vec<Candidate>,
         cols_of: Vec<Vec<usize>>,
         blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)>,
     ) -> Result<Prepared, DiagnoseError> {
         let grams: Vec<Gram> = blocks.iter().map(|(c, b)| Gram::new(c, b)).collect();
         let total = Gram::sum(&grams).ok_or(DiagnoseError::NoFitRecordings)?;
+        let compression = vec![None; cands.len()];
         Ok(Prepared {
             cands,
             cols_of,
             blocks,
             grams,
             total,
+            compression,
         })
     }
     /// The same columns and residual with channel j divided by `w[j]` (recording r has
@@ -154,7 +208,9 @@ impl Prepared {
                 (cols.iter().map(|c| scale(c)).collect(), scale(b))
             })
             .collect();
-        Prepared::new(self.cands.clone(), self.cols_of.clone(), blocks)
+        let mut prep = Prepared::new(self.cands.clone(), self.cols_of.clone(), blocks)?;
+        prep.compression = self.compression.clone();
+        Ok(prep)
     }
     /// Global column indices of the candidates in `set`.
     pub(super) fn idx(&self, set: &[usize]) -> Vec<usize> {

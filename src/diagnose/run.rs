@@ -482,7 +482,9 @@ fn check_recordings(
         }
         d.check(model)?;
     }
-    Ok(())
+    // A recording the model cannot evaluate is refused after one nominal pass.
+    let all: Vec<&MotionData> = fit.iter().chain(holdout).collect();
+    super::residuals::check_defined(model, &all)
 }
 
 /// One pass of the diagnosis at the model's nominal parameters (recordings checked by
@@ -523,7 +525,8 @@ fn diagnose_once(
     progress("candidate regressors", 0.2);
     let lens: Vec<usize> = fit.iter().map(MotionData::len).collect();
     let raw = prepare(model, fit, &vec![1.0; nj], &cands, opts)?;
-    let sel = select(&raw, &cands, &lens, &sigma, opts, &mut *progress)?;
+    let compliance = super::candidates::compliance_of(model, &cands);
+    let sel = select(&raw, &cands, &compliance, &lens, &sigma, opts, &mut *progress)?;
     progress("estimates", 0.85);
     let Estimates {
         x,
@@ -540,8 +543,19 @@ fn diagnose_once(
         n,
         n_eff,
         weight_scale,
+        unresolved,
         ..
     } = sel;
+    let sites = model.play_sites();
+    let unresolved_play: Vec<_> = unresolved
+        .into_iter()
+        .map(|(c, mut u)| {
+            if let super::candidates::Effect::Play { site, .. } = cands[c].effect {
+                u.joint = sites.get(site).cloned().unwrap_or_default();
+            }
+            u
+        })
+        .collect();
     progress("held-out check", 0.9);
     let (mut channels, traces, fit_after) =
         channel_fits(model, fit, holdout, &prep, &set, &x, &weight_scale, &sigma, opts)?;
@@ -588,7 +602,7 @@ fn diagnose_once(
     adequacy::honest_uncertainty(&mut estimates, &shares, &ratio);
     adequacy.unstable = adequacy::unstable_names(&estimates);
     let selected: Vec<String> = set.iter().map(|&c| cands[c].name.clone()).collect();
-    let found = adequacy::found_effects(&selected, &estimates);
+    let found = adequacy::found_effects(&selected, &estimates, &unresolved_play);
     let verdict = verdict(
         model,
         &set,
@@ -599,6 +613,7 @@ fn diagnose_once(
         &location,
         &adequacy,
         opts.library.dynamic_play_clearance.is_some() || opts.library.dynamic_axial_play.is_some(),
+        &unresolved_play,
     );
     let friction = super::equivalents::joint_friction(model, &set, &prep.cands, &estimates);
     progress("done", 1.0);
@@ -645,6 +660,7 @@ fn diagnose_once(
         estimates,
         correlations,
         confounded,
+        unresolved_play,
         channels,
         explained_fraction: adequacy.explained_fraction,
         unexplained: adequacy.unexplained,

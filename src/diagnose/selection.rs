@@ -17,7 +17,7 @@
 use super::candidates::{separating_experiment, Candidate, Effect};
 use super::error::DiagnoseError;
 use super::options::DiagnoseOptions;
-use super::outcome::{Confound, Estimate, Ranked, Step};
+use super::outcome::{Confound, Estimate, Ranked, Step, UnresolvedPlay};
 use super::residuals::Prepared;
 use super::signal::{effective_samples, lag1};
 use super::stats::{chi2_sf, Gram};
@@ -42,13 +42,18 @@ pub(super) struct Selection {
     pub total: Gram,
     /// Final channel weights (in the units of the residual `raw` was prepared with).
     pub weight_scale: Vec<f64>,
+    /// Selected plays whose estimates fell below their balls' compression, with the
+    /// candidate index of the play.
+    pub unresolved: Vec<(usize, UnresolvedPlay)>,
 }
 
 /// Ranks and selects on `raw` (residuals divided by the noise floors `sigma`; recording r
-/// has `lens[r]` samples per channel).
+/// has `lens[r]` samples per channel); `compliance_of[c]`: the candidates that are the
+/// contact compliance of play candidate c's joint ([`super::candidates::compliance_of`]).
 pub(super) fn select(
     raw: &Prepared,
     cands: &[Candidate],
+    compliance_of: &[Vec<usize>],
     lens: &[usize],
     sigma: &[f64],
     opts: &DiagnoseOptions,
@@ -74,7 +79,7 @@ pub(super) fn select(
         })
         .collect();
     let mut pass = 0;
-    let (prep, set, steps, cv_cur, ranking, n, n_eff, total) = loop {
+    let (prep, set, steps, cv_cur, ranking, n, n_eff, total, unresolved) = loop {
         let prep = raw.reweighed(&weight_scale, lens)?;
         let n: usize = prep.grams.iter().map(|g| g.n).sum();
         // Effective samples from the residual left by the whole library.
@@ -205,6 +210,65 @@ pub(super) fn select(
                 bic_cur = b2;
             }
         }
+        // Compliance, not play: a radial play in the reduced dynamic model on linear
+        // contacts carries its balls' compression (it scales with the clearance); where its
+        // estimate falls below that compression under the joint's own load, no play is
+        // resolved and what the column fits is the joint's contact compliance. The joint's
+        // compliance candidate takes its place where it fits as well (cross-validated,
+        // within the confounding tolerance); the verdict says so either way.
+        let mut unresolved = vec![];
+        if set.iter().any(|&c| prep.compression[c].is_some()) {
+            let x = total.solve(&prep.idx(&set));
+            let first: Vec<usize> = set
+                .iter()
+                .scan(0, |at, &c| {
+                    let f = *at;
+                    *at += prep.cols_of[c].len();
+                    Some(f)
+                })
+                .collect();
+            for pos in 0..set.len() {
+                let c = set[pos];
+                let (Some(delta), Some(&h)) = (prep.compression[c], x.get(first[pos])) else {
+                    continue;
+                };
+                if h >= delta {
+                    continue;
+                }
+                let best = compliance_of
+                    .get(c)
+                    .into_iter()
+                    .flatten()
+                    .copied()
+                    .filter(|d| !set.contains(d))
+                    .filter_map(|d| {
+                        let mut s2 = set.clone();
+                        s2[pos] = d;
+                        prep.plausible(&s2).then(|| (d, prep.cv_rss(&s2)))
+                    })
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
+                let within = best.filter(|&(_, cv2)| cv2 <= cv_cur * tol);
+                unresolved.push((
+                    c,
+                    UnresolvedPlay {
+                        play: cands[c].name.clone(),
+                        // (The caller names the joint: the selection sees candidates only.)
+                        joint: String::new(),
+                        estimate: h,
+                        compression: delta,
+                        compliance: within.map(|(d, _)| cands[d].name.clone()),
+                        alternative: best.map(|(d, _)| cands[d].name.clone()),
+                        cv_ratio: best.map(|(_, cv2)| (cv2 / cv_cur.max(1e-300)).sqrt()),
+                    },
+                ));
+                if let Some((d, cv2)) = within {
+                    set[pos] = d;
+                    steps[pos].added = cands[d].name.clone();
+                    cv_cur = cv2;
+                    bic_cur = bic(&set);
+                }
+            }
+        }
         // Backward elimination: an effect chosen early may only have stood in for one found
         // later (a length error for a base tilt); the member that would not join now —
         // given all the others, its test is not significant, it lowers the cross-validated
@@ -235,6 +299,11 @@ pub(super) fn select(
             cv_cur = cv_rest;
             bic_cur = bic_rest;
         }
+        // Only what stayed in the selection.
+        unresolved.retain(|(c, u)| match &u.compliance {
+            Some(name) => set.iter().any(|&k| &cands[k].name == name),
+            None => set.contains(c),
+        });
         // Re-weigh once: the channel scales the selected physics leaves (a large effect
         // found first no longer inflates its channel's weight, so what hides under it can
         // show).
@@ -260,7 +329,7 @@ pub(super) fn select(
                 continue;
             }
         }
-        break (prep, set, steps, cv_cur, ranking, n, n_eff, total);
+        break (prep, set, steps, cv_cur, ranking, n, n_eff, total, unresolved);
     };
     Ok(Selection {
         prep,
@@ -272,6 +341,7 @@ pub(super) fn select(
         n_eff,
         total,
         weight_scale,
+        unresolved,
     })
 }
 
@@ -386,7 +456,13 @@ pub(super) fn confounded(
     opts: &DiagnoseOptions,
     x: &[f64],
 ) -> Vec<Confound> {
-    let Selection { prep, set, cv, .. } = sel;
+    let Selection {
+        prep,
+        set,
+        cv,
+        unresolved,
+        ..
+    } = sel;
     let cv_cur = *cv;
     let mut confounded = vec![];
     let g = &prep.total().g;
@@ -396,7 +472,11 @@ pub(super) fn confounded(
         let col0 = first_col;
         first_col += prep.cols_of[c].len();
         for d in 0..cands.len() {
-            if set.contains(&d) || same_family(&cands[c], &cands[d]) {
+            // A play that resolved no play stands for the compliance named in its place.
+            if set.contains(&d)
+                || same_family(&cands[c], &cands[d])
+                || unresolved.iter().any(|(u, _)| *u == d)
+            {
                 continue;
             }
             let mut s = set.clone();
@@ -462,4 +542,131 @@ fn same_family(a: &Candidate, b: &Candidate) -> bool {
         && fam(a.effect) == fam(b.effect)
         && fam(a.effect) != 7
         && site(a.effect) == site(b.effect)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::candidates::PlayDirection;
+    use crate::diagnose::model::ParameterFamily;
+
+    fn candidate(name: &str, effect: Effect) -> Candidate {
+        Candidate {
+            name: name.into(),
+            effect,
+            joint: None,
+            parameters: vec!["x".into()],
+            grid_parameters: 0,
+            bounds: vec![(-1.0, 1.0)],
+        }
+    }
+
+    /// A play column p, a compliance column p + `apart`·w (w a shape of its own) and an
+    /// unrelated column; the residual 0.05·p plus a deterministic noise of RMS ~0.01, over
+    /// three recordings; the play's compression `delta` (m).
+    fn selection(delta: f64, apart: f64) -> Selection {
+        let cands = vec![
+            candidate(
+                "radial clearance in joint F (reduced dynamic model)",
+                Effect::Play {
+                    site: 0,
+                    direction: PlayDirection::Radial,
+                    load_scale: 5.0,
+                },
+            ),
+            candidate(
+                "error in joint compliance along leg C",
+                Effect::Parameter {
+                    index: 0,
+                    family: ParameterFamily::JointCompliance,
+                },
+            ),
+            candidate("torque offset", Effect::TorqueOffset),
+        ];
+        let n = 400;
+        let mut seed = 12345u64;
+        let blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)> = (0..3)
+            .map(|r| {
+                let t: Vec<f64> = (0..n).map(|i| (r * n + i) as f64 * 0.01).collect();
+                let p: Vec<f64> = t
+                    .iter()
+                    .map(|t| (1.3 * t).sin() + 0.4 * (3.1 * t).cos())
+                    .collect();
+                let c: Vec<f64> = p
+                    .iter()
+                    .zip(&t)
+                    .map(|(p, t)| p + apart * (7.7 * t).sin())
+                    .collect();
+                let u: Vec<f64> = t.iter().map(|t| (0.37 * t).cos()).collect();
+                let w: Vec<f64> = t.iter().map(|t| (7.7 * t).sin()).collect();
+                let mut e: Vec<f64> = (0..n)
+                    .map(|_| {
+                        seed = seed
+                            .wrapping_mul(6364136223846793005)
+                            .wrapping_add(1442695040888963407);
+                        ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.035
+                    })
+                    .collect();
+                // The noise made orthogonal to w, so the play's column fits better than the
+                // compliance's by `apart` alone, not by chance.
+                let k =
+                    e.iter().zip(&w).map(|(a, b)| a * b).sum::<f64>() / w.iter().map(|v| v * v).sum::<f64>();
+                e.iter_mut().zip(&w).for_each(|(a, b)| *a -= k * b);
+                let b: Vec<f64> = p.iter().zip(&e).map(|(p, e)| 0.05 * p + e).collect();
+                (vec![p, c, u], b)
+            })
+            .collect();
+        let mut raw = Prepared::new(cands.clone(), vec![vec![0], vec![1], vec![2]], blocks).unwrap();
+        raw.compression = vec![Some(delta), None, None];
+        let opts = DiagnoseOptions {
+            reweight: false,
+            ..DiagnoseOptions::default()
+        };
+        select(
+            &raw,
+            &cands,
+            &[vec![1], vec![], vec![]],
+            &[n; 3],
+            &[1.0],
+            &opts,
+            &mut |_, _| {},
+        )
+        .unwrap()
+    }
+
+    /// A play whose estimate (0.05) is below its compression (0.2) resolves no play: the
+    /// joint's compliance, which fits as well, is named in its place.
+    #[test]
+    fn a_play_below_its_compression_is_named_as_the_joints_compliance() {
+        let sel = selection(0.2, 1e-3);
+        assert_eq!(sel.set, vec![1], "the compliance replaces the play");
+        assert_eq!(sel.steps[0].added, "error in joint compliance along leg C");
+        let (c, u) = &sel.unresolved[0];
+        assert_eq!(*c, 0);
+        assert!((u.estimate - 0.05).abs() < 0.005, "{}", u.estimate);
+        assert_eq!(u.compression, 0.2);
+        assert_eq!(
+            u.compliance.as_deref(),
+            Some("error in joint compliance along leg C")
+        );
+        assert!(u.cv_ratio.is_some_and(|r| r < 1.005), "{:?}", u.cv_ratio);
+    }
+
+    /// Above its compression the play stands; below it, with a compliance that fits
+    /// clearly worse, the play stays selected and the record says which fitted worse.
+    #[test]
+    fn a_resolved_play_or_a_worse_compliance_leaves_the_play_selected() {
+        let sel = selection(0.01, 1e-3);
+        assert_eq!(sel.set, vec![0]);
+        assert!(sel.unresolved.is_empty());
+        let sel = selection(0.2, 0.5);
+        assert_eq!(sel.set, vec![0]);
+        let (_, u) = &sel.unresolved[0];
+        assert_eq!(u.compliance, None);
+        assert_eq!(
+            u.alternative.as_deref(),
+            Some("error in joint compliance along leg C")
+        );
+        assert!(u.cv_ratio.is_some_and(|r| r > 1.005), "{:?}", u.cv_ratio);
+    }
 }

@@ -10,7 +10,7 @@ use super::candidates::Candidate;
 use super::format::number;
 use super::locate::Location;
 use super::model::InverseDynamicsModel;
-use super::outcome::{ChannelFit, Confound, Diagnosis, Estimate, PlayDynamicsCheck};
+use super::outcome::{ChannelFit, Confound, Diagnosis, Estimate, PlayDynamicsCheck, UnresolvedPlay};
 
 /// The verdict of a finished diagnosis (after its estimates were moved back to the nominal
 /// model).
@@ -30,6 +30,7 @@ pub(super) fn verdict_text(model: &dyn InverseDynamicsModel, d: &Diagnosis, cand
         &d.location,
         &d.adequacy,
         d.dynamic_play_reference.is_some() || d.dynamic_axial_play_reference.is_some(),
+        &d.unresolved_play,
     ) + &d
         .play_dynamics
         .as_ref()
@@ -50,6 +51,7 @@ pub(super) fn verdict(
     location: &Location,
     adequacy: &Adequacy,
     dynamic_play: bool,
+    unresolved: &[UnresolvedPlay],
 ) -> String {
     let mut s = opening(adequacy, !set.is_empty());
     if set.is_empty() {
@@ -99,7 +101,11 @@ pub(super) fn verdict(
                 t
             })
             .collect();
-        format!("{} ({})", cands[c].name, est.join(", "))
+        format!(
+            "{} ({})",
+            super::outcome::claimed_name(&cands[c].name, unresolved),
+            est.join(", ")
+        )
     };
     let stable = |c: usize| {
         estimates
@@ -119,6 +125,7 @@ pub(super) fn verdict(
         s.push_str(&found.join("; "));
         s.push_str(". ");
     }
+    s.push_str(&unresolved_sentences(unresolved));
     if let Some(t) = play_dynamics(set, cands, adequacy, &stable, dynamic_play) {
         s.push_str(&t);
     }
@@ -147,6 +154,34 @@ pub(super) fn verdict(
     }
     s.push_str(&confound_sentences(confounded));
     s.trim_end().to_string()
+}
+
+/// The verdict's sentences on plays whose estimates fell below their balls' compression.
+fn unresolved_sentences(unresolved: &[UnresolvedPlay]) -> String {
+    let um = |v: f64| format!("{:.2} µm", v * 1e6);
+    unresolved
+        .iter()
+        .map(|u| {
+            let head = format!(
+                "The {} fitted {}, below the {} its balls compress under the joint's own load (RMS): no play is resolved there, and what it fitted is the joint's contact compliance",
+                u.play,
+                um(u.estimate),
+                um(u.compression)
+            );
+            match (&u.compliance, &u.alternative, u.cv_ratio) {
+                (Some(c), _, Some(r)) => format!(
+                    "{head}, named as the {c} (cross-validated fit {:+.2} % against the play's). ",
+                    100.0 * (r - 1.0)
+                ),
+                (None, Some(a), Some(r)) => format!(
+                    "{head}; the {a} fits {:.2} % worse (cross-validated), beyond the confounding tolerance, so it is reported as the contact compliance of joint {} in the play model's terms. ",
+                    100.0 * (r - 1.0),
+                    u.joint
+                ),
+                _ => format!("{head}; the model declares no compliance candidate for that joint. "),
+            }
+        })
+        .collect()
 }
 
 /// The verdict's sentences on effects the data cannot tell apart: per selected effect, the

@@ -275,7 +275,14 @@ fn a_recording_the_model_mostly_cannot_evaluate_is_refused() {
         fit[0].q[0][i] = f64::NAN;
     }
     let model = DoublePendulumModel { params: params() };
-    let e = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap_err();
+    // Refused up front, after one nominal pass: no stage of the diagnosis (noise floor,
+    // candidate columns, …) starts.
+    let mut stages = vec![];
+    let e = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |stage, _| {
+        stages.push(stage.to_string())
+    })
+    .unwrap_err();
+    assert!(stages.is_empty(), "{stages:?}");
     match &e {
         DiagnoseError::ResidualUndefined {
             recording,
@@ -1018,6 +1025,7 @@ mod declared_sensors {
                     material: lash::contact::Material::steel(),
                 },
                 cross_mass: 0.05,
+                compliance: vec![],
             }])
             .unwrap_err();
         assert!(e.to_string().contains("only the play of universal joints"), "{e}");

@@ -281,7 +281,17 @@ impl CaseResult {
     /// "nothing (no significant mismatch)", or "nothing; flagged unexplained" when the
     /// library names nothing but a mismatch remains.
     pub fn found_text(&self) -> String {
-        let unstable: Vec<&String> = self.selected.iter().filter(|s| !self.found.contains(s)).collect();
+        // (A play claimed as its joint's contact compliance is found under that claim.)
+        let unstable: Vec<&String> = self
+            .selected
+            .iter()
+            .filter(|s| {
+                !self
+                    .found
+                    .iter()
+                    .any(|f| f == *s || f.ends_with(&format!("fitted as {s}")))
+            })
+            .collect();
         let mut s = if super::adequacy::no_significant_mismatch(&self.found, self.unexplained) {
             "nothing (no significant mismatch)".to_string()
         } else if self.found.is_empty() {
@@ -580,7 +590,13 @@ pub(crate) fn score(
         .map(|tr| {
             d.estimates
                 .iter()
-                .find(|e| matches(&e.candidate, tr))
+                .find(|e| {
+                    matches(&e.candidate, tr)
+                        || matches(
+                            &super::outcome::claimed_name(&e.candidate, &d.unresolved_play),
+                            tr,
+                        )
+                })
                 .map(|e| (e.value, (e.value - tr.value).abs() / tr.value.abs()))
         })
         .collect();
@@ -844,6 +860,43 @@ mod tests {
         let board = scoreboard(&SuiteOptions::reduced(), results);
         assert_eq!(board.concealed_by_measure, (2, 3));
         assert_eq!(board.ranked_first, (3, 3));
+    }
+
+    /// A play that resolved no play is claimed as its joint's contact compliance: found
+    /// under that name (not listed as unstable) and matched by a truth that names it.
+    #[test]
+    fn a_play_below_its_compression_is_found_as_its_joints_contact_compliance() {
+        use crate::diagnose::outcome::{claimed_name, UnresolvedPlay};
+        let u = UnresolvedPlay {
+            play: "radial clearance in joint F (reduced dynamic model)".into(),
+            joint: "F".into(),
+            estimate: 7e-8,
+            compression: 4.5e-7,
+            compliance: None,
+            alternative: Some("error in joint compliance along leg C (joints F, R)".into()),
+            cv_ratio: Some(1.02),
+        };
+        let claim = claimed_name(&u.play, std::slice::from_ref(&u));
+        assert_eq!(
+            claim,
+            "contact compliance of joint F, fitted as radial clearance in joint F (reduced dynamic model)"
+        );
+        assert!(name_matches(
+            &claim,
+            "error in joint compliance along leg C|contact compliance of joint F"
+        ));
+        assert!(!name_matches(&claim, "radial clearance in joint F"));
+        assert_eq!(claimed_name("payload", std::slice::from_ref(&u)), "payload");
+        let mut r = result(CaseKind::Concealed, 0.8);
+        r.selected = vec![u.play.clone(), "error in drive C compliance".into()];
+        r.found = vec![claim.clone(), "error in drive C compliance".into()];
+        assert_eq!(r.found_text(), format!("{claim}; error in drive C compliance"));
+        // Where a compliance candidate took the play's place, the play claims nothing.
+        let named = UnresolvedPlay {
+            compliance: Some("error in joint compliance along leg C (joints F, R)".into()),
+            ..u
+        };
+        assert_eq!(named.claim(), None);
     }
 
     /// A case where the library names nothing but a mismatch remains is not reported as
