@@ -363,6 +363,20 @@ pub struct Candidate {
     pub bounds: Vec<(f64, f64)>,
 }
 
+/// A one-parameter candidate acting in no particular joint, for tests: `name`, `effect`,
+/// parameter "x", bounds ±1 (or 0…1 with `positive`).
+#[cfg(test)]
+pub(crate) fn test_candidate(name: &str, effect: Effect, positive: bool) -> Candidate {
+    Candidate {
+        name: name.into(),
+        effect,
+        joint: None,
+        parameters: vec!["x".into()],
+        grid_parameters: 0,
+        bounds: vec![(if positive { 0.0 } else { -1.0 }, 1.0)],
+    }
+}
+
 /// Per candidate, the candidates (indices into `cands`) that are the contact compliance of a
 /// play candidate's joint ([`InverseDynamicsModel::play_site_compliance`]); empty for the
 /// others.
@@ -1357,17 +1371,16 @@ mod tests {
     /// candidates carry no drive index: the place comes from the name).
     #[test]
     fn the_experiment_separating_two_plays_names_their_joints() {
-        let play = |joint: &str, site| Candidate {
-            name: format!("radial clearance in joint {joint} (reduced dynamic model)"),
-            effect: Effect::Play {
-                site,
-                direction: PlayDirection::Radial,
-                load_scale: 5.0,
-            },
-            joint: None,
-            parameters: vec!["h [m]".into()],
-            grid_parameters: 0,
-            bounds: vec![(0.0, 0.01)],
+        let play = |joint: &str, site| {
+            test_candidate(
+                &format!("radial clearance in joint {joint} (reduced dynamic model)"),
+                Effect::Play {
+                    site,
+                    direction: PlayDirection::Radial,
+                    load_scale: 5.0,
+                },
+                true,
+            )
         };
         let text = separating_experiment(&play("F", 2), &play("R", 5), 3);
         assert!(text.contains("in joint F and in joint R"), "{text}");

@@ -551,14 +551,7 @@ mod tests {
     use crate::diagnose::model::ParameterFamily;
 
     fn candidate(name: &str, effect: Effect) -> Candidate {
-        Candidate {
-            name: name.into(),
-            effect,
-            joint: None,
-            parameters: vec!["x".into()],
-            grid_parameters: 0,
-            bounds: vec![(-1.0, 1.0)],
-        }
+        crate::diagnose::candidates::test_candidate(name, effect, false)
     }
 
     /// A play column p, a compliance column p + `apart`·w (w a shape of its own) and an

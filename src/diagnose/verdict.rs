@@ -327,14 +327,7 @@ mod tests {
     use crate::diagnose::candidates::{Effect, PlayDirection};
 
     fn candidate(name: &str, effect: Effect) -> Candidate {
-        Candidate {
-            name: name.into(),
-            effect,
-            joint: None,
-            parameters: vec!["h [m]".into()],
-            grid_parameters: 0,
-            bounds: vec![(0.0, 1.0)],
-        }
+        crate::diagnose::candidates::test_candidate(name, effect, true)
     }
 
     fn adequacy(tag: &str, ratio: f64, unexplained: bool) -> Adequacy {
