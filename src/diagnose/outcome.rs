@@ -86,8 +86,12 @@ pub struct UnresolvedPlay {
     /// where it fits within the confounding tolerance; `None`: none does, the play candidate
     /// stays selected and the verdict says what it stands for.
     pub compliance: Option<String>,
-    /// The best of the joint's compliance candidates, whether or not it replaced the play.
+    /// The best of the joint's compliance candidates, whether or not it replaced the play
+    /// (`None`: every one is already selected or fits implausibly in the play's place, or
+    /// the model declares none).
     pub alternative: Option<String>,
+    /// How many compliance candidates the model declares for the joint.
+    pub declared: usize,
     /// Cross-validated RMS with that compliance candidate in the play's place / with the
     /// play.
     pub cv_ratio: Option<f64>,

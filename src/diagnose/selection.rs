@@ -258,6 +258,7 @@ pub(super) fn select(
                         compression: delta,
                         compliance: within.map(|(d, _)| cands[d].name.clone()),
                         alternative: best.map(|(d, _)| cands[d].name.clone()),
+                        declared: compliance_of.get(c).map_or(0, Vec::len),
                         cv_ratio: best.map(|(_, cv2)| (cv2 / cv_cur.max(1e-300)).sqrt()),
                     },
                 ));
@@ -656,6 +657,7 @@ mod tests {
         assert_eq!(sel.set, vec![0]);
         let (_, u) = &sel.unresolved[0];
         assert_eq!(u.compliance, None);
+        assert_eq!(u.declared, 1);
         assert_eq!(
             u.alternative.as_deref(),
             Some("error in joint compliance along leg C")

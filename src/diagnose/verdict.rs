@@ -178,7 +178,13 @@ fn unresolved_sentences(unresolved: &[UnresolvedPlay]) -> String {
                     100.0 * (r - 1.0),
                     u.joint
                 ),
-                _ => format!("{head}; the model declares no compliance candidate for that joint. "),
+                _ if u.declared == 0 => {
+                    format!("{head}; the model declares no compliance candidate for that joint. ")
+                }
+                _ => format!(
+                    "{head}; its compliance candidates are already in the selection (or fit implausibly in its place), so it is reported as the contact compliance of joint {} in the play model's terms. ",
+                    u.joint
+                ),
             }
         })
         .collect()
@@ -328,6 +334,50 @@ mod tests {
 
     fn candidate(name: &str, effect: Effect) -> Candidate {
         crate::diagnose::candidates::test_candidate(name, effect, true)
+    }
+
+    /// A play below its compression: the sentence says which compliance took its place, or
+    /// why none did (fits worse; already selected; none declared).
+    #[test]
+    fn an_unresolved_play_says_why_it_is_or_is_not_named_as_a_compliance() {
+        let u = UnresolvedPlay {
+            play: "radial clearance in joint D (reduced dynamic model)".into(),
+            joint: "D".into(),
+            estimate: 8e-8,
+            compression: 5.3e-7,
+            compliance: None,
+            alternative: None,
+            declared: 2,
+            cv_ratio: None,
+        };
+        let text = |u: &UnresolvedPlay| unresolved_sentences(std::slice::from_ref(u));
+        let t = text(&u);
+        assert!(t.contains("fitted 0.08 µm, below the 0.53 µm"), "{t}");
+        assert!(t.contains("already in the selection"), "{t}");
+        assert!(t.contains("contact compliance of joint D"), "{t}");
+        let none = UnresolvedPlay {
+            declared: 0,
+            ..u.clone()
+        };
+        assert!(text(&none).contains("declares no compliance candidate"));
+        let worse = UnresolvedPlay {
+            alternative: Some("error in joint compliance along leg A".into()),
+            cv_ratio: Some(1.0217),
+            ..u.clone()
+        };
+        assert!(text(&worse).contains("fits 2.17 % worse"), "{}", text(&worse));
+        let named = UnresolvedPlay {
+            compliance: Some("error in joint compliance along leg A".into()),
+            alternative: Some("error in joint compliance along leg A".into()),
+            cv_ratio: Some(1.003),
+            ..u
+        };
+        assert!(
+            text(&named)
+                .contains("named as the error in joint compliance along leg A (cross-validated fit +0.30 %"),
+            "{}",
+            text(&named)
+        );
     }
 
     fn adequacy(tag: &str, ratio: f64, unexplained: bool) -> Adequacy {

@@ -874,6 +874,7 @@ mod tests {
             compression: 4.5e-7,
             compliance: None,
             alternative: Some("error in joint compliance along leg C (joints F, R)".into()),
+            declared: 2,
             cv_ratio: Some(1.02),
         };
         let claim = claimed_name(&u.play, std::slice::from_ref(&u));
