@@ -3,7 +3,7 @@
 //! rotors on torsional springs (the nominal model's quasi-static wind-up is not how they
 //! move), friction laws outside the library (Stribeck with its own scales and exponent,
 //! friction that drifts, cogging), bearings with clearance and Hertz contact in chosen
-//! universal joints, payload bodies, a tilted base, sensor offsets and scales — each
+//! universal joints, payload bodies, a tilted base, sensor offsets, scales and delays — each
 //! diagnosed blind from the multibody nominal model ([`super::super::mr2120`]).
 //!
 //! No generator code path is shared with the candidate library: the library's forms (tanh
@@ -33,10 +33,11 @@ use std::sync::{Mutex, OnceLock};
 
 /// The cases `lash diagnose --suite --reduced` runs: the null case, one of each kind of
 /// physics, two out-of-library cases and the pair (names matched as `--only` matches them:
-/// "payload" also runs tilt-under-payload and sprung-payload, nine cases in all). No clearance case: a truth with bearings
+/// "payload" also runs tilt-under-payload and sprung-payload, "delay" the torque and the
+/// tracker delay, eleven cases in all). No clearance case: a truth with bearings
 /// with clearance simulates at 13–30 s per simulated second (Hertz contact rattle), minutes
 /// per recording; the full suite runs them.
-pub const REDUCED_CASES: [&str; 7] = [
+pub const REDUCED_CASES: [&str; 8] = [
     "null",
     "payload",
     "stribeck",
@@ -44,6 +45,7 @@ pub const REDUCED_CASES: [&str; 7] = [
     "cogging",
     "drifting",
     "pair",
+    "delay",
 ];
 
 /// A change to the nominal truth.
@@ -329,6 +331,32 @@ pub fn cases() -> Vec<Case> {
             // `UnresolvedPlay`).
             vec![Truth::named("error in joint compliance along leg C|contact compliance of joint F")],
         ));
+    // The truth shifts the torque channels exactly (the simulation's output at t − d); the
+    // library's candidate is the first-order term −d·dτ/dt per drive.
+    out.push(mk(
+        "torque-delay",
+        "the three torque channels read 0.1 ms late (one acquisition chain)",
+        Concealed,
+        |s| s.sensors.torque_delay = 1e-4,
+        None,
+        vec![
+            t("torque-sensor delay in drive A", 1e-4, true),
+            t("torque-sensor delay in drive B", 1e-4, true),
+            t("torque-sensor delay in drive C", 1e-4, true),
+        ],
+    ));
+    out.push(mk(
+        "tracker-delay",
+        "the tracker reads 10 µs late",
+        Concealed,
+        |s| s.sensors.tracker_delay = 1e-5,
+        None,
+        vec![
+            t("platform x sensor delay", 1e-5, true),
+            t("platform y sensor delay", 1e-5, true),
+            t("platform z sensor delay", 1e-5, true),
+        ],
+    ));
     out
 }
 
