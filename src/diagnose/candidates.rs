@@ -65,6 +65,11 @@ pub struct LibraryOptions {
     /// Load scales over which a joint with play moves across its clearance, N (one
     /// candidate each per joint and direction; cross-validation picks among them).
     pub play_load_scales: Vec<f64>,
+    /// Torque scales over which a drive's backlash changes sides, as factors of the model's
+    /// [`InverseDynamicsModel::backlash_torque_scale`] (one candidate each per drive;
+    /// cross-validation picks among them): how sharply a transmission crosses its play as
+    /// its torque reverses is not known beforehand.
+    pub backlash_scale_factors: Vec<f64>,
     /// Velocity scales of the smooth sign for prismatic joints, as fractions of the joint's
     /// typical speed ([`speed_scales`](Self::speed_scales)).
     pub relative_coulomb_velocities: Vec<f64>,
@@ -235,6 +240,7 @@ impl Default for LibraryOptions {
             stribeck_velocities: vec![0.1, 0.3, 1.0],
             relative_stribeck_velocities: vec![0.1, 0.3, 1.0],
             play_load_scales: vec![1.0, 5.0, 20.0],
+            backlash_scale_factors: vec![0.3, 1.0, 3.0],
             relative_coulomb_velocities: vec![0.1, 0.03, 0.01],
             speed_scales: vec![],
             exclude: vec![],
@@ -289,8 +295,12 @@ pub enum Effect {
     TorqueDelay,
     /// Offset of a joint-position sensor (encoder), rad.
     PositionOffset,
-    /// Backlash of a drive (half the play), rad.
-    Backlash,
+    /// Backlash of a drive (half the play), rad, changing sides over the joint-side torque
+    /// scale `scale` (N·m, or N for a prismatic drive).
+    Backlash {
+        /// Torque scale τ_b of the smooth sign tanh(τ/τ_b).
+        scale: f64,
+    },
     /// Clearance at a site of the model (index into its clearance sites), m.
     Clearance {
         /// Site index.
@@ -506,13 +516,22 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
                 0,
                 &[(-0.05, 0.05)],
             ));
-            out.push(mk(
-                "drive backlash",
-                Effect::Backlash,
-                &[format!("b [{}]", motion.position())],
-                0,
-                &[(0.0, 0.05)],
-            ));
+            let base = model.backlash_torque_scale();
+            let scales: Vec<f64> = opts.backlash_scale_factors.iter().map(|f| f * base).collect();
+            for &scale in &scales {
+                let mut c = mk(
+                    "drive backlash",
+                    Effect::Backlash { scale },
+                    &[format!("b [{}]", motion.position())],
+                    usize::from(scales.len() > 1),
+                    &[(0.0, 0.05)],
+                );
+                if scales.len() > 1 {
+                    // (Rounded to a millionth: 0.3 × 0.1 prints as 0.03.)
+                    c.name += &format!(" (τ_b = {} {effort})", (scale * 1e6).round() / 1e6);
+                }
+                out.push(c);
+            }
         }
     }
     for (site, name) in model.clearance_sites().iter().enumerate() {
@@ -920,8 +939,10 @@ pub fn columns(
     // the mass matrix couples them), the torque sensors read K·δw + D·δẇ, and the outputs
     // move by Σ_k δw_k·(−∂y/∂q_k) as the arms lag their encoders (the torques' own
     // configuration coupling is left out, see `transmission`); else the quasi-static wind-up
-    // c_j·g.
-    let joint_torque = |j: usize, g: &dyn Fn(usize) -> f64| {
+    // c_j·g. `share` of g is taken off drive j's torque sensor: 0 for a torque on the arm
+    // (friction), 1 for a torque the transmission's spring itself loses (backlash), which
+    // the sensor on the motor side does not read.
+    let joint_torque_with_share = |j: usize, g: &dyn Fn(usize) -> f64, share: f64| {
         let mut c = vec![0.0; nc * n];
         if dynamic {
             let nj = model.joints();
@@ -939,6 +960,9 @@ pub fn columns(
                 for a in 0..nj {
                     if let Some(r) = torque_row(a) {
                         c[r * n + i] = k[a] * w[a] + dy.damping[a] * wd[a];
+                        if a == j {
+                            c[r * n + i] -= share * g(i);
+                        }
                     }
                 }
                 for &b in drives {
@@ -952,7 +976,7 @@ pub fn columns(
         }
         if let Some(r) = torque_row(j) {
             for i in 0..n {
-                c[r * n + i] = g(i);
+                c[r * n + i] = (1.0 - share) * g(i);
             }
         }
         let cj = model.drive_compliance(&theta0, j);
@@ -966,6 +990,7 @@ pub fn columns(
         }
         c
     };
+    let joint_torque = |j: usize, g: &dyn Fn(usize) -> f64| joint_torque_with_share(j, g, 0.0);
     // A torque seen by the torque sensor only.
     let sensor_torque = |j: usize, g: &dyn Fn(usize) -> f64| {
         let mut c = vec![0.0; nc * n];
@@ -1004,9 +1029,29 @@ pub fn columns(
                 // Measured = true + o, so the model sees q − o: column −∂(τ, y)/∂q_j.
                 vec![lag_of(j).clone()]
             }
-            (Effect::Backlash, Some(j)) => {
+            (Effect::Backlash { scale }, Some(j)) if dynamic && model.drive_compliance(&theta0, j) > 0.0 => {
+                // With the transmissions' dynamics: backlash b takes K_j·clip(w_j, ±b) out
+                // of the spring's torque K_j·w_j, i.e. adds that much joint-side torque to
+                // the wind-up's equation, M·δẅ + D·δẇ + (K + S)·δw = K_j·clip(w_j, ±b)·e_j;
+                // to first order in b, with the wind-up's sign smoothed as the quasi-static
+                // form has it, the forcing is b·K_j·tanh(τ_j/τ_b). The arms lag by δw (b
+                // in drive j at rest), the torque sensors read K·δw + D·δẇ less the
+                // forcing itself on drive j (nothing at rest, the ringing when the
+                // transmission crosses its play as its torque reverses).
+                let kj = 1.0 / model.drive_compliance(&theta0, j);
+                let g = |i: usize| {
+                    let side = (tau_nom[j][i] / scale).tanh();
+                    if side.is_finite() {
+                        kj * side
+                    } else {
+                        0.0
+                    }
+                };
+                vec![joint_torque_with_share(j, &g, 1.0)]
+            }
+            (Effect::Backlash { scale }, Some(j)) => {
                 // The arm lags its encoder by b·tanh(τ_j/τ_b).
-                let tb = model.backlash_torque_scale();
+                let tb = scale;
                 let l = lag_of(j);
                 let mut col = vec![0.0; nc * n];
                 for r in 0..nc {
@@ -1205,7 +1250,7 @@ fn passes_of(cands: &[Candidate], declared: &[DeclaredCandidate], drive_lags: &[
                     add(Pass::Parameter(index));
                 }
             }
-            (Effect::PositionOffset | Effect::Backlash, Some(j)) => add(Pass::Lag(j)),
+            (Effect::PositionOffset | Effect::Backlash { .. }, Some(j)) => add(Pass::Lag(j)),
             (
                 Effect::Viscous
                 | Effect::AsymmetricViscous
@@ -1310,13 +1355,13 @@ fn recording_for(a: &Candidate, b: &Candidate) -> String {
             Viscous | AsymmetricViscous | Coulomb { .. } | Stribeck { .. } | AsymmetricFriction { .. }
         )
     };
-    let play = |e: Effect| matches!(e, Backlash | Clearance { .. } | Play { .. });
+    let play = |e: Effect| matches!(e, Backlash { .. } | Clearance { .. } | Play { .. });
     match (a.effect, b.effect) {
         (x, y) if (friction(x) && play(y)) || (play(x) && friction(y)) => format!(
             "a slow motion that reverses the velocity of {} while the loads keep their sign, then one that reverses the loads at constant velocity (friction flips with the velocity, play with the load)",
             joint(if a.joint.is_some() { a } else { b })
         ),
-        (Backlash, Clearance { .. }) | (Clearance { .. }, Backlash) => format!(
+        (Backlash { .. }, Clearance { .. }) | (Clearance { .. }, Backlash { .. }) => format!(
             "a motion that reverses the torque of {} while the forces in the other links keep their sign (backlash follows the drive torque, clearance the joint's own load)",
             joint(if a.joint.is_some() { a } else { b })
         ),
@@ -1565,6 +1610,73 @@ mod tests {
                 a[i]
             );
         }
+    }
+
+    /// A drive's backlash with the transmission's dynamics known (one drive of 1e4 N·m/rad
+    /// on 0.01 kg·m², damping ratio 0.25, so a 159 Hz mode): while the torque holds its
+    /// sign the arm lags its encoder by b (the output, the drive's angle, moves by
+    /// −tanh(τ/τ_b) per unit b) and the motor-side torque sensor reads nothing more (the
+    /// spring carries the same torque); when the torque reverses within a sample, the
+    /// transmission crosses its play and rings — the sensor reads the overshoot of a damped
+    /// oscillator whose rest position jumped by 2b (at most 0.44 of the jump for ζ = 0.25,
+    /// i.e. 0.89·K per unit b; less for a jump spread over the 2 ms sample interval, and the
+    /// samples, 2 ms apart on a 6.3 ms period, miss the crest: 0.35·K here), gone 50 ms later
+    /// (without the dynamics the torque row would be zero throughout). One candidate per
+    /// torque scale of the grid.
+    #[test]
+    fn a_drive_backlash_lags_the_arm_at_rest_and_rings_the_torque_sensor_at_a_reversal() {
+        let n = 1001;
+        let t: Vec<f64> = (0..n).map(|i| 0.002 * i as f64).collect();
+        // Carried's torque is 0.1·q̈: it reverses from −0.3 to 0.3 N·m at t = 1 s.
+        let qdd: Vec<f64> = t.iter().map(|t| 3.0 * ((t - 1.0) / 5e-4).tanh()).collect();
+        let d = MotionData {
+            name: "reversal".into(),
+            t: t.clone(),
+            q: vec![vec![0.0; n]],
+            qd: vec![vec![0.0; n]],
+            qdd: vec![qdd.clone()],
+            qdd_noise: vec![],
+            tau: vec![vec![0.0; n]],
+            y: vec![vec![0.0; n]],
+        };
+        let opts = LibraryOptions::default();
+        let cands = library(&Carried, &opts);
+        let backlash: Vec<usize> = (0..cands.len())
+            .filter(|&c| matches!(cands[c].effect, Effect::Backlash { .. }))
+            .collect();
+        let names: Vec<&str> = backlash.iter().map(|&c| cands[c].name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "drive backlash in drive (τ_b = 0.03 N m)",
+                "drive backlash in drive (τ_b = 0.1 N m)",
+                "drive backlash in drive (τ_b = 0.3 N m)",
+            ]
+        );
+        let cols = columns(&cands, &d, &Carried, &opts).cols;
+        let k = 1e4;
+        let c = backlash[0];
+        let (torque, output) = (&cols[c][0][..n], &cols[c][0][n..2 * n]);
+        let mut peak = 0.0f64;
+        for i in 0..n {
+            let side = (0.1 * qdd[i] / 0.03).tanh();
+            if (t[i] - 1.0).abs() > 0.05 {
+                assert!(
+                    (output[i] + side).abs() < 1e-3,
+                    "t = {} s: output {} against {}",
+                    t[i],
+                    output[i],
+                    -side
+                );
+                assert!(torque[i].abs() < 1e-3 * k, "t = {} s: torque {}", t[i], torque[i]);
+            } else if t[i] > 1.0 {
+                peak = peak.max(torque[i].abs());
+            }
+        }
+        assert!(
+            (0.2 * k..=0.89 * k).contains(&peak),
+            "peak {peak} N·m per rad of backlash"
+        );
     }
 
     /// Asked to (the play-dynamics check, [`LibraryOptions::dynamic_play_clearance`]), the

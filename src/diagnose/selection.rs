@@ -527,7 +527,7 @@ fn same_family(a: &Candidate, b: &Candidate) -> bool {
         TorqueDelay => 6,
         Parameter { .. } => 7,
         PositionOffset => 8,
-        Backlash => 9,
+        Backlash { .. } => 9,
         Clearance { .. } => 10,
         OutputOffset { .. } => 11,
         OutputDelay { .. } => 12,

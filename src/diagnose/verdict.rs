@@ -258,7 +258,7 @@ fn play_dynamics(
             stable(c)
                 && matches!(
                     cands[c].effect,
-                    Effect::Play { .. } | Effect::Clearance { .. } | Effect::Backlash
+                    Effect::Play { .. } | Effect::Clearance { .. } | Effect::Backlash { .. }
                 )
         })
         .map(|c| cands[c].name.as_str())

@@ -357,6 +357,17 @@ pub fn cases() -> Vec<Case> {
             t("platform z sensor delay", 1e-5, true),
         ],
     ));
+    // The truth's transmission is a dead zone (free within ±b, a spring and damper beyond,
+    // crossed whenever its torque reverses); the library's backlash is a smooth lag
+    // b·tanh(τ/τ_b) of the arm behind its encoder.
+    out.push(mk(
+        "backlash",
+        "drive B transmission with 10 µrad backlash (half its play)",
+        Concealed,
+        |s| s.drives[1].backlash = 1e-5,
+        None,
+        vec![t("drive backlash in drive B", 1e-5, true)],
+    ));
     out
 }
 

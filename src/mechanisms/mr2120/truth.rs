@@ -276,18 +276,44 @@ pub struct DriveTruth {
     pub rotor_inertia: f64,
     /// Torques on the arm side (friction, cogging), summed.
     pub friction: Vec<ArmFriction>,
+    /// Backlash of the transmission: half its play, rad (≥ 0, at most [`MAX_BACKLASH`]).
+    /// Within ±backlash of its unloaded angle the arm turns free of the rotor; beyond it the
+    /// transmission acts as a spring and damper on the excess, and pushes only (a dead zone
+    /// that the rotor crosses whenever the transmission's torque reverses).
+    pub backlash: f64,
 }
+
+/// Largest transmission backlash accepted (half the play), rad.
+pub const MAX_BACKLASH: f64 = 1e-2;
 
 impl DriveTruth {
     /// [`NOMINAL_STIFFNESS`], [`NOMINAL_TRANSMISSION_DAMPING`], [`NOMINAL_ROTOR_INERTIA`], no
-    /// friction.
+    /// friction, no backlash.
     pub fn nominal() -> Self {
         Self {
             stiffness: NOMINAL_STIFFNESS,
             damping: NOMINAL_TRANSMISSION_DAMPING,
             rotor_inertia: NOMINAL_ROTOR_INERTIA,
             friction: vec![],
+            backlash: 0.0,
         }
+    }
+
+    /// The transmission's torque on the arm at relative rotation θ (arm against rotor, rad)
+    /// and rate θ̇ (rad/s), N·m: −k·θ − c·θ̇ without backlash; with backlash b, zero for
+    /// |θ| ≤ b and −sign(θ)·max(k·(|θ| − b) + c·θ̇·sign(θ), 0) beyond (the damping acts
+    /// only in contact, and a separating contact does not pull).
+    pub fn transmission_torque(&self, theta: f64, rate: f64) -> f64 {
+        let (k, c, b) = (self.stiffness, self.damping, self.backlash);
+        if b <= 0.0 {
+            return -k * theta - c * rate;
+        }
+        let over = theta.abs() - b;
+        if over <= 0.0 {
+            return 0.0;
+        }
+        let s = theta.signum();
+        -s * (k * over + c * rate * s).max(0.0)
     }
 }
 
@@ -473,6 +499,12 @@ impl TruthSpec {
                 return inv(format!(
                     "drive {n}: rotor inertia = {} kg·m² (must be > 0)",
                     d.rotor_inertia
+                ));
+            }
+            if !(nonneg(d.backlash) && d.backlash <= MAX_BACKLASH) {
+                return inv(format!(
+                    "drive {n}: backlash = {} rad (must be in [0, {MAX_BACKLASH}] rad)",
+                    d.backlash
                 ));
             }
             for f in &d.friction {
@@ -875,13 +907,22 @@ pub fn truth_model(
         let spring = rel(Attach::Body(rotor), Attach::Body(l.arms[i]))?;
         let arm_angle = rel(Attach::Ground, Attach::Body(l.arms[i]))?;
         rotor_angles.push(rel(Attach::Ground, Attach::Body(rotor))?);
-        mech.add_force(Box::new(RotationalSpringDamper {
-            name: format!("transmission {name}"),
-            rotation: spring,
-            stiffness: d.stiffness,
-            damping: d.damping,
-            free_angle: 0.0,
-        }));
+        if d.backlash > 0.0 {
+            let drive = d.clone();
+            mech.add_force(Box::new(RotationalTorque {
+                name: format!("transmission {name} (with backlash)"),
+                rotation: spring,
+                law: Arc::new(move |_, theta, rate| drive.transmission_torque(theta, rate)),
+            }));
+        } else {
+            mech.add_force(Box::new(RotationalSpringDamper {
+                name: format!("transmission {name}"),
+                rotation: spring,
+                stiffness: d.stiffness,
+                damping: d.damping,
+                free_angle: 0.0,
+            }));
+        }
         if !d.friction.is_empty() {
             let laws = d.friction.clone();
             let q0 = l.q[i];
@@ -1408,5 +1449,37 @@ mod tests {
         assert!((s.torque(1.0) + 0.1).abs() < 1e-3);
         assert!((s.torque(-0.002) - 0.3 * 0.002 / (0.002f64.powi(2) + 1e-6).sqrt()).abs() < 0.02);
         assert_eq!(s.torque(0.0), 0.0);
+    }
+
+    /// The transmission: a spring-damper without backlash; with it, free within ±b, the
+    /// spring on the excess beyond, damped only in contact and never pulling.
+    #[test]
+    fn a_transmission_with_backlash_is_free_within_its_play_and_pushes_only_beyond_it() {
+        let mut d = DriveTruth::nominal();
+        let (k, c) = (d.stiffness, d.damping);
+        assert_eq!(d.transmission_torque(2e-5, 0.1), -k * 2e-5 - c * 0.1);
+        d.backlash = 1e-5;
+        assert_eq!(d.transmission_torque(5e-6, 0.1), 0.0);
+        assert_eq!(d.transmission_torque(-1e-5, -3.0), 0.0);
+        let f = k * 1e-5;
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * f;
+        assert!(close(d.transmission_torque(2e-5, 0.0), -f));
+        assert!(close(d.transmission_torque(-2e-5, 0.0), f));
+        // Closing, the damping adds; separating, it subtracts, down to nothing (no pull).
+        let rate = 0.5 * f / c;
+        assert!(close(d.transmission_torque(2e-5, rate), -1.5 * f));
+        assert!(close(d.transmission_torque(2e-5, -rate), -0.5 * f));
+        assert!(close(d.transmission_torque(-2e-5, rate), 0.5 * f));
+        assert_eq!(d.transmission_torque(2e-5, -4.0 * rate), 0.0);
+        // A backlash outside [0, MAX_BACKLASH] is refused, naming the drive.
+        let mut spec = TruthSpec::nominal();
+        spec.drives[1].backlash = -1e-6;
+        let e = spec.validate().expect_err("negative backlash");
+        assert!(
+            e.to_string().contains("drive B") && e.to_string().contains("backlash"),
+            "{e}"
+        );
+        spec.drives[1].backlash = 2.0 * MAX_BACKLASH;
+        assert!(spec.validate().is_err());
     }
 }
