@@ -33,11 +33,10 @@ use std::sync::{Mutex, OnceLock};
 
 /// The cases `lash diagnose --suite --reduced` runs: the null case, one of each kind of
 /// physics, two out-of-library cases and the pair (names matched as `--only` matches them:
-/// "payload" also runs tilt-under-payload and sprung-payload, "delay" the torque and the
-/// tracker delay, eleven cases in all). No clearance case: a truth with bearings
+/// "payload" also runs tilt-under-payload and sprung-payload; eleven cases in all). No clearance case: a truth with bearings
 /// with clearance simulates at 13–30 s per simulated second (Hertz contact rattle), minutes
 /// per recording; the full suite runs them.
-pub const REDUCED_CASES: [&str; 8] = [
+pub const REDUCED_CASES: [&str; 9] = [
     "null",
     "payload",
     "stribeck",
@@ -45,7 +44,8 @@ pub const REDUCED_CASES: [&str; 8] = [
     "cogging",
     "drifting",
     "pair",
-    "delay",
+    "torque-delay",
+    "tracker-delay",
 ];
 
 /// A change to the nominal truth.
