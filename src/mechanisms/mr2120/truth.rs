@@ -19,7 +19,9 @@
 //!   the ground, coaxial with the arm's revolute pair, follows the commanded motor angle
 //!   exactly (a driver); the arm's revolute pair is *not* driven: the arm is coupled to the
 //!   rotor by a torsional spring-damper
-//!   ([`crate::multibody::forces::RotationalSpringDamper`]).
+//!   ([`crate::multibody::forces::RotationalSpringDamper`]), or, with backlash
+//!   ([`DriveTruth::backlash`]), by a dead zone: free within ±b, the spring and damper on the
+//!   excess beyond ([`DriveTruth::transmission_torque`]), crossed at every torque reversal.
 //! * **Arm-side joint friction** as force elements ([`ArmFriction`]): Stribeck friction with
 //!   its own scales and exponent, Coulomb friction that drifts over the record, cogging
 //!   torque ripple. (LuGre is not implemented: it needs a friction state, which a force
