@@ -30,7 +30,7 @@
 //! | effect | output term |
 //! |---|---|
 //! | joint-position sensor offset o_j | −o_j·∂(τ, y)/∂q_j (torques too) |
-//! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) |
+//! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) for each τ_b of the grid ([`LibraryOptions::backlash_scale_factors`]); with the transmissions' dynamics, the wind-up's response δw to the joint-side torque b_j·K_j·tanh(τ_j/τ_b) instead, the outputs moved by it and the torque sensors reading K·δw + D·δẇ less that torque (the ringing where the transmission crosses its play) |
 //! | clearance h at a site (e.g. the joints of a leg) | h·∂y/∂s·tanh(F/F_c), F the site's load |
 //! | play h of a universal joint, radial or axial ([`crate::contact::play`]) | h·∂y/∂(shift, tilt)·(the shift toward the joint's load per unit clearance, over load scale F_c) |
 //! | the same play, with its dynamics (the selection's second pass, or the play-dynamics check) | drive torques too: h·Δτ(h_ref)/h_ref, Δτ the reduced dynamic play model's response ([`super::play_dynamics`]) at a reference play h_ref of the same direction ([`LibraryOptions::dynamic_play_clearance`], [`LibraryOptions::dynamic_axial_play`]); in the second pass the tracker too, h·Δy(h_ref)/h_ref from the model's play coordinates and extra wind-up ([`LibraryOptions::dynamic_play_tracker`]) |
