@@ -991,6 +991,16 @@ pub fn columns(
         c
     };
     let joint_torque = |j: usize, g: &dyn Fn(usize) -> f64| joint_torque_with_share(j, g, 0.0);
+    // The side a drive's backlash sits on at sample i, tanh(τ_j/τ_b) (0 where the nominal
+    // torque is not finite).
+    let backlash_side = |j: usize, scale: f64, i: usize| {
+        let side = tau_nom[j][i] / scale;
+        if side.is_finite() {
+            side.tanh()
+        } else {
+            0.0
+        }
+    };
     // A torque seen by the torque sensor only.
     let sensor_torque = |j: usize, g: &dyn Fn(usize) -> f64| {
         let mut c = vec![0.0; nc * n];
@@ -1039,31 +1049,17 @@ pub fn columns(
                 // forcing itself on drive j (nothing at rest, the ringing when the
                 // transmission crosses its play as its torque reverses).
                 let kj = 1.0 / model.drive_compliance(&theta0, j);
-                let g = |i: usize| {
-                    let side = (tau_nom[j][i] / scale).tanh();
-                    if side.is_finite() {
-                        kj * side
-                    } else {
-                        0.0
-                    }
-                };
-                vec![joint_torque_with_share(j, &g, 1.0)]
+                vec![joint_torque_with_share(
+                    j,
+                    &|i| kj * backlash_side(j, scale, i),
+                    1.0,
+                )]
             }
             (Effect::Backlash { scale }, Some(j)) => {
                 // The arm lags its encoder by b·tanh(τ_j/τ_b).
-                let tb = scale;
                 let l = lag_of(j);
-                let mut col = vec![0.0; nc * n];
-                for r in 0..nc {
-                    for i in 0..n {
-                        let side = tau_nom[j][i] / tb;
-                        col[r * n + i] = if side.is_finite() {
-                            side.tanh() * l[r * n + i]
-                        } else {
-                            0.0
-                        };
-                    }
-                }
+                let side: Vec<f64> = (0..n).map(|i| backlash_side(j, scale, i)).collect();
+                let col = (0..nc * n).map(|k| side[k % n] * l[k]).collect();
                 vec![col]
             }
             (Effect::Clearance { site }, _) => {

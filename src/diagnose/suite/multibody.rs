@@ -339,11 +339,9 @@ pub fn cases() -> Vec<Case> {
         Concealed,
         |s| s.sensors.torque_delay = 1e-4,
         None,
-        vec![
-            t("torque-sensor delay in drive A", 1e-4, true),
-            t("torque-sensor delay in drive B", 1e-4, true),
-            t("torque-sensor delay in drive C", 1e-4, true),
-        ],
+        ["A", "B", "C"]
+            .map(|d| t(&format!("torque-sensor delay in drive {d}"), 1e-4, true))
+            .to_vec(),
     ));
     out.push(mk(
         "tracker-delay",
@@ -351,11 +349,9 @@ pub fn cases() -> Vec<Case> {
         Concealed,
         |s| s.sensors.tracker_delay = 1e-5,
         None,
-        vec![
-            t("platform x sensor delay", 1e-5, true),
-            t("platform y sensor delay", 1e-5, true),
-            t("platform z sensor delay", 1e-5, true),
-        ],
+        ["x", "y", "z"]
+            .map(|a| t(&format!("platform {a} sensor delay"), 1e-5, true))
+            .to_vec(),
     ));
     // The truth's transmission is a dead zone (free within ±b, a spring and damper beyond,
     // crossed whenever its torque reverses); the library's backlash is a smooth lag
