@@ -30,7 +30,7 @@
 //! | effect | output term |
 //! |---|---|
 //! | joint-position sensor offset o_j | −o_j·∂(τ, y)/∂q_j (torques too) |
-//! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) for each τ_b of the grid ([`LibraryOptions::backlash_scale_factors`]); with the transmissions' dynamics, the wind-up's response δw to the joint-side torque b_j·K_j·tanh(τ_j/τ_b) instead, the outputs moved by it and the torque sensors reading K·δw + D·δẇ less that torque (the ringing where the transmission crosses its play) |
+//! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) for each τ_b of the grid ([`LibraryOptions::backlash_scale_factors`]); with the transmissions' dynamics, the wind-up's response δw to the joint-side torque b_j·K_j·tanh(τ_j/τ_b) instead, the outputs moved by it and the torque sensors reading K·δw + D·δẇ less that torque (the ringing where the transmission crosses its play); in the second pass ([`LibraryOptions::backlash_reference`]) the dead zone itself at the first pass's b_ref, b·response(b_ref)/b_ref ([`transmission::backlash_response`]) |
 //! | clearance h at a site (e.g. the joints of a leg) | h·∂y/∂s·tanh(F/F_c), F the site's load |
 //! | play h of a universal joint, radial or axial ([`crate::contact::play`]) | h·∂y/∂(shift, tilt)·(the shift toward the joint's load per unit clearance, over load scale F_c) |
 //! | the same play, with its dynamics (the selection's second pass, or the play-dynamics check) | drive torques too: h·Δτ(h_ref)/h_ref, Δτ the reduced dynamic play model's response ([`super::play_dynamics`]) at a reference play h_ref of the same direction ([`LibraryOptions::dynamic_play_clearance`], [`LibraryOptions::dynamic_axial_play`]); in the second pass the tracker too, h·Δy(h_ref)/h_ref from the model's play coordinates and extra wind-up ([`LibraryOptions::dynamic_play_tracker`]) |
@@ -70,6 +70,17 @@ pub struct LibraryOptions {
     /// cross-validation picks among them): how sharply a transmission crosses its play as
     /// its torque reverses is not known beforehand.
     pub backlash_scale_factors: Vec<f64>,
+    /// Backlash b_ref (half the play, rad) at which the backlash candidates' columns are the
+    /// dead zone's secant response(b_ref)/b_ref ([`transmission::backlash_response`]: the
+    /// transmission free within its play, integrated through each sample interval), where
+    /// the model has the transmissions' dynamics; one candidate per drive then, with no
+    /// torque scale. `None` (the default): first order in b, one candidate per torque scale
+    /// of [`backlash_scale_factors`](Self::backlash_scale_factors). Set by the diagnosis'
+    /// second pass to the backlash its first pass selected: the first-order form smooths the
+    /// crossing of the play over a fixed torque scale, where the sensor reads nothing while
+    /// the arm flies across it and then the strike (measured on the multibody suite's
+    /// backlash case, README).
+    pub backlash_reference: Option<f64>,
     /// Velocity scales of the smooth sign for prismatic joints, as fractions of the joint's
     /// typical speed ([`speed_scales`](Self::speed_scales)).
     pub relative_coulomb_velocities: Vec<f64>,
@@ -241,6 +252,7 @@ impl Default for LibraryOptions {
             relative_stribeck_velocities: vec![0.1, 0.3, 1.0],
             play_load_scales: vec![1.0, 5.0, 20.0],
             backlash_scale_factors: vec![0.3, 1.0, 3.0],
+            backlash_reference: None,
             relative_coulomb_velocities: vec![0.1, 0.03, 0.01],
             speed_scales: vec![],
             exclude: vec![],
@@ -517,7 +529,11 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
                 &[(-0.05, 0.05)],
             ));
             let base = model.backlash_torque_scale();
-            let scales: Vec<f64> = opts.backlash_scale_factors.iter().map(|f| f * base).collect();
+            let scales: Vec<f64> = if opts.backlash_reference.is_some() {
+                vec![base]
+            } else {
+                opts.backlash_scale_factors.iter().map(|f| f * base).collect()
+            };
             for &scale in &scales {
                 let mut c = mk(
                     "drive backlash",
@@ -942,37 +958,48 @@ pub fn columns(
     // c_j·g. `share` of g is taken off drive j's torque sensor: 0 for a torque on the arm
     // (friction), 1 for a torque the transmission's spring itself loses (backlash), which
     // the sensor on the motor side does not read.
-    let joint_torque_with_share = |j: usize, g: &dyn Fn(usize) -> f64, share: f64| {
+    // The columns of a transmission response (δw, δẇ and the torque taken off drive j's
+    // sensor, per sample), times `per`: the torque sensors read K·δw + D·δẇ (less that
+    // torque on drive j), the outputs move as the arms lag by δw.
+    let from_response = |j: usize, response: &[transmission::Response], per: f64| {
         let mut c = vec![0.0; nc * n];
-        if dynamic {
-            let nj = model.joints();
-            // (The arms' lag moves only the outputs here: none recorded, no lag walks.)
-            let drives: &[usize] = if output_rows.is_empty() {
-                &[]
-            } else {
-                &compliant_drives
-            };
-            let response = transmission::joint_torque_response(&d.t, &dynamics, j, g);
-            for (i, x) in response.iter().enumerate() {
-                let Some((w, wd)) = x else { continue };
-                let Some(dy) = &dynamics[i] else { continue };
-                let k = dy.stiffness();
-                for a in 0..nj {
-                    if let Some(r) = torque_row(a) {
-                        c[r * n + i] = k[a] * w[a] + dy.damping[a] * wd[a];
-                        if a == j {
-                            c[r * n + i] -= share * g(i);
-                        }
-                    }
-                }
-                for &b in drives {
-                    let l = lag_of(b);
-                    for &(r, _) in &output_rows {
-                        c[r * n + i] += w[b] * l[r * n + i];
+        let nj = model.joints();
+        // (The arms' lag moves only the outputs here: none recorded, no lag walks.)
+        let drives: &[usize] = if output_rows.is_empty() {
+            &[]
+        } else {
+            &compliant_drives
+        };
+        for (i, x) in response.iter().enumerate() {
+            let Some((w, wd, off)) = x else { continue };
+            let Some(dy) = &dynamics[i] else { continue };
+            let k = dy.stiffness();
+            for a in 0..nj {
+                if let Some(r) = torque_row(a) {
+                    c[r * n + i] = per * (k[a] * w[a] + dy.damping[a] * wd[a]);
+                    if a == j {
+                        c[r * n + i] -= per * off;
                     }
                 }
             }
-            return c;
+            for &b in drives {
+                let l = lag_of(b);
+                for &(r, _) in &output_rows {
+                    c[r * n + i] += per * w[b] * l[r * n + i];
+                }
+            }
+        }
+        c
+    };
+    let joint_torque_with_share = |j: usize, g: &dyn Fn(usize) -> f64, share: f64| {
+        let mut c = vec![0.0; nc * n];
+        if dynamic {
+            let response: Vec<_> = transmission::joint_torque_response(&d.t, &dynamics, j, g)
+                .into_iter()
+                .enumerate()
+                .map(|(i, x)| x.map(|(w, wd)| (w, wd, share * g(i))))
+                .collect();
+            return from_response(j, &response, 1.0);
         }
         if let Some(r) = torque_row(j) {
             for i in 0..n {
@@ -1038,6 +1065,17 @@ pub fn columns(
             (Effect::PositionOffset, Some(j)) => {
                 // Measured = true + o, so the model sees q − o: column −∂(τ, y)/∂q_j.
                 vec![lag_of(j).clone()]
+            }
+            (Effect::Backlash { .. }, Some(j))
+                if dynamic
+                    && model.drive_compliance(&theta0, j) > 0.0
+                    && opts.backlash_reference.is_some_and(|b| b > 0.0) =>
+            {
+                // The dead zone's secant at the reference backlash: its response there,
+                // integrated through each sample interval, per radian of it.
+                let b = opts.backlash_reference.unwrap_or(1.0);
+                let response = transmission::backlash_response(&d.t, &dynamics, j, b);
+                vec![from_response(j, &response, 1.0 / b)]
             }
             (Effect::Backlash { scale }, Some(j)) if dynamic && model.drive_compliance(&theta0, j) > 0.0 => {
                 // With the transmissions' dynamics: backlash b takes K_j·clip(w_j, ±b) out
@@ -1673,6 +1711,37 @@ mod tests {
             (0.2 * k..=0.89 * k).contains(&peak),
             "peak {peak} N·m per rad of backlash"
         );
+        // At a reference backlash (the second pass): one candidate per drive, no torque
+        // scale, its column the dead zone's secant.
+        let b = 1e-5;
+        let second = LibraryOptions {
+            backlash_reference: Some(b),
+            ..LibraryOptions::default()
+        };
+        let cands = library(&Carried, &second);
+        let names: Vec<&str> = cands
+            .iter()
+            .filter(|c| matches!(c.effect, Effect::Backlash { .. }))
+            .map(|c| c.name.as_str())
+            .collect();
+        assert_eq!(names, ["drive backlash in drive"]);
+        let c = cands
+            .iter()
+            .position(|c| matches!(c.effect, Effect::Backlash { .. }))
+            .unwrap();
+        let col = &columns(&cands, &d, &Carried, &second).cols[c][0];
+        let dynamics = vec![Some(fixtures::one_drive()); n];
+        let response = transmission::backlash_response(&t, &dynamics, 0, b);
+        for i in (0..n).step_by(50) {
+            let (w, wd, lost) = response[i].as_ref().unwrap();
+            let torque = (k * w[0] + fixtures::one_drive().damping[0] * wd[0] - lost) / b;
+            assert!(
+                (col[i] - torque).abs() <= 1e-9 * k,
+                "t = {} s: {} against {torque}",
+                t[i],
+                col[i]
+            );
+        }
     }
 
     /// Asked to (the play-dynamics check, [`LibraryOptions::dynamic_play_clearance`]), the

@@ -1522,6 +1522,12 @@ impl InverseDynamicsModel for MechanismModel {
     fn fork(&self) -> Option<Box<dyn InverseDynamicsModel + Send>> {
         Some(Box::new(self.clone()))
     }
+    fn integrates_windup(&self) -> bool {
+        self.sensors
+            .encoders
+            .iter()
+            .any(|e| matches!(e, EncoderPlacement::MotorSide { .. }))
+    }
     fn transmission_dynamics(&self, theta: &[f64]) -> Option<TransmissionDynamics> {
         let n = self.joints.len();
         if !(0..n).any(|j| self.compliance(theta, j) > 0.0) {
@@ -1539,17 +1545,22 @@ impl InverseDynamicsModel for MechanismModel {
             .driver_mass_matrix(&built.model, &mut built.data)
             .ok()?;
         let load_stiffness = Self::load_stiffness(built);
-        let windup_rate = match &built.dynamic {
-            Some(w) if w.wd.len() == n && w.wd.iter().all(|v| v.is_finite()) => {
-                w.wd.iter().copied().collect()
+        let (windup, windup_rate) = match &built.dynamic {
+            Some(w)
+                if w.wd.len() == n
+                    && w.w.len() == n
+                    && w.wd.iter().chain(w.w.iter()).all(|v| v.is_finite()) =>
+            {
+                (w.w.iter().copied().collect(), w.wd.iter().copied().collect())
             }
-            _ => vec![0.0; n],
+            _ => (vec![0.0; n], vec![0.0; n]),
         };
         mass.iter().all(|v| v.is_finite()).then(|| TransmissionDynamics {
             mass,
             compliance,
             damping: self.dampings(n),
             windup_rate,
+            windup,
             load_stiffness,
         })
     }

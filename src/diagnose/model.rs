@@ -409,6 +409,12 @@ pub trait InverseDynamicsModel {
     ) -> Option<crate::diagnose::transmission::TransmissionDynamics> {
         None
     }
+    /// Whether the model integrates its transmissions' wind-up along a recording (then
+    /// [`transmission_dynamics`](Self::transmission_dynamics) describes them at each sample
+    /// it evaluates, for every compliant transmission). Default false.
+    fn integrates_windup(&self) -> bool {
+        false
+    }
     /// The play sites' coupling to the drives ([`PlayDynamics`], in the order of
     /// [`play_sites`](Self::play_sites)) at the sample the model last evaluated with
     /// [`evaluate_at`](Self::evaluate_at) (or at a lone sample): for a reduced dynamic model

@@ -1055,6 +1055,7 @@ pub(crate) mod fixtures {
             compliance: vec![1e-4],
             damping: vec![5.0],
             windup_rate: vec![0.0],
+            windup: vec![0.0],
             load_stiffness: None,
         }
     }

@@ -392,6 +392,35 @@ fn first_play(
     })
 }
 
+/// The backlash (half the play, rad) at which the second pass's backlash candidates take
+/// the dead zone's secant ([`LibraryOptions::backlash_reference`](super::candidates::LibraryOptions)):
+/// the estimate of the first backlash the first pass selected, in a transmission the model
+/// takes as compliant, where it integrates the wind-up's dynamics (which then carry the dead
+/// zone). `None` when it selected none
+/// with a positive estimate.
+pub(super) fn backlash_reference(
+    model: &dyn InverseDynamicsModel,
+    d: &Diagnosis,
+    cands: &[Candidate],
+) -> Option<f64> {
+    let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    d.selected.iter().find_map(|name| {
+        let c = cands.iter().find(|c| &c.name == name)?;
+        let j = c.joint?;
+        if !matches!(c.effect, Effect::Backlash { .. })
+            || !model.integrates_windup()
+            || model.drive_compliance(&theta, j) <= 0.0
+        {
+            return None;
+        }
+        d.estimates
+            .iter()
+            .find(|e| &e.candidate == name)
+            .map(|e| e.value)
+            .filter(|b| *b > 0.0 && b.is_finite())
+    })
+}
+
 /// The second pass (`second`, at the shifted point) reported against the nominal model:
 /// "before" is the nominal model's, and so are the localisation and the score tests of the
 /// first pass; the verdict is written anew.
@@ -588,6 +617,9 @@ impl<B: Base> InverseDynamicsModel for Shifted<B> {
     fn transmission_dynamics(&self, theta: &[f64]) -> Option<super::transmission::TransmissionDynamics> {
         self.base().transmission_dynamics(theta)
     }
+    fn integrates_windup(&self) -> bool {
+        self.base().integrates_windup()
+    }
     fn column_defaults(&self) -> super::model::ColumnDefaults {
         self.base().column_defaults()
     }
@@ -654,6 +686,7 @@ mod tests {
                 compliance: vec![1e-4],
                 damping: vec![2.0],
                 windup_rate: vec![0.0],
+                windup: vec![0.0],
                 load_stiffness: None,
             })
         }

@@ -185,7 +185,9 @@ fn diagnose_folds(
         (None, None)
     };
     let dynamic = references.0.is_some() || references.1.is_some();
-    if moved.is_empty() && !dynamic {
+    // A backlash found: the second pass takes its dead zone's secant.
+    let backlash = relinearize::backlash_reference(model, &first, &cands);
+    if moved.is_empty() && !dynamic && backlash.is_none() {
         // Nothing to re-linearise; the play-dynamics check still runs.
         let mut d = first;
         d.relinearization_steps = steps;
@@ -198,6 +200,7 @@ fn diagnose_folds(
     o2.relinearize = false;
     o2.shift = moved;
     (o2.library.dynamic_play_clearance, o2.library.dynamic_axial_play) = references;
+    o2.library.backlash_reference = backlash;
     // With the play's dynamics: once per contact damping, the smallest cross-validated
     // error kept.
     let dampings: Vec<Option<ContactDamping>> = if dynamic && !opts.play_contact_dampings.is_empty() {

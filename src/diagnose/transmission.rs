@@ -56,6 +56,9 @@ pub struct TransmissionDynamics {
     /// The nominal wind-up rate ẇ of each transmission at this sample, rad/s (the arm moves
     /// at the encoder's rate less this; zeros where the model carries no wind-up state).
     pub windup_rate: Vec<f64>,
+    /// The nominal wind-up w of each transmission at this sample (encoder less joint), rad
+    /// (zeros where the model carries no wind-up state).
+    pub windup: Vec<f64>,
     /// S = ∂τ_s/∂q_arm, N·m/rad: how the joint-side torques change with the arms' positions
     /// at this sample (at the arms' own rates and accelerations). A load that winds the transmissions up by δw changes them by −S·δw,
     /// so the response obeys M·δẅ + D·δẇ + (K + S)·δw = g. None: not known (taken as 0).
@@ -121,7 +124,86 @@ pub fn newmark_interval(
     damping: &DVector<f64>,
     h: f64,
 ) -> Option<State> {
+    newmark_interval_with(state, start, end, damping, h, None).map(|(s, _)| s)
+}
+
+/// A transmission with backlash in [`newmark_interval_with`]: drive `drive`'s spring
+/// (`stiffness` K, `damping` D) transmits nothing while the total wind-up w = w_nom + δw lies
+/// within ±`half_play` b of its unloaded angle (or while its contact would pull), and
+/// K·(|w| − b) + D·ẇ on the side it presses beyond. The response δw is then driven by the
+/// torque the linear spring would carry and the dead zone does not, the *lost torque*
+/// L(w, ẇ) = K·w + D·ẇ − T_dz(w, ẇ): K·w_nom + D·ẇ_nom inside the play (the arm free of
+/// its rotor), K·b·sign(w) in contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeadZone {
+    /// The drive whose transmission has the play.
+    pub drive: usize,
+    /// Half the play, rad (> 0).
+    pub half_play: f64,
+    /// K of that transmission, N·m/rad.
+    pub stiffness: f64,
+    /// D of that transmission, N·m·s/rad.
+    pub damping: f64,
+    /// The nominal wind-up and its rate (w_nom, ẇ_nom) at the interval's start and end, rad
+    /// and rad/s (linear in time between).
+    pub nominal: [(f64, f64); 2],
+}
+
+/// Where a dead zone's transmission is: inside its play (or separating), or pressing on the
+/// side of this sign.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Side {
+    Free,
+    Pressing(f64),
+}
+
+impl DeadZone {
+    /// The side at total wind-up `w` and rate `wd`.
+    fn side(&self, w: f64, wd: f64) -> Side {
+        let s = w.signum();
+        if w.abs() > self.half_play
+            && self.stiffness * (w.abs() - self.half_play) + self.damping * wd * s > 0.0
+        {
+            Side::Pressing(s)
+        } else {
+            Side::Free
+        }
+    }
+
+    /// The nominal (w, ẇ) at fraction `f` of the interval.
+    fn nominal_at(&self, f: f64) -> (f64, f64) {
+        let [(w0, v0), (w1, v1)] = self.nominal;
+        (w0 + (w1 - w0) * f, v0 + (v1 - v0) * f)
+    }
+
+    /// The lost torque L at the total wind-up `w` and rate `wd`, N·m.
+    pub fn lost_torque(&self, w: f64, wd: f64) -> f64 {
+        match self.side(w, wd) {
+            Side::Free => self.stiffness * w + self.damping * wd,
+            Side::Pressing(s) => self.stiffness * self.half_play * s,
+        }
+    }
+}
+
+/// Attempts per substep to find the side a dead zone ends it on (the side at the
+/// substep's end decides its equation; a side that changes again after this many is kept).
+const DEAD_ZONE_ATTEMPTS: usize = 4;
+
+/// [`newmark_interval`] with an optional dead zone in one transmission ([`DeadZone`]; the
+/// response δw, its side decided per substep from the state the substep ends in); also
+/// returns the lost torque at the interval's end (0 without a dead zone).
+pub fn newmark_interval_with(
+    state: &State,
+    start: &End,
+    end: &End,
+    damping: &DVector<f64>,
+    h: f64,
+    dead: Option<&DeadZone>,
+) -> Option<(State, f64)> {
     let n = damping.len();
+    if dead.is_some_and(|z| z.drive >= n) {
+        return None;
+    }
     let sized = |m: &DMatrix<f64>| m.nrows() == n && m.ncols() == n;
     if !(sized(start.mass) && sized(end.mass) && sized(start.stiffness) && sized(end.stiffness))
         || start.load.len() != n
@@ -146,26 +228,67 @@ pub fn newmark_interval(
     let mut kh = vec![0.0; n * n];
     let mut inertial = vec![0.0; n];
     let mut rhs = vec![0.0; n];
+    let mut damp = damping.as_slice().to_vec();
+    // The side the dead zone (if any) is on: from the state the interval starts in.
+    let mut side = dead.map(|z| {
+        let (wn, vn) = z.nominal_at(0.0);
+        z.side(wn + w[z.drive], vn + wd[z.drive])
+    });
+    let mut lost = 0.0;
     for step in 1..=SUBSTEPS {
         let f = step as f64 / SUBSTEPS as f64;
-        for p in 0..n * n {
-            m[p] = m0[p] * (1.0 - f) + m1[p] * f;
-            kh[p] = m[p] * a0 + (s0[p] * (1.0 - f) + s1[p] * f);
-        }
-        for i in 0..n {
-            kh[i * n + i] += a1 * damping[i];
-            inertial[i] = w[i] * a0 + wd[i] * a2 + wdd[i] * a3;
-            let viscous = w[i] * a1 + wd[i] * a4 + wdd[i] * a5;
-            rhs[i] = (start.load[i] * (1.0 - f) + end.load[i] * f) + damping[i] * viscous;
-        }
-        for k in 0..n {
-            let x = inertial[k];
-            for i in 0..n {
-                rhs[i] += m[k * n + i] * x;
+        for attempt in 0..DEAD_ZONE_ATTEMPTS {
+            // Drive j's spring and damper leave the response's equation while its
+            // transmission is free, and its lost torque drives it (see `DeadZone`).
+            let (mut dk, mut force) = (0.0, 0.0);
+            if let (Some(z), Some(sd)) = (dead, side) {
+                let (wn, vn) = z.nominal_at(f);
+                damp[z.drive] = damping[z.drive];
+                match sd {
+                    Side::Free => {
+                        dk = -z.stiffness;
+                        damp[z.drive] = damping[z.drive] - z.damping;
+                        force = z.stiffness * wn + z.damping * vn;
+                    }
+                    Side::Pressing(s) => force = z.stiffness * z.half_play * s,
+                }
             }
-        }
-        if !solve_dense_in_place(&mut kh, &mut rhs, n) {
-            return None;
+            for p in 0..n * n {
+                m[p] = m0[p] * (1.0 - f) + m1[p] * f;
+                kh[p] = m[p] * a0 + (s0[p] * (1.0 - f) + s1[p] * f);
+            }
+            for i in 0..n {
+                kh[i * n + i] += a1 * damp[i];
+                inertial[i] = w[i] * a0 + wd[i] * a2 + wdd[i] * a3;
+                let viscous = w[i] * a1 + wd[i] * a4 + wdd[i] * a5;
+                rhs[i] = (start.load[i] * (1.0 - f) + end.load[i] * f) + damp[i] * viscous;
+            }
+            if let Some(z) = dead {
+                kh[z.drive * n + z.drive] += dk;
+                rhs[z.drive] += force;
+            }
+            for k in 0..n {
+                let x = inertial[k];
+                for i in 0..n {
+                    rhs[i] += m[k * n + i] * x;
+                }
+            }
+            if !solve_dense_in_place(&mut kh, &mut rhs, n) {
+                return None;
+            }
+            let Some(z) = dead else { break };
+            // The side the substep ends on; solved again on it if it differs.
+            let j = z.drive;
+            let wdd1 = (rhs[j] - w[j]) * a0 - wd[j] * a2 - wdd[j] * a3;
+            let wd1 = wd[j] + (wdd[j] * (1.0 - gamma) + wdd1 * gamma) * hs;
+            let (wn, vn) = z.nominal_at(f);
+            let (wt, vt) = (wn + rhs[j], vn + wd1);
+            let ended = z.side(wt, vt);
+            lost = z.lost_torque(wt, vt);
+            if Some(ended) == side || attempt + 1 == DEAD_ZONE_ATTEMPTS {
+                break;
+            }
+            side = Some(ended);
         }
         for i in 0..n {
             let w1 = rhs[i];
@@ -175,7 +298,7 @@ pub fn newmark_interval(
             w[i] = w1;
         }
     }
-    Some((w, wd, wdd))
+    Some(((w, wd, wdd), lost))
 }
 
 /// Solves A·x = b in place by Gaussian elimination with partial pivoting (`a`: n × n,
@@ -223,6 +346,10 @@ fn solve_dense_in_place(a: &mut [f64], b: &mut [f64], n: usize) -> bool {
 /// sample without dynamics) restarts it quasi-statically.
 pub const MAX_GAP: f64 = 0.05;
 
+/// A transmission response at one sample: δw (rad), δẇ (rad/s), and the torque it takes off
+/// the driven transmission's sensor (N·m).
+pub type Response = Option<(DVector<f64>, DVector<f64>, f64)>;
+
 /// The transmissions' wind-up response δw and its rate δẇ at every sample of one recording
 /// (times `t`, s) to a joint-side torque `g(i)` (N·m) on drive `j`, with the transmissions'
 /// dynamics at each sample. Starts quasi-statically (δw = K⁻¹·g, the rate from the first
@@ -234,12 +361,59 @@ pub fn joint_torque_response(
     j: usize,
     g: &dyn Fn(usize) -> f64,
 ) -> Vec<Option<(DVector<f64>, DVector<f64>)>> {
-    /// One sample's mass, stiffness, load and damping.
+    response(t, dynamics, j, g, None)
+        .into_iter()
+        .map(|x| x.map(|(w, wd, _)| (w, wd)))
+        .collect()
+}
+
+/// The transmissions' response δw, δẇ to backlash `half_play` b (rad) in drive `j`'s
+/// transmission, and the torque the dead zone takes from that transmission at each sample
+/// (the lost torque L of [`DeadZone`], N·m; the sensor on drive j reads K·δw + D·δẇ − L
+/// more than the nominal model), about the nominal wind-up
+/// ([`TransmissionDynamics::windup`]): integrated through each sample interval with the
+/// dead zone's side decided per substep, so a play crossed within one interval — the torque
+/// held at zero while the arm flies across it, then the strike on the other flank — shows at
+/// the samples that fall into it. Not linear in b: how long the crossing takes depends on
+/// b, on the rate the wind-up had as the torque reversed (τ̇/K) and on how the load
+/// accelerates the free arm. Starts quasi-statically on the side the nominal wind-up presses (δw = (K + S)⁻¹·K_j·b
+/// on drive j) at the first sample and after every gap.
+pub fn backlash_response(
+    t: &[f64],
+    dynamics: &[Option<TransmissionDynamics>],
+    j: usize,
+    half_play: f64,
+) -> Vec<Response> {
+    let side = |i: usize| {
+        dynamics
+            .get(i)
+            .and_then(|d| d.as_ref())
+            .and_then(|d| Some(d.stiffness().get(j)? * half_play * d.windup.get(j)?.signum()))
+            .unwrap_or(f64::NAN)
+    };
+    response(t, dynamics, j, &side, Some(half_play))
+}
+
+/// The response of [`joint_torque_response`] (`dead` None: the load `g` throughout) or of
+/// [`backlash_response`] (`dead` the half play: `g` only for the quasi-static start, the
+/// dead zone's lost torque within the intervals); with the lost torque at each sample (0
+/// without a dead zone).
+fn response(
+    t: &[f64],
+    dynamics: &[Option<TransmissionDynamics>],
+    j: usize,
+    g: &dyn Fn(usize) -> f64,
+    dead: Option<f64>,
+) -> Vec<Response> {
+    /// One sample's mass, stiffness, load and damping, and drive j's nominal wind-up, its
+    /// rate, stiffness and damping.
     struct Sample {
         mass: DMatrix<f64>,
         stiffness: DMatrix<f64>,
         load: DVector<f64>,
         damping: DVector<f64>,
+        nominal: (f64, f64),
+        kj: f64,
     }
     impl Sample {
         fn end(&self) -> End<'_> {
@@ -257,15 +431,32 @@ pub fn joint_torque_response(
     let mut out = vec![None; n_s];
     let at = |i: usize| -> Option<Sample> {
         let dy = dynamics.get(i)?.as_ref()?;
-        let mut load = DVector::zeros(dy.compliance.len());
+        let nd = dy.compliance.len();
+        if j >= nd {
+            return None;
+        }
+        let mut load = DVector::zeros(nd);
         load[j] = g(i);
+        let nominal = (
+            dy.windup.get(j).copied().unwrap_or(0.0),
+            dy.windup_rate.get(j).copied().unwrap_or(0.0),
+        );
         load[j].is_finite().then(|| Sample {
             mass: dy.mass.clone(),
             stiffness: dy.response_stiffness(),
-
             load,
             damping: DVector::from_column_slice(&dy.damping),
+            nominal,
+            kj: dy.stiffness()[j],
         })
+    };
+    // Within the intervals a dead zone's forcing is its own (no load).
+    let interval_end = |s: &Sample| -> DVector<f64> {
+        if dead.is_some() {
+            DVector::zeros(s.load.len())
+        } else {
+            s.load.clone()
+        }
     };
     let mut prev: Option<(usize, State, Sample)> = None;
     for i in 0..n_s {
@@ -275,11 +466,28 @@ pub fn joint_torque_response(
         };
         let stepped = prev.as_ref().and_then(|(p, state, before)| {
             let h = t[i] - t[*p];
-            (h > 0.0 && h <= MAX_GAP)
-                .then(|| newmark_interval(state, &before.end(), &now.end(), &now.damping, h))
-                .flatten()
+            if !(h > 0.0 && h <= MAX_GAP) {
+                return None;
+            }
+            let zone = dead.map(|b| DeadZone {
+                drive: j,
+                half_play: b,
+                stiffness: now.kj,
+                damping: now.damping[j],
+                nominal: [before.nominal, now.nominal],
+            });
+            let (l0, l1) = (interval_end(before), interval_end(&now));
+            let start = End {
+                load: &l0,
+                ..before.end()
+            };
+            let end = End {
+                load: &l1,
+                ..now.end()
+            };
+            newmark_interval_with(state, &start, &end, &now.damping, h, zone.as_ref())
         });
-        let state = match stepped {
+        let (state, lost) = match stepped {
             Some(s) => s,
             None => {
                 let Some(w) = now.quasi_static() else {
@@ -293,14 +501,15 @@ pub fn joint_torque_response(
                     .map(|w1| (w1 - &w) / (t[i + 1] - t[i]))
                     .unwrap_or_else(|| DVector::zeros(w.len()));
                 let n = w.len();
-                (w, wd, DVector::zeros(n))
+                let lost = if dead.is_some() { now.load[j] } else { 0.0 };
+                ((w, wd, DVector::zeros(n)), lost)
             }
         };
-        if !state.0.iter().chain(state.1.iter()).all(|v| v.is_finite()) {
+        if !state.0.iter().chain(state.1.iter()).all(|v| v.is_finite()) || !lost.is_finite() {
             prev = None;
             continue;
         }
-        out[i] = Some((state.0.clone(), state.1.clone()));
+        out[i] = Some((state.0.clone(), state.1.clone(), lost));
         prev = Some((i, state, now));
     }
     out
@@ -316,6 +525,7 @@ mod tests {
             compliance: vec![c],
             damping: vec![d],
             windup_rate: vec![0.0],
+            windup: vec![0.0],
             load_stiffness: None,
         }
     }
@@ -486,5 +696,86 @@ mod tests {
         // for a sudden step, less for a step spread over a sample interval).
         let peak = r.iter().flatten().map(|(w, _)| w[0]).fold(f64::MIN, f64::max);
         assert!(peak > 1.4 * c, "peak {peak:e} rad");
+    }
+
+    /// An arm (inertia J) on a transmission with backlash b whose joint-side load reverses
+    /// at a steady rate τ̇: the response of [`backlash_response`] about the linear nominal
+    /// wind-up reproduces the dead-zone transmission simulated on its own at 1 µs steps —
+    /// its torque held at zero while the arm crosses the play (about 2·b·K/|τ̇| = 2 ms here,
+    /// at the wind-up's rate), then the strike on the other flank and its ringing — at the
+    /// 500 Hz samples, one of which falls into the crossing.
+    #[test]
+    fn a_reversal_through_the_play_holds_the_torque_at_zero_as_the_dead_zone_does() {
+        let (j, k, d, b) = (0.02, 1e4, 5.66, 1e-5);
+        let (rate, t0) = (-100.0, 0.0511);
+        let load = |t: f64| rate * (t - t0);
+        let truth_zone = |w: f64, wd: f64| {
+            let over = w.abs() - b;
+            if over <= 0.0 {
+                0.0
+            } else {
+                w.signum() * (k * over + d * wd * w.signum()).max(0.0)
+            }
+        };
+        // J·ẅ + T(w, ẇ) = τ_L(t) from the quasi-static start, semi-implicit Euler at 1 µs;
+        // the transmitted torque at every 2 ms sample.
+        let simulate = |torque: &dyn Fn(f64, f64) -> f64, w0: f64| {
+            let (dt, per) = (1e-6, 2000);
+            let (mut w, mut wd) = (w0, rate / k);
+            let mut out = vec![(w, wd, torque(w, wd))];
+            for step in 1..=50 * per {
+                let t = (step - 1) as f64 * dt;
+                wd += dt * (load(t) - torque(w, wd)) / j;
+                w += dt * wd;
+                if step % per == 0 {
+                    out.push((w, wd, torque(w, wd)));
+                }
+            }
+            out
+        };
+        let nominal = simulate(&|w, wd| k * w + d * wd, load(0.0) / k);
+        let truth = simulate(&truth_zone, load(0.0) / k + b);
+        let t: Vec<f64> = (0..=50).map(|i| i as f64 * 2e-3).collect();
+        let dynamics: Vec<Option<TransmissionDynamics>> = nominal
+            .iter()
+            .map(|&(w, wd, _)| {
+                Some(TransmissionDynamics {
+                    windup: vec![w],
+                    windup_rate: vec![wd],
+                    ..one_drive(j, 1.0 / k, d)
+                })
+            })
+            .collect();
+        let r = backlash_response(&t, &dynamics, 0, b);
+        let reading = |i: usize| {
+            let (w, wd, lost) = r[i].as_ref().unwrap();
+            nominal[i].2 + k * w[0] + d * wd[0] - lost
+        };
+        // The sample 0.9 ms into the crossing (t = 52 ms): the nominal transmission carries
+        // 0.09 N·m, the dead zone nothing.
+        assert!(
+            nominal[26].2.abs() > 0.08 && truth[26].2.abs() < 1e-3,
+            "{:?} {:?}",
+            nominal[26],
+            truth[26]
+        );
+        assert!(reading(26).abs() < 0.005, "reading {} N·m", reading(26));
+        // Over the whole record the response explains the dead zone's effect to within 10 %.
+        let (mut effect, mut left) = (0.0, 0.0);
+        for i in 0..t.len() {
+            effect += (truth[i].2 - nominal[i].2).powi(2);
+            left += (truth[i].2 - reading(i)).powi(2);
+        }
+        assert!(effect.sqrt() > 0.05, "effect {} N·m", effect.sqrt());
+        assert!(
+            left.sqrt() < 0.1 * effect.sqrt(),
+            "left {} of {} N·m",
+            left.sqrt(),
+            effect.sqrt()
+        );
+        // Before the reversal the arm rests on the loaded flank: lagging by b, the torque
+        // as the nominal transmission's.
+        let (w, _, _) = r[10].as_ref().unwrap();
+        assert!((w[0] - b).abs() < 1e-3 * b && (reading(10) - nominal[10].2).abs() < 1e-9);
     }
 }
