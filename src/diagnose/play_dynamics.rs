@@ -110,7 +110,12 @@
 //! **Outputs**: the torque sensors read K·δw + D·δẇ more.
 //!
 //! **Integration**: semi-implicit (symplectic) Euler over substeps of each sample interval,
-//! the matrices held at the interval's end, the substep a tenth of the period of the fastest
+//! the matrices held at the interval's end (measured and not kept, 2026-11-29: the linear
+//! forces blended in time from the previous sample's, which moves the joint across its play
+//! when a load reverses within an interval rather than up to a sample later, and leaves less
+//! of the truth's play effect on recordings 5 and 3 in the example — but the suite's bearing
+//! cases held out worse, README "The dead zone itself in the second pass"), the substep a
+//! tenth of the period of the fastest
 //! mode with every ball in contact (the cross's own, ≈ 0.1 ms for 50 g on 1e8 N/m) and short
 //! enough to resolve the dampings; where a stiff contact damping (γ·F under a large load)
 //! would ask for more than four times as many substeps, the dampings (the system's and the

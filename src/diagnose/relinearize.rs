@@ -378,17 +378,31 @@ fn first_play(
     if model.play_sites().is_empty() || !compliant {
         return None;
     }
+    first_selected(
+        d,
+        cands,
+        &|c| matches!(c.effect, Effect::Play { direction: dir, .. } if dir == direction),
+    )
+}
+
+/// The first candidate `d` selected that `accept` takes, with its estimate, where that is
+/// positive and finite.
+fn first_selected(
+    d: &Diagnosis,
+    cands: &[Candidate],
+    accept: &dyn Fn(&Candidate) -> bool,
+) -> Option<(String, f64)> {
     d.selected.iter().find_map(|name| {
         let c = cands.iter().find(|c| &c.name == name)?;
-        if !matches!(c.effect, Effect::Play { direction: dir, .. } if dir == direction) {
+        if !accept(c) {
             return None;
         }
         d.estimates
             .iter()
             .find(|e| &e.candidate == name)
             .map(|e| e.value)
-            .filter(|h| *h > 0.0 && h.is_finite())
-            .map(|h| (name.clone(), h))
+            .filter(|v| *v > 0.0 && v.is_finite())
+            .map(|v| (name.clone(), v))
     })
 }
 
@@ -396,29 +410,21 @@ fn first_play(
 /// the dead zone's secant ([`LibraryOptions::backlash_reference`](super::candidates::LibraryOptions)):
 /// the estimate of the first backlash the first pass selected, in a transmission the model
 /// takes as compliant, where it integrates the wind-up's dynamics (which then carry the dead
-/// zone). `None` when it selected none
-/// with a positive estimate.
+/// zone). `None` when it selected none with a positive estimate.
 pub(super) fn backlash_reference(
     model: &dyn InverseDynamicsModel,
     d: &Diagnosis,
     cands: &[Candidate],
 ) -> Option<f64> {
+    if !model.integrates_windup() {
+        return None;
+    }
     let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
-    d.selected.iter().find_map(|name| {
-        let c = cands.iter().find(|c| &c.name == name)?;
-        let j = c.joint?;
-        if !matches!(c.effect, Effect::Backlash { .. })
-            || !model.integrates_windup()
-            || model.drive_compliance(&theta, j) <= 0.0
-        {
-            return None;
-        }
-        d.estimates
-            .iter()
-            .find(|e| &e.candidate == name)
-            .map(|e| e.value)
-            .filter(|b| *b > 0.0 && b.is_finite())
+    first_selected(d, cands, &|c| {
+        matches!(c.effect, Effect::Backlash { .. })
+            && c.joint.is_some_and(|j| model.drive_compliance(&theta, j) > 0.0)
     })
+    .map(|(_, b)| b)
 }
 
 /// The second pass (`second`, at the shifted point) reported against the nominal model:
