@@ -33,10 +33,10 @@ use std::sync::{Mutex, OnceLock};
 
 /// The cases `lash diagnose --suite --reduced` runs: the null case, one of each kind of
 /// physics, two out-of-library cases and the pair (names matched as `--only` matches them:
-/// "payload" also runs tilt-under-payload and sprung-payload; eleven cases in all). No clearance case: a truth with bearings
+/// "payload" also runs tilt-under-payload and sprung-payload; twelve cases in all). No clearance case: a truth with bearings
 /// with clearance simulates at 13–30 s per simulated second (Hertz contact rattle), minutes
 /// per recording; the full suite runs them.
-pub const REDUCED_CASES: [&str; 9] = [
+pub const REDUCED_CASES: [&str; 10] = [
     "null",
     "payload",
     "stribeck",
@@ -46,6 +46,7 @@ pub const REDUCED_CASES: [&str; 9] = [
     "pair",
     "torque-delay",
     "tracker-delay",
+    "backlash",
 ];
 
 /// A change to the nominal truth.
