@@ -73,9 +73,11 @@ pub struct LibraryOptions {
     /// Backlash b_ref (half the play, rad) at which the backlash candidates' columns are the
     /// dead zone's secant response(b_ref)/b_ref ([`transmission::backlash_response`]: the
     /// transmission free within its play, integrated through each sample interval), where
-    /// the model has the transmissions' dynamics; one candidate per drive then, with no
-    /// torque scale. `None` (the default): first order in b, one candidate per torque scale
-    /// of [`backlash_scale_factors`](Self::backlash_scale_factors). Set by the diagnosis'
+    /// the model integrates its transmissions' wind-up
+    /// ([`InverseDynamicsModel::integrates_windup`]) and the drive is compliant: one candidate
+    /// per such drive then, named without a torque scale. `None` (the default), and for the
+    /// other drives: first order in b, one candidate per torque scale of
+    /// [`backlash_scale_factors`](Self::backlash_scale_factors). Set by the diagnosis'
     /// second pass to the backlash its first pass selected: the first-order form smooths the
     /// crossing of the play over a fixed torque scale, where the sensor reads nothing while
     /// the arm flies across it and then the strike (measured on the multibody suite's
@@ -529,7 +531,14 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
                 &[(-0.05, 0.05)],
             ));
             let base = model.backlash_torque_scale();
-            let scales: Vec<f64> = if opts.backlash_reference.is_some() {
+            // At a reference backlash the dead zone's secant (no torque scale), where the
+            // model's wind-up dynamics carry it: a compliant drive of a model that
+            // integrates its wind-up.
+            let theta0: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+            let dead_zone = opts.backlash_reference.is_some_and(|b| b > 0.0 && b.is_finite())
+                && model.integrates_windup()
+                && model.drive_compliance(&theta0, j) > 0.0;
+            let scales: Vec<f64> = if dead_zone {
                 vec![base]
             } else {
                 opts.backlash_scale_factors.iter().map(|f| f * base).collect()
@@ -974,6 +983,9 @@ pub fn columns(
             let Some((w, wd, off)) = x else { continue };
             let Some(dy) = &dynamics[i] else { continue };
             let k = dy.stiffness();
+            if k.len() != nj || dy.damping.len() != nj || w.len() != nj || wd.len() != nj {
+                continue;
+            }
             for a in 0..nj {
                 if let Some(r) = torque_row(a) {
                     c[r * n + i] = per * (k[a] * w[a] + dy.damping[a] * wd[a]);
@@ -1068,8 +1080,9 @@ pub fn columns(
             }
             (Effect::Backlash { .. }, Some(j))
                 if dynamic
+                    && model.integrates_windup()
                     && model.drive_compliance(&theta0, j) > 0.0
-                    && opts.backlash_reference.is_some_and(|b| b > 0.0) =>
+                    && opts.backlash_reference.is_some_and(|b| b > 0.0 && b.is_finite()) =>
             {
                 // The dead zone's secant at the reference backlash: its response there,
                 // integrated through each sample interval, per radian of it.
@@ -1538,6 +1551,9 @@ mod tests {
         }
         fn transmission_dynamics(&self, _theta: &[f64]) -> Option<TransmissionDynamics> {
             Some(fixtures::one_drive())
+        }
+        fn integrates_windup(&self) -> bool {
+            true
         }
         fn play_dynamics(
             &self,

@@ -1553,7 +1553,7 @@ impl InverseDynamicsModel for MechanismModel {
             {
                 (w.w.iter().copied().collect(), w.wd.iter().copied().collect())
             }
-            _ => (vec![0.0; n], vec![0.0; n]),
+            _ => (vec![f64::NAN; n], vec![0.0; n]),
         };
         mass.iter().all(|v| v.is_finite()).then(|| TransmissionDynamics {
             mass,

@@ -57,7 +57,7 @@ pub struct TransmissionDynamics {
     /// at the encoder's rate less this; zeros where the model carries no wind-up state).
     pub windup_rate: Vec<f64>,
     /// The nominal wind-up w of each transmission at this sample (encoder less joint), rad
-    /// (zeros where the model carries no wind-up state).
+    /// (NaN where the model carries no wind-up state: a backlash's response then has none).
     pub windup: Vec<f64>,
     /// S = ∂τ_s/∂q_arm, N·m/rad: how the joint-side torques change with the arms' positions
     /// at this sample (at the arms' own rates and accelerations). A load that winds the transmissions up by δw changes them by −S·δw,
@@ -130,7 +130,7 @@ pub fn newmark_interval(
 /// A transmission with backlash in [`newmark_interval_with`]: drive `drive`'s spring
 /// (`stiffness` K, `damping` D) transmits nothing while the total wind-up w = w_nom + δw lies
 /// within ±`half_play` b of its unloaded angle (or while its contact would pull), and
-/// K·(|w| − b) + D·ẇ on the side it presses beyond. The response δw is then driven by the
+/// (K·(|w| − b) + D·ẇ·sign w)·sign w on the side it presses beyond. The response δw is then driven by the
 /// torque the linear spring would carry and the dead zone does not, the *lost torque*
 /// L(w, ẇ) = K·w + D·ẇ − T_dz(w, ẇ): K·w_nom + D·ẇ_nom inside the play (the arm free of
 /// its rotor), K·b·sign(w) in contact.
@@ -285,10 +285,11 @@ pub fn newmark_interval_with(
             let (wt, vt) = (wn + rhs[j], vn + wd1);
             let ended = z.side(wt, vt);
             lost = z.lost_torque(wt, vt);
-            if Some(ended) == side || attempt + 1 == DEAD_ZONE_ATTEMPTS {
+            let settled = Some(ended) == side;
+            side = Some(ended);
+            if settled || attempt + 1 == DEAD_ZONE_ATTEMPTS {
                 break;
             }
-            side = Some(ended);
         }
         for i in 0..n {
             let w1 = rhs[i];
@@ -352,8 +353,8 @@ pub type Response = Option<(DVector<f64>, DVector<f64>, f64)>;
 
 /// The transmissions' wind-up response δw and its rate δẇ at every sample of one recording
 /// (times `t`, s) to a joint-side torque `g(i)` (N·m) on drive `j`, with the transmissions'
-/// dynamics at each sample. Starts quasi-statically (δw = K⁻¹·g, the rate from the first
-/// two samples' quasi-static values) at the first sample and after every gap; None at
+/// dynamics at each sample. Starts quasi-statically (δw = (K + S)⁻¹·g, the rate from the
+/// first two samples' quasi-static values) at the first sample and after every gap; None at
 /// samples without dynamics.
 pub fn joint_torque_response(
     t: &[f64],
@@ -376,8 +377,9 @@ pub fn joint_torque_response(
 /// held at zero while the arm flies across it, then the strike on the other flank — shows at
 /// the samples that fall into it. Not linear in b: how long the crossing takes depends on
 /// b, on the rate the wind-up had as the torque reversed (τ̇/K) and on how the load
-/// accelerates the free arm. Starts quasi-statically on the side the nominal wind-up presses (δw = (K + S)⁻¹·K_j·b
-/// on drive j) at the first sample and after every gap.
+/// accelerates the free arm. Starts at rest on the flank the nominal wind-up presses (δw =
+/// (K + S)⁻¹·e_j·K_j·b·sign w_nom) at the first sample and after every gap; None at samples
+/// without the nominal wind-up (not finite) or whose sizes do not match.
 pub fn backlash_response(
     t: &[f64],
     dynamics: &[Option<TransmissionDynamics>],
@@ -432,7 +434,7 @@ fn response(
     let at = |i: usize| -> Option<Sample> {
         let dy = dynamics.get(i)?.as_ref()?;
         let nd = dy.compliance.len();
-        if j >= nd {
+        if j >= nd || dy.damping.len() != nd || dy.mass.shape() != (nd, nd) {
             return None;
         }
         let mut load = DVector::zeros(nd);
@@ -501,7 +503,23 @@ fn response(
                     .map(|w1| (w1 - &w) / (t[i + 1] - t[i]))
                     .unwrap_or_else(|| DVector::zeros(w.len()));
                 let n = w.len();
-                let lost = if dead.is_some() { now.load[j] } else { 0.0 };
+                // A dead zone starts at rest on its flank (the next sample's flank may be
+                // the other: no rate from the difference), the torque it takes from its
+                // state there.
+                let (wd, lost) = match dead {
+                    Some(b) => {
+                        let zone = DeadZone {
+                            drive: j,
+                            half_play: b,
+                            stiffness: now.kj,
+                            damping: now.damping[j],
+                            nominal: [now.nominal; 2],
+                        };
+                        let lost = zone.lost_torque(now.nominal.0 + w[j], now.nominal.1);
+                        (DVector::zeros(n), lost)
+                    }
+                    None => (wd, 0.0),
+                };
                 ((w, wd, DVector::zeros(n)), lost)
             }
         };
