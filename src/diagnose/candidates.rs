@@ -240,6 +240,22 @@ impl LibraryOptions {
     }
 }
 
+impl LibraryOptions {
+    /// The backlash at which drive `j`'s backlash column is the dead zone's secant
+    /// ([`backlash_reference`](Self::backlash_reference), where positive and finite), if the
+    /// model integrates its transmissions' wind-up and drive j is compliant at `theta`.
+    pub fn dead_zone_backlash(
+        &self,
+        model: &dyn InverseDynamicsModel,
+        theta: &[f64],
+        j: usize,
+    ) -> Option<f64> {
+        self.backlash_reference
+            .filter(|b| *b > 0.0 && b.is_finite())
+            .filter(|_| model.integrates_windup() && model.drive_compliance(theta, j) > 0.0)
+    }
+}
+
 impl Default for LibraryOptions {
     /// v_c = 0.05 and 0.01 rad/s (above the rate noise of encoder-differentiated
     /// velocities, well below typical motion; a simulated Stribeck law regularised at
@@ -425,6 +441,7 @@ pub fn compliance_of(model: &dyn InverseDynamicsModel, cands: &[Candidate]) -> V
 /// Builds the candidate library for a model.
 pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<Candidate> {
     let mut out = vec![];
+    let theta0: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
     for j in 0..model.joints() {
         let jn = model.joint_name(j);
         let motion = model.joint_motion(j);
@@ -531,14 +548,8 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
                 &[(-0.05, 0.05)],
             ));
             let base = model.backlash_torque_scale();
-            // At a reference backlash the dead zone's secant (no torque scale), where the
-            // model's wind-up dynamics carry it: a compliant drive of a model that
-            // integrates its wind-up.
-            let theta0: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
-            let dead_zone = opts.backlash_reference.is_some_and(|b| b > 0.0 && b.is_finite())
-                && model.integrates_windup()
-                && model.drive_compliance(&theta0, j) > 0.0;
-            let scales: Vec<f64> = if dead_zone {
+            // At a reference backlash the dead zone's secant (no torque scale).
+            let scales: Vec<f64> = if opts.dead_zone_backlash(model, &theta0, j).is_some() {
                 vec![base]
             } else {
                 opts.backlash_scale_factors.iter().map(|f| f * base).collect()
@@ -1079,14 +1090,11 @@ pub fn columns(
                 vec![lag_of(j).clone()]
             }
             (Effect::Backlash { .. }, Some(j))
-                if dynamic
-                    && model.integrates_windup()
-                    && model.drive_compliance(&theta0, j) > 0.0
-                    && opts.backlash_reference.is_some_and(|b| b > 0.0 && b.is_finite()) =>
+                if dynamic && opts.dead_zone_backlash(model, &theta0, j).is_some() =>
             {
                 // The dead zone's secant at the reference backlash: its response there,
                 // integrated through each sample interval, per radian of it.
-                let b = opts.backlash_reference.unwrap_or(1.0);
+                let b = opts.dead_zone_backlash(model, &theta0, j).unwrap_or(1.0);
                 let response = transmission::backlash_response(&d.t, &dynamics, j, b);
                 vec![from_response(j, &response, 1.0 / b)]
             }
