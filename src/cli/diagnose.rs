@@ -7,6 +7,7 @@ use lash::diagnose::columns::{csv_header, resolve_columns, DFKI_RECORDINGS};
 use lash::diagnose::model::{DoublePendulumModel, InverseDynamicsModel, Mr2120Model};
 use lash::diagnose::play_dynamics::ContactDamping;
 use lash::diagnose::recording::{read_csv, Recording};
+use lash::diagnose::transmission::PlayPlace;
 use lash::diagnose::{diagnose_recordings, format::number, DiagnoseOptions};
 use std::path::{Path, PathBuf};
 
@@ -124,6 +125,12 @@ pub struct Args {
     /// --suite).
     #[arg(long, value_name = "S_PER_M", value_parser = parse_positive)]
     play_load_damping: Option<f64>,
+    /// Where a found backlash's play sits, alone: "output" (between the transmission's
+    /// spring and the arm, as a gear mesh) or "spring" (a dead zone of the spring's
+    /// deflection); by default cross-validation chooses, the output first (also with
+    /// --suite).
+    #[arg(long, value_name = "PLACE", value_parser = ["output", "spring"])]
+    backlash_place: Option<String>,
     /// Print the diagnosis as JSON.
     #[arg(long)]
     json: bool,
@@ -260,6 +267,9 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     opts.library.play_relinearize = a.play_relinearize;
     opts.play_contact_dampings
         .extend(a.play_load_damping.map(ContactDamping::load_proportional));
+    if let Some(p) = backlash_place(&a) {
+        opts.backlash_places = vec![p];
+    }
     opts.library.exclude = a
         .exclude
         .as_deref()
@@ -333,6 +343,9 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
     opts.diagnose
         .play_contact_dampings
         .extend(a.play_load_damping.map(ContactDamping::load_proportional));
+    if let Some(p) = backlash_place(a) {
+        opts.diagnose.backlash_places = vec![p];
+    }
     let mut progress = Progress::new("diagnose --suite", 1.0);
     let board = run_suite(&opts, Some(dir), |_, f| progress.update(f));
     progress.finish();
@@ -414,4 +427,12 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
         dir.display()
     );
     Ok(Output::checked(board.targets_met))
+}
+
+/// The place `--backlash-place` names, if given.
+fn backlash_place(a: &Args) -> Option<PlayPlace> {
+    a.backlash_place.as_deref().map(|p| match p {
+        "spring" => PlayPlace::Spring,
+        _ => PlayPlace::Output,
+    })
 }

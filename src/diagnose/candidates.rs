@@ -30,7 +30,7 @@
 //! | effect | output term |
 //! |---|---|
 //! | joint-position sensor offset o_j | −o_j·∂(τ, y)/∂q_j (torques too) |
-//! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) for each τ_b of the grid ([`LibraryOptions::backlash_scale_factors`]); with the transmissions' dynamics, the wind-up's response δw to the joint-side torque b_j·K_j·tanh(τ_j/τ_b) instead, the outputs moved by it and the torque sensors reading K·δw + D·δẇ less that torque (the ringing where the transmission crosses its play); in the second pass ([`LibraryOptions::backlash_reference`]) the dead zone itself at the first pass's b_ref, b·response(b_ref)/b_ref ([`transmission::backlash_response`]) |
+//! | drive backlash b_j (half the play) | −b_j·∂y/∂q_j·tanh(τ_j/τ_b) for each τ_b of the grid ([`LibraryOptions::backlash_scale_factors`]); with the transmissions' dynamics, the wind-up's response δw to the joint-side torque b_j·K_j·tanh(τ_j/τ_b) instead, the outputs moved by it and the torque sensors reading K·δw + D·δẇ less that torque (the ringing where the transmission crosses its play); in the second pass ([`LibraryOptions::backlash_reference`]) the dead zone itself at the first pass's b_ref, b·response(b_ref)/b_ref ([`transmission::backlash_response`]), its play at the output or in the spring ([`LibraryOptions::backlash_place`], chosen by cross-validation) |
 //! | clearance h at a site (e.g. the joints of a leg) | h·∂y/∂s·tanh(F/F_c), F the site's load |
 //! | play h of a universal joint, radial or axial ([`crate::contact::play`]) | h·∂y/∂(shift, tilt)·(the shift toward the joint's load per unit clearance, over load scale F_c) |
 //! | the same play, with its dynamics (the selection's second pass, or the play-dynamics check) | drive torques too: h·Δτ(h_ref)/h_ref, Δτ the reduced dynamic play model's response ([`super::play_dynamics`]) at a reference play h_ref of the same direction ([`LibraryOptions::dynamic_play_clearance`], [`LibraryOptions::dynamic_axial_play`]); in the second pass the tracker too, h·Δy(h_ref)/h_ref from the model's play coordinates and extra wind-up ([`LibraryOptions::dynamic_play_tracker`]) |
@@ -83,6 +83,10 @@ pub struct LibraryOptions {
     /// the arm flies across it and then the strike (measured on the multibody suite's
     /// backlash case, README).
     pub backlash_reference: Option<f64>,
+    /// Where the play of a backlash taken at [`backlash_reference`](Self::backlash_reference)
+    /// sits: in the transmission's spring (a dead zone) or between the spring and the arm
+    /// (at the output, a gear mesh), [`transmission::PlayPlace`].
+    pub backlash_place: transmission::PlayPlace,
     /// Velocity scales of the smooth sign for prismatic joints, as fractions of the joint's
     /// typical speed ([`speed_scales`](Self::speed_scales)).
     pub relative_coulomb_velocities: Vec<f64>,
@@ -271,6 +275,7 @@ impl Default for LibraryOptions {
             play_load_scales: vec![1.0, 5.0, 20.0],
             backlash_scale_factors: vec![0.3, 1.0, 3.0],
             backlash_reference: None,
+            backlash_place: transmission::PlayPlace::Output,
             relative_coulomb_velocities: vec![0.1, 0.03, 0.01],
             speed_scales: vec![],
             exclude: vec![],
@@ -1095,7 +1100,7 @@ pub fn columns(
                 // The dead zone's secant at the reference backlash: its response there,
                 // integrated through each sample interval, per radian of it.
                 let b = opts.dead_zone_backlash(model, &theta0, j).unwrap_or(1.0);
-                let response = transmission::backlash_response(&d.t, &dynamics, j, b);
+                let response = transmission::backlash_response(&d.t, &dynamics, j, b, opts.backlash_place);
                 vec![from_response(j, &response, 1.0 / b)]
             }
             (Effect::Backlash { scale }, Some(j)) if dynamic && model.drive_compliance(&theta0, j) > 0.0 => {
@@ -1755,7 +1760,9 @@ mod tests {
             .unwrap();
         let col = &columns(&cands, &d, &Carried, &second).cols[c][0];
         let dynamics = vec![Some(fixtures::one_drive()); n];
-        let response = transmission::backlash_response(&t, &dynamics, 0, b);
+        // (At the place the options give: by default the output, between spring and arm.)
+        assert_eq!(second.backlash_place, transmission::PlayPlace::Output);
+        let response = transmission::backlash_response(&t, &dynamics, 0, b, second.backlash_place);
         for i in (0..n).step_by(50) {
             let (w, wd, lost) = response[i].as_ref().unwrap();
             let torque = (k * w[0] + fixtures::one_drive().damping[0] * wd[0] - lost) / b;

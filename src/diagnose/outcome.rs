@@ -288,6 +288,21 @@ pub struct Diagnosis {
     /// ([`LibraryOptions::play_contact_hertz`](super::candidates::LibraryOptions)) rather
     /// than one linear stiffness (JSON `dynamic_play_hertz`).
     pub dynamic_play_hertz: bool,
+    /// Where the play of a backlash taken as a dead zone in the selection sits in its
+    /// transmission (JSON `"spring"` or `"output"`), chosen by cross-validation among
+    /// [`DiagnoseOptions::backlash_places`](super::DiagnoseOptions); `None` when no backlash
+    /// was taken as a dead zone.
+    pub backlash_place: Option<super::transmission::PlayPlace>,
+    /// Each place tried and the selection's leave-one-recording-out RMS with it (noise
+    /// units).
+    pub backlash_place_cv: Vec<(super::transmission::PlayPlace, f64)>,
+    /// Whether the places tried told apart: `Some(false)` when their leave-one-recording-out
+    /// errors lie within
+    /// [`DiagnoseOptions::confound_tolerance`](super::DiagnoseOptions) of each other (fit
+    /// recordings that barely cross the play), so the place kept is the first of
+    /// [`DiagnoseOptions::backlash_places`](super::DiagnoseOptions), not a finding; `None`
+    /// with one place or none.
+    pub backlash_place_identified: Option<bool>,
     /// Whether the reduced dynamic play model was re-linearised about its own motion where
     /// its response is large
     /// ([`LibraryOptions::play_relinearize`](super::candidates::LibraryOptions)); JSON

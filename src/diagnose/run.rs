@@ -17,6 +17,7 @@ use super::relinearize;
 use super::residuals::{prepare, Prepared};
 use super::selection::{confounded, estimate, select, Estimates, Selection};
 use super::signal::{noise_floor, rms};
+use super::transmission::PlayPlace;
 use super::verdict::{verdict, verdict_text};
 
 /// Runs the diagnosis of `model` on the `fit` recordings, checked on `holdout` (equation
@@ -201,6 +202,15 @@ fn diagnose_folds(
     o2.shift = moved;
     (o2.library.dynamic_play_clearance, o2.library.dynamic_axial_play) = references;
     o2.library.backlash_reference = backlash;
+    // With a backlash's dead zone: after the plays' choices, once per further place of its
+    // play, the smallest cross-validated error kept.
+    let places: Vec<PlayPlace> = match (backlash, opts.backlash_places.split_first()) {
+        (Some(_), Some((&first, _))) => {
+            o2.library.backlash_place = first;
+            opts.backlash_places.clone()
+        }
+        _ => vec![o2.library.backlash_place],
+    };
     // With the play's dynamics: once per contact damping, the smallest cross-validated
     // error kept.
     let dampings: Vec<Option<ContactDamping>> = if dynamic && !opts.play_contact_dampings.is_empty() {
@@ -217,24 +227,27 @@ fn diagnose_folds(
         };
     // (One share of the progress per damping and stiffness, and one per pass at resized
     // references.)
-    let passes = dampings.len() + stiffnesses.len() - 1 + if dynamic { relinearize::MAX_RESIZES } else { 0 };
+    let passes = dampings.len() + stiffnesses.len() + places.len() - 2
+        + if dynamic { relinearize::MAX_RESIZES } else { 0 };
     let share = 0.4 / passes as f64;
     let mut pass = |k: usize,
                     damping: Option<ContactDamping>,
                     stiffness: Option<f64>,
+                    place: PlayPlace,
                     refs: (Option<f64>, Option<f64>)| {
         let mut o = o2.clone();
         o.library.play_contact_damping = damping;
         o.library.play_axial_stiffness = stiffness;
+        o.library.backlash_place = place;
         (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) = refs;
         diagnose_once(&shifted, fit, holdout, &o, &mut |s, f| {
             progress(s, 0.5 + share * (k as f64 + f))
         })
     };
-    let mut second = pass(0, dampings[0], stiffnesses[0], references)?;
+    let mut second = pass(0, dampings[0], stiffnesses[0], places[0], references)?;
     let mut tried = vec![(dampings[0], second.cv_rms_noise_units)];
     for k in 1..dampings.len() {
-        let d = pass(k, dampings[k], stiffnesses[0], references)?;
+        let d = pass(k, dampings[k], stiffnesses[0], places[0], references)?;
         tried.push((dampings[k], d.cv_rms_noise_units));
         if d.cv_rms_noise_units < second.cv_rms_noise_units {
             second = d;
@@ -246,12 +259,48 @@ fn diagnose_folds(
             dampings.len() + k - 1,
             second.dynamic_play_damping,
             stiffness,
+            places[0],
             references,
         )?;
         tried_stiffness.push((stiffness, d.cv_rms_noise_units));
         if d.cv_rms_noise_units < second.cv_rms_noise_units {
             second = d;
         }
+    }
+    // Another place is kept only where it cross-validates better beyond the confounding
+    // tolerance; within it the data do not tell, and the first place stays.
+    let mut tried_place = vec![(places[0], second.cv_rms_noise_units)];
+    let mut better: Option<Diagnosis> = None;
+    for (k, &place) in places.iter().enumerate().skip(1) {
+        let d = pass(
+            dampings.len() + stiffnesses.len() + k - 2,
+            second.dynamic_play_damping,
+            second.dynamic_play_axial_stiffness,
+            place,
+            references,
+        )?;
+        tried_place.push((place, d.cv_rms_noise_units));
+        let best = better
+            .as_ref()
+            .map_or(second.cv_rms_noise_units, |b| b.cv_rms_noise_units);
+        if d.cv_rms_noise_units < best {
+            better = Some(d);
+        }
+    }
+    if backlash.is_some() && tried_place.len() > 1 {
+        let (lo, hi) = tried_place
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &(_, cv)| {
+                (lo.min(cv), hi.max(cv))
+            });
+        let identified = hi >= lo * (1.0 + opts.confound_tolerance);
+        if let Some(b) = better
+            .filter(|b| b.cv_rms_noise_units * (1.0 + opts.confound_tolerance) <= second.cv_rms_noise_units)
+        {
+            second = b;
+        }
+        second.backlash_place_identified = Some(identified);
+        second.backlash_place_cv = tried_place;
     }
     if dynamic {
         second.dynamic_play_damping_cv = tried.into_iter().filter_map(|(c, cv)| Some((c?, cv))).collect();
@@ -270,9 +319,10 @@ fn diagnose_folds(
     if dynamic {
         // (Each pass kept has a smaller error than the one before, so `second` is the last.)
         let mut log = vec![(references.0, references.1, second.cv_rms_noise_units)];
-        let (damping, stiffness, mut at) = (
+        let (damping, stiffness, place, mut at) = (
             second.dynamic_play_damping,
             second.dynamic_play_axial_stiffness,
+            second.backlash_place.unwrap_or(places[0]),
             references,
         );
         for k in 0..relinearize::MAX_RESIZES {
@@ -280,9 +330,10 @@ fn diagnose_folds(
                 break;
             };
             let mut d = pass(
-                dampings.len() + stiffnesses.len() - 1 + k,
+                dampings.len() + stiffnesses.len() + places.len() - 2 + k,
                 damping,
                 stiffness,
+                place,
                 refs,
             )?;
             log.push((refs.0, refs.1, d.cv_rms_noise_units));
@@ -291,6 +342,8 @@ fn diagnose_folds(
             }
             d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
             d.dynamic_play_axial_stiffness_cv = std::mem::take(&mut second.dynamic_play_axial_stiffness_cv);
+            d.backlash_place_cv = std::mem::take(&mut second.backlash_place_cv);
+            d.backlash_place_identified = second.backlash_place_identified;
             (second, at) = (d, refs);
         }
         second.dynamic_play_reference_cv = log;
@@ -300,9 +353,10 @@ fn diagnose_folds(
     // point reached to the last pass's estimates and a pass there, at the kept damping,
     // end-face stiffness and reference plays; kept while the selection cross-validates
     // better by `CONTINUED_STEP_GAIN`, at most `MAX_RELINEARIZATIONS` passes in all.
-    let (kept_damping, kept_stiffness, kept_refs) = (
+    let (kept_damping, kept_stiffness, kept_place, kept_refs) = (
         second.dynamic_play_damping,
         second.dynamic_play_axial_stiffness,
+        second.backlash_place,
         (second.dynamic_play_reference, second.dynamic_axial_play_reference),
     );
     let mut shifted = shifted;
@@ -325,6 +379,9 @@ fn diagnose_folds(
         let (shifted_k, moved_k) = relinearize::shift_toward(model, &[], &point, &cands2, &|_| 1.0);
         let mut o = o2.clone();
         o.shift = moved_k;
+        if let Some(place) = kept_place {
+            o.library.backlash_place = place;
+        }
         if dynamic {
             o.library.play_contact_damping = kept_damping;
             o.library.play_axial_stiffness = kept_stiffness;
@@ -340,6 +397,8 @@ fn diagnose_folds(
         d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
         d.dynamic_play_axial_stiffness_cv = std::mem::take(&mut second.dynamic_play_axial_stiffness_cv);
         d.dynamic_play_reference_cv = std::mem::take(&mut second.dynamic_play_reference_cv);
+        d.backlash_place_cv = std::mem::take(&mut second.backlash_place_cv);
+        d.backlash_place_identified = second.backlash_place_identified;
         (second, shifted, base) = (d, shifted_k, point);
         passes += 1;
     }
@@ -655,6 +714,13 @@ fn diagnose_once(
             }),
         dynamic_play_axial_stiffness_cv: vec![],
         dynamic_play_hertz: opts.library.play_contact_hertz,
+        backlash_place: opts
+            .library
+            .backlash_reference
+            .is_some()
+            .then_some(opts.library.backlash_place),
+        backlash_place_cv: vec![],
+        backlash_place_identified: None,
         dynamic_play_relinearized: opts.library.play_relinearize,
         dynamic_play_reference_cv: vec![],
         relinearization_steps: vec![],

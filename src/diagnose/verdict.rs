@@ -36,6 +36,30 @@ pub(super) fn verdict_text(model: &dyn InverseDynamicsModel, d: &Diagnosis, cand
         .as_ref()
         .map(play_dynamics_check)
         .unwrap_or_default()
+        + &backlash_place(d)
+}
+
+/// Where a backlash taken as a dead zone sits, and whether the data told.
+fn backlash_place(d: &Diagnosis) -> String {
+    let Some(place) = d.backlash_place else {
+        return String::new();
+    };
+    let tried: Vec<String> = d
+        .backlash_place_cv
+        .iter()
+        .map(|(p, cv)| format!("{p}: {cv:.4}"))
+        .collect();
+    match d.backlash_place_identified {
+        Some(true) => format!(
+            " The backlash's play sits {place}, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}).",
+            tried.join("; ")
+        ),
+        Some(false) => format!(
+            " Where the backlash's play sits the fit recordings do not tell (leave-one-recording-out RMS in noise units: {}; the same to within the confounding tolerance: they barely cross the play); it was taken {place}, the first place tried, not a finding.",
+            tried.join("; ")
+        ),
+        None => format!(" The backlash's play was taken {place}."),
+    }
 }
 
 /// The verdict of a selection `set` (indices into `cands`); `dynamic_play`: the play

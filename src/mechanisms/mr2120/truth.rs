@@ -21,7 +21,10 @@
 //!   rotor by a torsional spring-damper
 //!   ([`crate::multibody::forces::RotationalSpringDamper`]), or, with backlash
 //!   ([`DriveTruth::backlash`]), by a dead zone: free within ±b, the spring and damper on the
-//!   excess beyond ([`DriveTruth::transmission_torque`]), crossed at every torque reversal.
+//!   excess beyond ([`DriveTruth::transmission_torque`]), crossed at every torque reversal;
+//!   or with a gear mesh ([`DriveTruth::gear`], [`GearMesh`]): the spring and damper turn an
+//!   output gear (a body of its own), whose teeth meet the arm's across a play by an impact
+//!   law on the flank (Flores et al.'s by default), the other form of backlash.
 //! * **Arm-side joint friction** as force elements ([`ArmFriction`]): Stribeck friction with
 //!   its own scales and exponent, Coulomb friction that drifts over the record, cogging
 //!   torque ripple. (LuGre is not implemented: it needs a friction state, which a force
@@ -90,7 +93,7 @@ use super::lumped::NOMINAL_COMPLIANCE;
 use super::record::{
     reversals, Excitation, RecordOptions, Recorded, Rng, BACKLASH_SCALE, CLEARANCE_SCALE, FRICTION_VELOCITY,
 };
-use crate::contact::BearingDesign;
+use crate::contact::{BearingDesign, NormalLaw};
 use crate::multibody::forces::{RelativeRotation, RotationalSpringDamper, RotationalTorque};
 use crate::multibody::{
     Analysis, Attach, BodyHandle, BodyState, DriverHandle, Mechanism, MechanismData, ModelError, MotionLaw,
@@ -283,6 +286,81 @@ pub struct DriveTruth {
     /// transmission acts as a spring and damper on the excess, and pushes only (a dead zone
     /// that the rotor crosses whenever the transmission's torque reverses).
     pub backlash: f64,
+    /// A gear mesh with play between the transmission and the arm, if any ([`GearMesh`]):
+    /// the spring and damper then turn an output gear, and the arm meets that gear's teeth
+    /// across the mesh's play by a nonlinear contact law — another form of backlash than
+    /// [`backlash`](Self::backlash) (which must then be 0).
+    pub gear: Option<GearMesh>,
+}
+
+/// A gear mesh with backlash: an output gear (a body on the drive axis, turned by the
+/// transmission's spring and damper) whose teeth meet the arm's across a play of ±`backlash`,
+/// pressing by an impact law on the flank's penetration: F = K·δ^n·(1 + χ·δ̇) of
+/// [`NormalLaw`] read in angular units (δ in rad, δ̇ in rad/s, K in N·m/rad^n, the law's
+/// reference velocity in rad/s, the result in N·m), never pulling.
+///
+/// Unlike [`DriveTruth::backlash`] (a dead zone in the transmission's own spring, damped only
+/// in contact), here the play sits in series with the spring, the flank is stiff and
+/// nonlinear, its damping is the law's hysteresis (vanishing as contact begins), the
+/// transmission's damper acts in the play too, and the gear has its own inertia: a truth of
+/// a form the diagnosis's dead-zone candidate does not share.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GearMesh {
+    /// Half the mesh's play, rad (≥ 0, at most [`MAX_BACKLASH`]).
+    pub backlash: f64,
+    /// The flank's contact law, in angular units (above).
+    pub law: NormalLaw,
+    /// The output gear's inertia about the drive axis, kg·m² (> 0); its mass is
+    /// [`GEAR_MASS`], centred on the axis.
+    pub inertia: f64,
+}
+
+/// The flank stiffness of [`GearMesh::example`], N·m/rad^1.5: a flank deflection of 1 µrad
+/// under 1 N·m (a tenth of a 10 µrad backlash; secant stiffness 1e6 N·m/rad there, a hundred
+/// times the transmission's [`NOMINAL_STIFFNESS`]). Chosen, not measured.
+pub const GEAR_MESH_STIFFNESS: f64 = 1e9;
+/// Coefficient of restitution of [`GearMesh::example`]'s flank (Flores et al.'s law), at
+/// [`GEAR_MESH_REFERENCE_RATE`]. Chosen, not measured.
+pub const GEAR_MESH_RESTITUTION: f64 = 0.8;
+/// Reference impact rate of [`GearMesh::example`]'s flank law, rad/s: the order of the
+/// transmissions' wind-up rate as a drive torque reverses (≈ 800 N·m/s over
+/// [`NOMINAL_STIFFNESS`]). Chosen, not measured.
+pub const GEAR_MESH_REFERENCE_RATE: f64 = 0.05;
+/// Inertia of [`GearMesh::example`]'s output gear about the drive axis, kg·m² (a fifth of
+/// [`NOMINAL_ROTOR_INERTIA`]: at the paths' ≤ 10 rad/s² it adds ≤ 2e-4 N·m, a hundredth of the
+/// torque noise). Chosen, not measured.
+pub const GEAR_INERTIA: f64 = 2e-5;
+/// Mass of an output gear, kg (centred on the drive axis: no gravity torque).
+pub const GEAR_MASS: f64 = 0.05;
+
+impl GearMesh {
+    /// A mesh with half-play `backlash` (rad): Flores et al.'s law with
+    /// [`GEAR_MESH_STIFFNESS`], exponent 1.5, [`GEAR_MESH_RESTITUTION`] at
+    /// [`GEAR_MESH_REFERENCE_RATE`], and an output gear of [`GEAR_INERTIA`].
+    pub fn example(backlash: f64) -> Self {
+        Self {
+            backlash,
+            law: NormalLaw::Flores {
+                k: GEAR_MESH_STIFFNESS,
+                n: 1.5,
+                restitution: GEAR_MESH_RESTITUTION,
+                v_ref: GEAR_MESH_REFERENCE_RATE,
+            },
+            inertia: GEAR_INERTIA,
+        }
+    }
+
+    /// The mesh's torque on the arm at relative rotation θ (arm against gear, rad) and rate θ̇
+    /// (rad/s), N·m: zero for |θ| ≤ b; beyond, −sign(θ)·F(|θ| − b, θ̇·sign(θ)) with F the
+    /// flank's law (≥ 0: it never pulls).
+    pub fn torque(&self, theta: f64, rate: f64) -> f64 {
+        let over = theta.abs() - self.backlash;
+        if over <= 0.0 {
+            return 0.0;
+        }
+        let s = theta.signum();
+        -s * self.law.force(over, rate * s)
+    }
 }
 
 /// Largest transmission backlash accepted (half the play), rad.
@@ -298,6 +376,7 @@ impl DriveTruth {
             rotor_inertia: NOMINAL_ROTOR_INERTIA,
             friction: vec![],
             backlash: 0.0,
+            gear: None,
         }
     }
 
@@ -508,6 +587,29 @@ impl TruthSpec {
                     "drive {n}: backlash = {} rad (must be in [0, {MAX_BACKLASH}] rad)",
                     d.backlash
                 ));
+            }
+            if let Some(g) = &d.gear {
+                if !(nonneg(g.backlash) && g.backlash <= MAX_BACKLASH) {
+                    return inv(format!(
+                        "drive {n}: gear mesh backlash = {} rad (must be in [0, {MAX_BACKLASH}] rad)",
+                        g.backlash
+                    ));
+                }
+                if !pos(g.inertia) {
+                    return inv(format!(
+                        "drive {n}: output gear inertia = {} kg·m² (must be > 0)",
+                        g.inertia
+                    ));
+                }
+                if let Err(e) = g.law.validate() {
+                    return inv(format!("drive {n}: gear mesh flank law: {e}"));
+                }
+                if d.backlash > 0.0 {
+                    return inv(format!(
+                        "drive {n}: backlash = {} rad in the transmission and a gear mesh with play: one form at a time",
+                        d.backlash
+                    ));
+                }
             }
             for f in &d.friction {
                 f.validate(n)?;
@@ -902,6 +1004,26 @@ pub fn truth_model(
             mech.drive(&format!("q{}", i + 1), rj, law, l.q[i])
                 .map_err(Mr2120Error::from)?,
         );
+        // An output gear on the drive axis, when the drive has a gear mesh.
+        let gear = d.gear.map(|g| {
+            let gear = mech.add_body(
+                RigidBody::new(
+                    format!("output gear {name}"),
+                    GEAR_MASS,
+                    Matrix3::from_diagonal(&Vector3::new(g.inertia / 2.0, g.inertia / 2.0, g.inertia)),
+                )
+                .at(b.arm_centre)
+                .oriented(&frame_z(axis)),
+            );
+            mech.revolute_at(
+                &format!("{name} output gear"),
+                Attach::Ground,
+                gear,
+                b.arm_centre,
+                axis,
+            );
+            gear
+        });
         let rel = |a: Attach, c: Attach| {
             RelativeRotation::from_initial_poses(&mech, a, c, axis)
                 .ok_or_else(|| TruthError::Invalid(format!("drive {name}: bad transmission axis")))
@@ -909,7 +1031,23 @@ pub fn truth_model(
         let spring = rel(Attach::Body(rotor), Attach::Body(l.arms[i]))?;
         let arm_angle = rel(Attach::Ground, Attach::Body(l.arms[i]))?;
         rotor_angles.push(rel(Attach::Ground, Attach::Body(rotor))?);
-        if d.backlash > 0.0 {
+        if let (Some(g), Some(gear)) = (d.gear, gear) {
+            // The spring and damper turn the output gear; the arm meets the gear's teeth.
+            let shaft = rel(Attach::Body(rotor), Attach::Body(gear))?;
+            let mesh = rel(Attach::Body(gear), Attach::Body(l.arms[i]))?;
+            mech.add_force(Box::new(RotationalSpringDamper {
+                name: format!("transmission {name}"),
+                rotation: shaft,
+                stiffness: d.stiffness,
+                damping: d.damping,
+                free_angle: 0.0,
+            }));
+            mech.add_force(Box::new(RotationalTorque {
+                name: format!("gear mesh {name}"),
+                rotation: mesh,
+                law: Arc::new(move |_, theta, rate| g.torque(theta, rate)),
+            }));
+        } else if d.backlash > 0.0 {
             let drive = d.clone();
             mech.add_force(Box::new(RotationalTorque {
                 name: format!("transmission {name} (with backlash)"),
@@ -1483,5 +1621,49 @@ mod tests {
         );
         spec.drives[1].backlash = 2.0 * MAX_BACKLASH;
         assert!(spec.validate().is_err());
+    }
+
+    /// The gear mesh: free within ±b; beyond, K·δ^1.5 at rest (1 N·m at 1 µrad for the
+    /// example's flank), more while closing, less while opening, never pulling; refused with
+    /// the transmission's own backlash or a bad flank, naming the drive.
+    #[test]
+    fn a_gear_mesh_is_free_within_its_play_and_presses_by_its_flank_law_beyond_it() {
+        let g = GearMesh::example(1e-5);
+        assert_eq!(g.torque(9e-6, 1.0), 0.0);
+        assert_eq!(g.torque(-1e-5, -1.0), 0.0);
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
+        assert!(close(g.torque(1.1e-5, 0.0), -1.0), "{}", g.torque(1.1e-5, 0.0));
+        assert!(close(g.torque(-1.1e-5, 0.0), 1.0));
+        // Flores: χ = 8(1 − e)/(5e·v_ref) = 8 s/rad with e = 0.8 at 0.05 rad/s.
+        let chi =
+            8.0 * (1.0 - GEAR_MESH_RESTITUTION) / (5.0 * GEAR_MESH_RESTITUTION * GEAR_MESH_REFERENCE_RATE);
+        assert!(close(chi, 8.0));
+        assert!(close(g.torque(1.1e-5, 0.05), -(1.0 + chi * 0.05)));
+        assert!(close(g.torque(-1.1e-5, -0.05), 1.0 + chi * 0.05));
+        assert!(close(g.torque(1.1e-5, -0.05), -(1.0 - chi * 0.05)));
+        assert_eq!(g.torque(1.1e-5, -1.0), 0.0);
+        let mut spec = TruthSpec::nominal();
+        spec.drives[2].gear = Some(g);
+        spec.validate().expect("a gear mesh alone is valid");
+        spec.drives[2].backlash = 1e-5;
+        let e = spec.validate().expect_err("two forms of backlash");
+        assert!(e.to_string().contains("drive C"), "{e}");
+        spec.drives[2].backlash = 0.0;
+        spec.drives[2].gear = Some(GearMesh { inertia: 0.0, ..g });
+        assert!(spec.validate().is_err());
+        spec.drives[2].gear = Some(GearMesh {
+            law: NormalLaw::Flores {
+                k: 1e9,
+                n: 1.5,
+                restitution: 1.5,
+                v_ref: 0.05,
+            },
+            ..g
+        });
+        let e = spec.validate().expect_err("restitution above 1");
+        assert!(
+            e.to_string().contains("drive C") && e.to_string().contains("flank"),
+            "{e}"
+        );
     }
 }
