@@ -245,12 +245,15 @@ fn diagnose_folds(
         })
     };
     let mut second = pass(0, dampings[0], stiffnesses[0], places[0], references)?;
+    // The damping and end-face stiffness the kept pass ran with.
+    let (mut used_damping, mut used_stiffness) = (dampings[0], stiffnesses[0]);
     let mut tried = vec![(dampings[0], second.cv_rms_noise_units)];
     for k in 1..dampings.len() {
         let d = pass(k, dampings[k], stiffnesses[0], places[0], references)?;
         tried.push((dampings[k], d.cv_rms_noise_units));
         if d.cv_rms_noise_units < second.cv_rms_noise_units {
             second = d;
+            used_damping = dampings[k];
         }
     }
     let mut tried_stiffness = vec![(stiffnesses[0], second.cv_rms_noise_units)];
@@ -265,17 +268,34 @@ fn diagnose_folds(
         tried_stiffness.push((stiffness, d.cv_rms_noise_units));
         if d.cv_rms_noise_units < second.cv_rms_noise_units {
             second = d;
+            (used_damping, used_stiffness) = (second.dynamic_play_damping, stiffness);
         }
     }
+    // The second pass's own library (its play candidates may differ from the first's:
+    // `LibraryOptions::dynamic_play_tracker`; not with the references, see below).
+    let cands2 = library(model, &o2.library);
+    let selects_backlash = |d: &Diagnosis| {
+        d.selected.iter().any(|n| {
+            cands2
+                .iter()
+                .any(|c| &c.name == n && matches!(c.effect, super::candidates::Effect::Backlash { .. }))
+        })
+    };
     // Another place is kept only where it cross-validates better beyond the confounding
-    // tolerance; within it the data do not tell, and the first place stays.
+    // tolerance; within it the data do not tell, and the first place stays. (Only with a
+    // backlash in the selection: elsewhere the place changes nothing.)
     let mut tried_place = vec![(places[0], second.cv_rms_noise_units)];
     let mut better: Option<Diagnosis> = None;
-    for (k, &place) in places.iter().enumerate().skip(1) {
+    let other_places = if selects_backlash(&second) {
+        &places[1..]
+    } else {
+        &[]
+    };
+    for (k, &place) in other_places.iter().enumerate() {
         let d = pass(
-            dampings.len() + stiffnesses.len() + k - 2,
-            second.dynamic_play_damping,
-            second.dynamic_play_axial_stiffness,
+            dampings.len() + stiffnesses.len() + k - 1,
+            used_damping,
+            used_stiffness,
             place,
             references,
         )?;
@@ -309,9 +329,6 @@ fn diagnose_folds(
             .filter_map(|(k, cv)| Some((k?, cv)))
             .collect();
     }
-    // The second pass's own library (its play candidates may differ from the first's:
-    // `LibraryOptions::dynamic_play_tracker`; not with the references, see below).
-    let cands2 = library(model, &o2.library);
     // The play candidates' columns are secants, exact at their reference play only: where
     // the last pass sized a play far from its reference, once more at its estimates (the
     // kept damping) — a secant iteration on the plays, at most `MAX_RESIZES` times, while
@@ -403,6 +420,10 @@ fn diagnose_folds(
         passes += 1;
     }
     let mut d = relinearize::against_nominal(model, first, second, &cands2);
+    if !selects_backlash(&d) {
+        (d.backlash_place, d.backlash_place_identified) = (None, None);
+        d.backlash_place_cv.clear();
+    }
     d.relinearization_steps = steps;
     d.relinearization_cv = cv_log;
     d.relinearization_passes = passes;
@@ -415,8 +436,10 @@ fn diagnose_folds(
         .collect();
     d.friction = super::equivalents::joint_friction(model, &set, &cands2, &d.estimates);
     if d.dynamic_play_reference.is_none() && d.dynamic_axial_play_reference.is_none() {
+        let mut o3 = o2.clone();
+        o3.library.backlash_place = d.backlash_place.unwrap_or(o3.library.backlash_place);
         d.play_dynamics =
-            play_dynamics_check(model, &shifted, &d, fit, holdout, &o2, &cands2, &mut *progress)?;
+            play_dynamics_check(model, &shifted, &d, fit, holdout, &o3, &cands2, &mut *progress)?;
     }
     d.verdict = verdict_text(model, &d, &cands2);
     progress("done", 1.0);

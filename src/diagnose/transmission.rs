@@ -47,7 +47,7 @@
 //! held-out residual in noise units): a truth with a gear mesh at the output
 //! (`mechanisms::mr2120::truth::GearMesh`: Hertzian flanks, an output gear of its own) is
 //! left at 1.03× with the play at the output and 1.45× with it in the spring; a truth with
-//! the dead zone in its spring at 1.02× and 1.41×.
+//! the dead zone in its spring at 1.41× with the play at the output and 1.02× in the spring.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -184,6 +184,16 @@ pub enum PlayPlace {
     /// its damper while the arm crosses the play.
     #[default]
     Output,
+}
+
+impl PlayPlace {
+    /// One word for it: "output" or "spring" (as in JSON).
+    pub fn word(self) -> &'static str {
+        match self {
+            PlayPlace::Spring => "spring",
+            PlayPlace::Output => "output",
+        }
+    }
 }
 
 impl std::fmt::Display for PlayPlace {

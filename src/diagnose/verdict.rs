@@ -47,16 +47,16 @@ fn backlash_place(d: &Diagnosis) -> String {
     let tried: Vec<String> = d
         .backlash_place_cv
         .iter()
-        .map(|(p, cv)| format!("{p}: {cv:.4}"))
+        .map(|(p, cv)| format!("{} {cv:.4}", p.word()))
         .collect();
     match d.backlash_place_identified {
         Some(true) => format!(
             " The backlash's play sits {place}, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}).",
-            tried.join("; ")
+            tried.join(", ")
         ),
         Some(false) => format!(
-            " Where the backlash's play sits the fit recordings do not tell (leave-one-recording-out RMS in noise units: {}; the same to within the confounding tolerance: they barely cross the play); it was taken {place}, the first place tried, not a finding.",
-            tried.join("; ")
+            " Where the backlash's play sits the fit recordings do not tell (leave-one-recording-out RMS in noise units: {}, the same to within the confounding tolerance: they barely cross the play); it was taken {place}, the first place tried, not a finding.",
+            tried.join(", ")
         ),
         None => format!(" The backlash's play was taken {place}."),
     }
