@@ -55,7 +55,7 @@ fn backlash_place(d: &Diagnosis) -> String {
             tried.join(", ")
         ),
         Some(false) => format!(
-            " Where the backlash's play sits the fit recordings do not tell (leave-one-recording-out RMS in noise units: {}, the same to within the confounding tolerance: they barely cross the play); it was taken {place}, the first place tried, not a finding.",
+            " Where the backlash's play sits the fit recordings do not tell (leave-one-recording-out RMS in noise units: {}, the same to within the confounding tolerance: they barely cross the play); it was taken {place}, the first place tried, not a finding — fitting a recording in which that drive's torque reverses would tell.",
             tried.join(", ")
         ),
         None => format!(" The backlash's play was taken {place}."),
