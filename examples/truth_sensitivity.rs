@@ -17,6 +17,8 @@
 //! ```
 //! (about a minute per variant: eight truth simulations of 5 s.)
 
+mod common;
+
 use lash::contact::{BearingDesign, Damping};
 use lash::diagnose::suite::SuiteOptions;
 use lash::mechanisms::mr2120::clearance::LUBRICATED_ALPHA;
@@ -42,32 +44,15 @@ fn main() -> Result<(), Box<dyn Error>> {
     };
     let base = run(h, LUBRICATED_ALPHA, 1.0)?;
     let without = run(0.0, LUBRICATED_ALPHA, 1.0)?;
-    let t = &base.t;
-    let n = t.len();
-    let end = t[n - 1] + 1e-9;
+    let end = base.t.last().copied().unwrap_or(0.0) + 1e-9;
     let windows = [(0.6, 2.6), (2.6, 2.77), (2.77, 3.1), (3.1, end), (0.6, end)];
     let sigma = ropts.noise.torque;
-    let rms = |other: &TruthRun, k: usize, (w0, w1): (f64, f64)| {
-        let d: Vec<f64> = (0..n)
-            .filter(|&i| t[i] >= w0 && t[i] < w1)
-            .map(|i| base.tau[k][i] - other.tau[k][i])
-            .collect();
-        (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt() / sigma
-    };
     println!(
         "recording {recording}, {:.1} µm radial clearance in joint F, α = {LUBRICATED_ALPHA} s/m: the drive torques' RMS difference from this run, torque-noise units ({sigma} N·m)",
         h * 1e6
     );
-    let print = |name: &str, other: &TruthRun| {
-        println!("{name}:");
-        for (k, drive) in ["A", "B", "C"].iter().enumerate() {
-            let cells: Vec<String> = windows
-                .iter()
-                .map(|&(w0, w1)| format!("{w0:.2}–{w1:.2} s: {:.2}", rms(other, k, (w0, w1))))
-                .collect();
-            println!("  drive {drive}:  {}", cells.join("  "));
-        }
-    };
+    let print =
+        |name: &str, other: &TruthRun| common::print_torque_differences(name, &base, other, &windows, sigma);
     print("the play's whole effect (the truth without clearance)", &without);
     print("tolerances ÷ 10", &run(h, LUBRICATED_ALPHA, 10.0)?);
     print(

@@ -651,6 +651,21 @@ fn response(
 mod tests {
     use super::*;
 
+    /// One drive's dynamics (inertia `j`, stiffness `k`, damping `d`) along a nominal
+    /// (wind-up, its rate, torque) per sample.
+    fn along(nominal: &[(f64, f64, f64)], j: f64, k: f64, d: f64) -> Vec<Option<TransmissionDynamics>> {
+        nominal
+            .iter()
+            .map(|&(w, wd, _)| {
+                Some(TransmissionDynamics {
+                    windup: vec![w],
+                    windup_rate: vec![wd],
+                    ..one_drive(j, 1.0 / k, d)
+                })
+            })
+            .collect()
+    }
+
     fn one_drive(m: f64, c: f64, d: f64) -> TransmissionDynamics {
         TransmissionDynamics {
             mass: DMatrix::from_element(1, 1, m),
@@ -868,16 +883,7 @@ mod tests {
         let nominal = simulate(&|w, wd| k * w + d * wd, load(0.0) / k);
         let truth = simulate(&truth_zone, load(0.0) / k + b);
         let t: Vec<f64> = (0..=50).map(|i| i as f64 * 2e-3).collect();
-        let dynamics: Vec<Option<TransmissionDynamics>> = nominal
-            .iter()
-            .map(|&(w, wd, _)| {
-                Some(TransmissionDynamics {
-                    windup: vec![w],
-                    windup_rate: vec![wd],
-                    ..one_drive(j, 1.0 / k, d)
-                })
-            })
-            .collect();
+        let dynamics = along(&nominal, j, k, d);
         let r = backlash_response(&t, &dynamics, 0, b, PlayPlace::Spring);
         let reading = |i: usize| {
             let (w, wd, lost) = r[i].as_ref().unwrap();
@@ -970,16 +976,7 @@ mod tests {
         let nominal = simulate(false);
         let truth = simulate(true);
         let t: Vec<f64> = (0..=50).map(|i| i as f64 * 2e-3).collect();
-        let dynamics: Vec<Option<TransmissionDynamics>> = nominal
-            .iter()
-            .map(|&(w, wd, _)| {
-                Some(TransmissionDynamics {
-                    windup: vec![w],
-                    windup_rate: vec![wd],
-                    ..one_drive(j, 1.0 / k, d)
-                })
-            })
-            .collect();
+        let dynamics = along(&nominal, j, k, d);
         let left = |place: PlayPlace| {
             let r = backlash_response(&t, &dynamics, 0, b, place);
             let (mut effect, mut left) = (0.0, 0.0);
