@@ -273,20 +273,12 @@ impl DeadZone {
         }
     }
 
-    /// The lost torque L at the total wind-up `w` and rate `wd` with the node at `g`, coming
-    /// from outside contact, N·m.
-    pub fn lost_torque(&self, w: f64, wd: f64, g: f64) -> f64 {
-        self.lost(self.side(w, wd, g), w, wd)
-    }
-
-    /// The node's deflection at total wind-up `w` and rate `wd` with the node at `g` before:
-    /// on the flank if the arm presses it, else `g` (the spring: 0).
-    pub fn node_at(&self, w: f64, wd: f64, g: f64) -> f64 {
-        match self.side(w, wd, g) {
-            Side::Pressing(s) => w - self.half_play * s,
-            Side::Free if self.place == PlayPlace::Output => g,
-            Side::Free => 0.0,
-        }
+    /// The lost torque L (N·m) and the node's deflection (rad) at a start at total wind-up `w`
+    /// and rate `wd`, the node unloaded before: on the flank if the arm presses it, else free
+    /// with the node at rest.
+    fn start(&self, w: f64, wd: f64) -> (f64, f64) {
+        let side = self.side(w, wd, 0.0);
+        (self.lost(side, w, wd), self.node_after(side, 0.0, w, 0.0))
     }
 }
 
@@ -626,8 +618,8 @@ fn response(
                 let (wd, lost, node) = match zone_at(&now, [now.nominal; 2], 0.0) {
                     Some(zone) => {
                         let (wt, vt) = (now.nominal.0 + w[j], now.nominal.1);
-                        let lost = zone.lost_torque(wt, vt, 0.0);
-                        (DVector::zeros(n), lost, zone.node_at(wt, vt, 0.0))
+                        let (lost, node) = zone.start(wt, vt);
+                        (DVector::zeros(n), lost, node)
                     }
                     None => (wd, 0.0, 0.0),
                 };
