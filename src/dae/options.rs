@@ -105,6 +105,13 @@ pub struct BdfOptions {
     /// so the convergence rate of this step is measured (and a slow rate refreshes the
     /// matrix) instead of trusting the previous step's rate.
     pub measure_rate_with_stale_jacobian: bool,
+    /// Differences kept by the Anderson acceleration of the Newton iteration (0: none, IDA's
+    /// plain modified Newton; at most 8). With a matrix that has drifted from the true
+    /// Jacobian in a few stiff directions (contact stiffness changing between steps), the
+    /// accelerated iteration is GMRES preconditioned by that matrix and converges where the
+    /// plain one crawls, at one residual and one solve per iteration as before
+    /// (`dae::bdf::anderson`).
+    pub anderson_depth: usize,
     /// Linear solver of the iteration matrices (default: faer's sparse LU).
     pub linear_solver: LinearSolverKind,
 }
@@ -133,6 +140,7 @@ impl Default for BdfOptions {
             stop_time: None,
             filter_error_estimate: false,
             measure_rate_with_stale_jacobian: true,
+            anderson_depth: 0,
             linear_solver: LinearSolverKind::SparseLu,
         }
     }

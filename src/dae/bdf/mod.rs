@@ -9,15 +9,18 @@
 //! | `mod.rs` | the state struct, construction, norms, accessors |
 //! | `step.rs` | one step: coefficients, predictor, error test, order/step selection |
 //! | `newton.rs` | the Newton iteration with Jacobian/LU reuse and refresh |
+//! | `anderson.rs` | Anderson acceleration of that iteration while its matrix is frozen |
 //! | `linsys.rs` | the one set-up path of the iteration matrix dF/dy + α·dF/dy' (Newton and initial conditions) and its factorisation through the [`LinearSolver`](crate::dae::LinearSolver) seam |
 //! | `estimate.rs` | filtering of the local error estimates in stiff directions |
 //! | `ic.rs` | consistent initial values (index 1) and the consistency check |
 //! | `output.rs` | dense output, the output-time driver, stop times, events, restarts |
 
+mod anderson;
 mod estimate;
 mod ic;
 pub(crate) mod linsys;
 mod newton;
+
 mod output;
 mod step;
 
@@ -115,6 +118,8 @@ pub struct BdfSolver<P: DaeSystem> {
     pub(crate) filter_ok: bool,
     // --- linear algebra ---
     pub(crate) mat: IterationMatrix,
+    /// Anderson acceleration of the Newton iteration (`BdfOptions::anderson_depth`).
+    pub(crate) anderson: anderson::Anderson,
     /// The iteration matrix was evaluated at the current step's predictor.
     pub(crate) jac_current: bool,
     /// Set-up forced on the next Newton iteration (slow convergence, restart, …).
@@ -178,6 +183,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             )));
         }
         let atol = opts.atol.expand(n, |i| sys.component_name(i))?;
+        let anderson_depth = opts.anderson_depth;
         if !(1..=MAX_ORDER).contains(&opts.max_order) {
             return Err(DaeError::InvalidInput(format!(
                 "max_order must be 1–{MAX_ORDER}, got {}",
@@ -292,6 +298,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             yp_work: vec![0.0; n],
             filter_ok: false,
             mat,
+            anderson: anderson::Anderson::new(n, anderson_depth),
             jac_current: false,
             force_setup: true,
             steps_since_jac: 0,

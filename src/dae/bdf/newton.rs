@@ -15,6 +15,10 @@
 //!   within the step (contact) otherwise make the iteration crawl and the step fail. A slow
 //!   iteration that will still converge in time is left to do so (cheaper than a
 //!   factorisation).
+//!
+//! With `anderson_depth` > 0 each iterate is accelerated (`anderson.rs`); the convergence
+//! test and the rates stay those of the plain correction J⁻¹·F at each iterate, and a new
+//! matrix or a new attempt starts the acceleration's history afresh.
 
 use super::BdfSolver;
 use crate::dae::error::{Culprit, DaeError};
@@ -201,6 +205,7 @@ impl<P: DaeSystem> BdfSolver<P> {
         self.yy.copy_from_slice(&self.ypred);
         self.yp.copy_from_slice(&self.yppred);
         self.ee.iter_mut().for_each(|v| *v = 0.0);
+        self.anderson.reset();
         self.eval_residual()?;
         if call_setup {
             self.setup_matrix()?;
@@ -232,8 +237,8 @@ impl<P: DaeSystem> BdfSolver<P> {
                 self.delta.iter_mut().for_each(|v| *v *= scale);
             }
             let cj = self.cj;
+            self.anderson.advance(&mut self.ee, &self.delta, &self.ewt_newton);
             for i in 0..self.n {
-                self.ee[i] -= self.delta[i];
                 self.yy[i] = self.ypred[i] + self.ee[i];
                 self.yp[i] = self.yppred[i] + cj * self.ee[i];
             }
@@ -261,6 +266,7 @@ impl<P: DaeSystem> BdfSolver<P> {
                     && !converges_within(rate, delnrm, self.opts.newton_tol, maxcor - m - 1)
                 {
                     refreshes += 1;
+                    self.anderson.reset();
                     self.eval_residual()?;
                     self.setup_matrix()?;
                     scale = 1.0;

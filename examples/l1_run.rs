@@ -1,0 +1,73 @@
+//! The whole L1 run of issue #16 alone (the MR2120 clearance model along the paper's
+//! trajectory, rtol 1e-4, atol 1e-6), for profiling and for sweeps of the integrator's
+//! settings: no reference run, no output files, one line per repetition with the wall time
+//! and the integrator's counters and phase timers.
+//!
+//! ```text
+//! cargo run --release --example l1_run -- [REPETITIONS]
+//! LASH_RTOL=9.5e-5 LASH_T_END=3.4 LASH_ANDERSON=3 cargo run --release --example l1_run
+//! perf record -g target/release/examples/l1_run 3
+//! ```
+//! `LASH_RTOL` sets rtol (atol = rtol/100), `LASH_T_END` the end time (s, at most 4),
+//! `LASH_ANDERSON` the Newton iteration's Anderson depth (`BdfOptions::anderson_depth`).
+
+use lash::bench::mr2120::BENCH_DAMPING;
+use lash::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clearance_set};
+use lash::mechanisms::mr2120::paper::TABLE2;
+use lash::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
+use lash::mechanisms::mr2120::{Geometry, MassProperties};
+use lash::multibody::Simulation;
+use nalgebra::Vector3;
+use std::sync::Arc;
+
+fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
+    std::env::var(name).ok().and_then(|s| s.parse().ok())
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let g = Geometry::default();
+    let set = clearance_set("L1")?;
+    let model = clearance_model(
+        &g,
+        &MassProperties::default(),
+        Vector3::from(TABLE2[0].m),
+        Some(drive_laws(&g)),
+        &bearing_design(&set, BENCH_DAMPING),
+    )?;
+    let mech = Arc::new(model.mechanism);
+    let t_end = env::<f64>("LASH_T_END").unwrap_or(4.0).min(4.0);
+    // The benchmark's sampling: every 10 ms.
+    let times: Vec<f64> = (1..=(t_end * 100.0).round() as usize)
+        .map(|k| k as f64 * 0.01)
+        .collect();
+    let reps: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(1);
+    for _ in 0..reps {
+        let start = std::time::Instant::now();
+        let mut opts = clearance_options();
+        let rtol = env::<f64>("LASH_RTOL").unwrap_or(1e-4);
+        opts.bdf.rtol = rtol;
+        opts.bdf.atol = lash::dae::AbsTol::Scalar(rtol / 100.0);
+        opts.singularity_warning = 0.0;
+        if let Some(d) = env("LASH_ANDERSON") {
+            opts.bdf.anderson_depth = d;
+        }
+        let mut sim = Simulation::new(mech.clone(), 0.0, opts)?;
+        sim.run(&times, |_| {})?;
+        let s = sim.stats();
+        let p = s.time;
+        println!(
+            "rtol {rtol:.3e}, 0..{t_end} s: {:.3} s, steps {}, lu {}, newton {}, etf {} nf {}; residuals {:.3} s, Jacobians {:.3} s, factorisations {:.3} s, solves {:.3} s",
+            start.elapsed().as_secs_f64(),
+            s.steps,
+            s.lu_factorisations,
+            s.newton_iters,
+            s.error_test_failures,
+            s.newton_failures,
+            p.residual_s,
+            p.jacobian_s,
+            p.factorisation_s,
+            p.solve_s,
+        );
+    }
+    Ok(())
+}
