@@ -106,7 +106,7 @@ pub struct BdfOptions {
     /// matrix) instead of trusting the previous step's rate.
     pub measure_rate_with_stale_jacobian: bool,
     /// Differences kept by the Anderson acceleration of the Newton iteration (0: none, IDA's
-    /// plain modified Newton; at most 8). With a matrix that has drifted from the true
+    /// plain modified Newton; at most 8, more is an input error). With a matrix that has drifted from the true
     /// Jacobian in a few stiff directions (contact stiffness changing between steps), the
     /// accelerated iteration is GMRES preconditioned by that matrix and converges where the
     /// plain one crawls, at one residual and one solve per iteration as before

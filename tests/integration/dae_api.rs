@@ -293,6 +293,12 @@ fn bad_tolerances_and_dimensions_are_errors() {
         BdfSolver::new(sys(), 0.0, &[1.0], &[-1.0], &[], o),
         Err(DaeError::InvalidInput(_))
     ));
+    let mut o = tight();
+    o.anderson_depth = 9;
+    assert!(matches!(
+        BdfSolver::new(sys(), 0.0, &[1.0], &[-1.0], &[], o),
+        Err(DaeError::InvalidInput(m)) if m.contains("anderson_depth")
+    ));
     let mut s = BdfSolver::new(sys(), 0.0, &[1.0], &[-1.0], &[], tight()).unwrap();
     assert!(matches!(
         s.solve_to(f64::INFINITY),

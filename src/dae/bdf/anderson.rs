@@ -32,7 +32,8 @@ pub(crate) struct Anderson {
 }
 
 impl Anderson {
-    /// An accelerator for `n` unknowns keeping `depth` differences (0: plain iteration).
+    /// An accelerator for `n` unknowns keeping `depth` differences (0: plain iteration; at
+    /// most [`MAX_DEPTH`], which the solver's options are checked against).
     pub(crate) fn new(n: usize, depth: usize) -> Self {
         let depth = depth.min(MAX_DEPTH);
         Anderson {

@@ -184,6 +184,12 @@ impl<P: DaeSystem> BdfSolver<P> {
         }
         let atol = opts.atol.expand(n, |i| sys.component_name(i))?;
         let anderson_depth = opts.anderson_depth;
+        if anderson_depth > anderson::MAX_DEPTH {
+            return Err(DaeError::InvalidInput(format!(
+                "anderson_depth must be 0–{}, got {anderson_depth}",
+                anderson::MAX_DEPTH
+            )));
+        }
         if !(1..=MAX_ORDER).contains(&opts.max_order) {
             return Err(DaeError::InvalidInput(format!(
                 "max_order must be 1–{MAX_ORDER}, got {}",
