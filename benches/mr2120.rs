@@ -3,27 +3,14 @@
 //! at equal accuracy, use `cargo run --release -- bench mr2120`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use lash::bench::mr2120::BENCH_DAMPING;
-use lash::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clearance_set};
-use lash::mechanisms::mr2120::paper::TABLE2;
-use lash::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
-use lash::mechanisms::mr2120::{Geometry, MassProperties};
+use lash::bench::mr2120::{bench_mechanism, BENCH_DAMPING};
+use lash::mechanisms::mr2120::trajectory::clearance_options;
 use lash::multibody::Simulation;
-use nalgebra::Vector3;
 use std::hint::black_box;
 use std::sync::Arc;
 
 fn clearance_l1(c: &mut Criterion) {
-    let g = Geometry::default();
-    let set = clearance_set("L1").unwrap();
-    let model = clearance_model(
-        &g,
-        &MassProperties::default(),
-        Vector3::from(TABLE2[0].m),
-        Some(drive_laws(&g)),
-        &bearing_design(&set, BENCH_DAMPING),
-    )
-    .unwrap();
+    let model = bench_mechanism("L1", BENCH_DAMPING).unwrap();
     let mech = Arc::new(model.mechanism);
     let times: Vec<f64> = (1..=25).map(|k| k as f64 * 0.01).collect();
     let mut grp = c.benchmark_group("mr2120_clearance_l1");

@@ -11,13 +11,9 @@
 //! `LASH_RTOL` sets rtol (atol = rtol/100), `LASH_T_END` the end time (s, at most 4),
 //! `LASH_ANDERSON` the Newton iteration's Anderson depth (`BdfOptions::anderson_depth`).
 
-use lash::bench::mr2120::BENCH_DAMPING;
-use lash::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clearance_set};
-use lash::mechanisms::mr2120::paper::TABLE2;
-use lash::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
-use lash::mechanisms::mr2120::{Geometry, MassProperties};
+use lash::bench::mr2120::{bench_mechanism, BENCH_DAMPING};
+use lash::mechanisms::mr2120::trajectory::clearance_options;
 use lash::multibody::Simulation;
-use nalgebra::Vector3;
 use std::sync::Arc;
 
 fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
@@ -25,15 +21,7 @@ fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let g = Geometry::default();
-    let set = clearance_set("L1")?;
-    let model = clearance_model(
-        &g,
-        &MassProperties::default(),
-        Vector3::from(TABLE2[0].m),
-        Some(drive_laws(&g)),
-        &bearing_design(&set, BENCH_DAMPING),
-    )?;
+    let model = bench_mechanism("L1", BENCH_DAMPING)?;
     let mech = Arc::new(model.mechanism);
     let t_end = env::<f64>("LASH_T_END").unwrap_or(4.0).min(4.0);
     // The benchmark's sampling: every 10 ms.

@@ -10,9 +10,10 @@
 //! same consistent initial state.
 
 pub use super::mr2120_options::{BenchError, Mr2120BenchOptions, BENCH_ALPHA, BENCH_DAMPING};
+use crate::contact::Damping;
 use crate::dae::explicit::{Dopri5, Dopri5Options, SymplecticEuler};
 use crate::dae::{Integrator, IntegratorError, WorkStats};
-use crate::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clearance_set};
+use crate::mechanisms::mr2120::clearance::{bearing_design, clearance_model, clearance_set, ClearanceModel};
 use crate::mechanisms::mr2120::paper::TABLE2;
 use crate::mechanisms::mr2120::trajectory::{clearance_options, drive_laws};
 use crate::mechanisms::mr2120::{Geometry, MassProperties, Mr2120Error};
@@ -228,18 +229,24 @@ pub(crate) struct Model {
     pub(crate) times: Vec<f64>,
 }
 
-pub(crate) fn build(opts: &Mr2120BenchOptions) -> Result<Model, Mr2120Error> {
+/// The benchmark's mechanism: the 63-DOF MR2120 clearance model of clearance set `set` (`L1`,
+/// `L2` or `L3`, the paper's Table 1), assembled at M1 and driven along the paper's trajectory,
+/// its bearings damped by `damping` (`lash bench mr2120` uses [`BENCH_DAMPING`]). The one
+/// place the benchmark, the criterion bench and `examples/l1_run.rs` build it.
+pub fn bench_mechanism(set: &str, damping: Damping) -> Result<ClearanceModel, Mr2120Error> {
     let g = Geometry::default();
-    let mp = MassProperties::default();
-    let set = clearance_set(&opts.set)?;
-    let m1 = Vector3::from(TABLE2[0].m);
-    let model = clearance_model(
+    let set = clearance_set(set)?;
+    clearance_model(
         &g,
-        &mp,
-        m1,
+        &MassProperties::default(),
+        Vector3::from(TABLE2[0].m),
         Some(drive_laws(&g)),
-        &bearing_design(&set, opts.damping),
-    )?;
+        &bearing_design(&set, damping),
+    )
+}
+
+pub(crate) fn build(opts: &Mr2120BenchOptions) -> Result<Model, Mr2120Error> {
+    let model = bench_mechanism(&opts.set, opts.damping)?;
     let n = (opts.t_end / opts.dt).round() as usize;
     Ok(Model {
         platform: model.platform,

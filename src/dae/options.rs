@@ -106,11 +106,12 @@ pub struct BdfOptions {
     /// matrix) instead of trusting the previous step's rate.
     pub measure_rate_with_stale_jacobian: bool,
     /// Differences kept by the Anderson acceleration of the Newton iteration (0: none, IDA's
-    /// plain modified Newton; at most 8, more is an input error). With a matrix that has drifted from the true
-    /// Jacobian in a few stiff directions (contact stiffness changing between steps), the
-    /// accelerated iteration is GMRES preconditioned by that matrix and converges where the
-    /// plain one crawls, at one residual and one solve per iteration as before
-    /// (`dae::bdf::anderson`).
+    /// plain modified Newton; at most 8, more is an input error; a solve gathers at most
+    /// `max_newton_iters` − 1 of them). With a matrix that has drifted from the true Jacobian
+    /// in a few stiff directions (contact stiffness changing between steps), the accelerated
+    /// iteration is GMRES preconditioned by that matrix (Walker & Ni, on a linear problem), at
+    /// one residual and one solve per iteration as before (`dae::bdf::anderson`). Measured on
+    /// the MR2120 clearance model and not a default there (README, Performance).
     pub anderson_depth: usize,
     /// Linear solver of the iteration matrices (default: faer's sparse LU).
     pub linear_solver: LinearSolverKind,
