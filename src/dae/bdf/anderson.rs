@@ -15,8 +15,8 @@
 /// The accelerator's history and scratch, sized once.
 #[derive(Debug, Clone)]
 pub(crate) struct Anderson {
-    depth: usize,
-    /// Weighted differences of the residuals f, newest last (up to `depth`).
+    /// Weighted differences of the residuals f, newest last (its length is the depth; the
+    /// first `used` are filled).
     df: Vec<Vec<f64>>,
     /// Differences of the map's values g, in the same order.
     dg: Vec<Vec<f64>>,
@@ -37,7 +37,6 @@ impl Anderson {
     pub(crate) fn new(n: usize, depth: usize) -> Self {
         let depth = depth.min(MAX_DEPTH);
         Anderson {
-            depth,
             df: vec![vec![0.0; n]; depth],
             dg: vec![vec![0.0; n]; depth],
             used: 0,
@@ -60,7 +59,8 @@ impl Anderson {
     /// the accelerated iterate.
     pub(crate) fn advance(&mut self, e: &mut [f64], delta: &[f64], w: &[f64]) {
         let n = e.len();
-        if self.depth == 0 {
+        let depth = self.df.len();
+        if depth == 0 {
             for i in 0..n {
                 e[i] -= delta[i];
             }
@@ -73,7 +73,7 @@ impl Anderson {
         }
         if self.have_prev {
             // Drop the oldest column when full (rotate it to the end and overwrite).
-            if self.used == self.depth {
+            if self.used == depth {
                 self.df.rotate_left(1);
                 self.dg.rotate_left(1);
                 self.used -= 1;
