@@ -14,18 +14,21 @@
 //! joint's play coordinates in the truth and the model side by side over the plot window.
 //!
 //! ```text
-//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m, or hertz] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes] [load-proportional damping γ s/m]
+//! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m, or hertz] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes] [load-proportional damping γ s/m] [interpolation linear|held] [the model's radial clearance m]
 //! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics
 //! cargo run --release --example play_dynamics -- D 0,1e-5 5 out/play-dynamics-axial
 //! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics-relin 1e8 200 2.5,3.1 1
 //! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics-gamma hertz 200 0,5 0 1000
+//! cargo run --release --example play_dynamics -- F 6e-6 5 out/play-dynamics-blended hertz 20 0,5 1 500 linear 5.8e-6
 //! ```
 //! The third: the reduced model with the play re-linearised
 //! ([`InverseDynamicsModel::play_dynamics_at`](lash::diagnose::model::InverseDynamicsModel::play_dynamics_at))
 //! about its own motion of the first pass at every sample in the plot window, once; the
-//! tracker's sensitivities stay the sample's (its prediction then mixes the two). The last:
+//! tracker's sensitivities stay the sample's (its prediction then mixes the two). The fourth:
 //! Hertz balls damped by 200 N·s/m + 1 000 s/m × their elastic force (README,
-//! "Load-proportional contact damping").
+//! "Load-proportional contact damping"). The fifth: the forces blended from sample to
+//! sample, and the model's play 3.3 % below the truth's (README, "The rattle reproduced at
+//! the truth's play").
 //! (about a minute: two truth simulations and the nominal model's play derivatives at every
 //! sample).
 
@@ -33,7 +36,8 @@ use lash::contact::BearingDesign;
 use lash::diagnose::model::InverseDynamicsModel;
 use lash::diagnose::mr2120::mr2120_model;
 use lash::diagnose::play_dynamics::{
-    expanded_about, respond, BallContact, HertzBalls, JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
+    expanded_about, respond, BallContact, HertzBalls, Interpolation, JointPlay, PlayResponse, PlaySample,
+    BALL_CONTACT,
 };
 use lash::diagnose::suite::SuiteOptions;
 use lash::mechanisms::mr2120::clearance::LUBRICATED_DAMPING;
@@ -56,6 +60,8 @@ fn main() -> Result<(), Box<dyn Error>> {
         Some(None) => (args[1].parse()?, 0.0),
         Some(Some((r, a))) => (r.parse()?, a.parse()?),
     };
+    // The model's radial clearance (m; default the truth's): how much a size error costs.
+    let h_model: f64 = args.get(10).map(|s| s.parse()).transpose()?.unwrap_or(h);
     let recording: usize = args.get(2).map(|s| s.parse()).transpose()?.unwrap_or(5);
     if !(1..=6).contains(&recording) {
         return Err(format!("recording {recording}: 1 to 6").into());
@@ -82,13 +88,21 @@ fn main() -> Result<(), Box<dyn Error>> {
         load_damping: args.get(8).map(|s| s.parse()).transpose()?.unwrap_or(0.0),
         hertz: if hertz {
             Some(HertzBalls::from_design(&BearingDesign::mr2120(
-                h,
+                h_model,
                 h_a,
                 LUBRICATED_DAMPING,
             ))?)
         } else {
             None
         },
+    };
+    // Within a sample interval: the forces `held` at the interval's end (default, as the
+    // diagnosis by default and every figure before 2026-11-30), or blended from sample to
+    // sample (`linear`).
+    let interpolation = match args.get(9).map(String::as_str) {
+        Some("linear") => Interpolation::Linear,
+        None | Some("held") => Interpolation::Held,
+        Some(other) => return Err(format!("interpolation '{other}': linear or held").into()),
     };
     // Re-linearisation passes in the plot window (default none).
     let passes: usize = args.get(7).map(|s| s.parse()).transpose()?.unwrap_or(0);
@@ -165,10 +179,11 @@ fn main() -> Result<(), Box<dyn Error>> {
     let loose_model = respond(
         &samples,
         &JointPlay {
-            radial: h,
+            radial: h_model,
             axial: h_a,
         },
         &contact,
+        interpolation,
     );
     let mut loose_model = loose_model;
     // Re-linearised: the nominal model expanded about the last pass's motion of the play
@@ -190,10 +205,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         loose_model = respond(
             &about,
             &JointPlay {
-                radial: h,
+                radial: h_model,
                 axial: h_a,
             },
             &contact,
+            interpolation,
         );
         eprintln!(
             "re-linearisation pass {}: {} of {n} samples about the last pass's motion, {:.1} s",
@@ -214,7 +230,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         },
         ..contact
     };
-    let tight_model = respond(&samples, &JointPlay::default(), &tight_contact);
+    let tight_model = respond(&samples, &JointPlay::default(), &tight_contact, interpolation);
     eprintln!(
         "the reduced model: {:.2} s for two runs",
         clock.elapsed().as_secs_f64()

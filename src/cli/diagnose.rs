@@ -5,7 +5,7 @@ use super::progress::Progress;
 use super::{items, json, CliError, Output};
 use lash::diagnose::columns::{csv_header, resolve_columns, DFKI_RECORDINGS};
 use lash::diagnose::model::{DoublePendulumModel, InverseDynamicsModel, Mr2120Model};
-use lash::diagnose::play_dynamics::ContactDamping;
+use lash::diagnose::play_dynamics::{ContactDamping, Interpolation};
 use lash::diagnose::recording::{read_csv, Recording};
 use lash::diagnose::transmission::PlayPlace;
 use lash::diagnose::{diagnose_recordings, format::number, DiagnoseOptions};
@@ -120,11 +120,15 @@ pub struct Args {
     /// nominal motion everywhere; also with --suite).
     #[arg(long)]
     play_relinearize: bool,
+    /// Blend the reduced dynamic play model's linear forces in time from sample to sample
+    /// (by default they are held at each sample interval's end; also with --suite).
+    #[arg(long)]
+    play_blended_forces: bool,
     /// Also try a load-proportional contact damping γ·F in the reduced dynamic play model
-    /// (γ in s/m, over 200 N·s/m; cross-validation chooses among the dampings; also with
+    /// (γ in s/m, one or more, comma-separated, each over 20 N·s/m; cross-validation chooses among the dampings; also with
     /// --suite).
-    #[arg(long, value_name = "S_PER_M", value_parser = parse_positive)]
-    play_load_damping: Option<f64>,
+    #[arg(long, value_name = "S_PER_M", value_parser = parse_positive, value_delimiter = ',')]
+    play_load_damping: Vec<f64>,
     /// Where a found backlash's play sits, alone: "output" (between the transmission's
     /// spring and the arm, as a gear mesh) or "spring" (a dead zone of the spring's
     /// deflection); by default cross-validation chooses, the output first (also with
@@ -265,8 +269,12 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         opts.play_axial_stiffnesses = vec![k];
     }
     opts.library.play_relinearize = a.play_relinearize;
-    opts.play_contact_dampings
-        .extend(a.play_load_damping.map(ContactDamping::load_proportional));
+    opts.library.play_interpolation = interpolation(&a);
+    opts.play_contact_dampings.extend(
+        a.play_load_damping
+            .iter()
+            .map(|&g| ContactDamping::load_proportional(g)),
+    );
     if let Some(p) = backlash_place(&a) {
         opts.backlash_places = vec![p];
     }
@@ -340,9 +348,12 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
         opts.diagnose.play_axial_stiffnesses = vec![k];
     }
     opts.diagnose.library.play_relinearize = a.play_relinearize;
-    opts.diagnose
-        .play_contact_dampings
-        .extend(a.play_load_damping.map(ContactDamping::load_proportional));
+    opts.diagnose.library.play_interpolation = interpolation(a);
+    opts.diagnose.play_contact_dampings.extend(
+        a.play_load_damping
+            .iter()
+            .map(|&g| ContactDamping::load_proportional(g)),
+    );
     if let Some(p) = backlash_place(a) {
         opts.diagnose.backlash_places = vec![p];
     }
@@ -430,6 +441,16 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
 }
 
 /// The place `--backlash-place` names, if given.
+/// The reduced dynamic play model's mechanics within a sample interval
+/// (`--play-blended-forces`).
+fn interpolation(a: &Args) -> Interpolation {
+    if a.play_blended_forces {
+        Interpolation::Linear
+    } else {
+        Interpolation::Held
+    }
+}
+
 fn backlash_place(a: &Args) -> Option<PlayPlace> {
     a.backlash_place.as_deref().map(|p| match p {
         "spring" => PlayPlace::Spring,

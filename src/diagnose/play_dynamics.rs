@@ -110,11 +110,16 @@
 //! **Outputs**: the torque sensors read K·δw + D·δẇ more.
 //!
 //! **Integration**: semi-implicit (symplectic) Euler over substeps of each sample interval,
-//! the matrices held at the interval's end (measured and not kept, 2026-11-29: the linear
-//! forces blended in time from the previous sample's, which moves the joint across its play
-//! when a load reverses within an interval rather than up to a sample later, and leaves less
-//! of the truth's play effect on recordings 5 and 3 in the example — but the suite's bearing
-//! cases held out worse, README "The dead zone itself in the second pass"), the substep a
+//! the linearised mechanics within it as [`Interpolation`] says: held at the interval's end
+//! (the diagnosis' default), or the linear forces g − K·x − C·v blended in time from the
+//! previous sample's ([`Interpolation::Linear`], since 2026-11-30 an option), which moves the joint across its play when a load reverses within an interval
+//! rather than up to a sample early (test
+//! `blended_forces_cross_the_play_when_the_finely_sampled_load_does`). Blended, with Hertz
+//! balls, re-linearised once and a damping of Hunt–Crossley's form (γ·F over a small
+//! constant), the model at the truth's play leaves about one noise unit of recording 5's
+//! play effect, the rattle included (README, "The rattle reproduced at the truth's play");
+//! in the diagnosis the bearing cases did not improve (the play's size is estimated through
+//! a column scaled from a reference play, and the rattle is steep in the size). The substep a
 //! tenth of the period of the fastest
 //! mode with every ball in contact (the cross's own, ≈ 0.1 ms for 50 g on 1e8 N/m) and short
 //! enough to resolve the dampings; where a stiff contact damping (γ·F under a large load)
@@ -259,9 +264,13 @@ pub struct ContactDamping {
 }
 
 /// The constant part (N·s/m) that goes with a load-proportional damping in
-/// [`ContactDamping::load_proportional`]: the smaller of the diagnosis' constant dampings, for
-/// the balls' sliding along their bores' walls.
-pub const LOAD_DAMPING_BASE: f64 = 200.0;
+/// [`ContactDamping::load_proportional`], for the balls' sliding along their bores' walls:
+/// a tenth of the diagnosis' smaller constant damping (200 N·s/m until 2026-11-30). Measured
+/// with the example `play_dynamics` (joint F, 6 µm, recording 5, Hertz balls, re-linearised
+/// once, forces blended; what the model leaves of the truth's play effect on drives A/B/C,
+/// RMS 0.6–5 s in torque-noise units): γ = 500 s/m over 200 N·s/m 1.11 / 0.92 / 1.61, over
+/// 20 N·s/m 0.60 / 0.54 / 1.12 (γ = 450 s/m over 1 N·s/m 0.59 / 0.55 / 1.06).
+pub const LOAD_DAMPING_BASE: f64 = 20.0;
 
 impl ContactDamping {
     /// A constant damping `c` (N·s/m).
@@ -742,6 +751,20 @@ fn contact_gram(ks: &[Contact; 8], n: usize) -> DMatrix<f64> {
     jtj
 }
 
+/// How the linearised mechanics varies within a sample interval of the reduced play model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub enum Interpolation {
+    /// The matrices and the load held at the interval's end (the model until 2026-11-30): a
+    /// load that reverses within an interval moves the joint across its play up to a sample
+    /// late.
+    Held,
+    /// The forces g − K·x − C·v blended linearly in time from the previous sample's to this
+    /// one's (the mass and the contacts' law as at the interval's end): a load reversing
+    /// within an interval crosses where the finely sampled load does.
+    #[default]
+    Linear,
+}
+
 /// How one sample interval is integrated ([`substeps`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Substeps {
@@ -884,9 +907,11 @@ fn static_start(
 }
 
 /// Advances (x, v) over one sample interval of `h` s in `steps` substeps of semi-implicit
-/// Euler, the matrices held: the dampings explicit, v += M⁻¹·f(x, v)·dt, or implicit
+/// Euler, the mass held: the dampings explicit, v += M⁻¹·f(x, v)·dt, or implicit
 /// (linearised in the rates), (M + dt·(C + C_c))·Δv = dt·f(x, v); then x += v·dt with the
-/// new v. None if a matrix is singular.
+/// new v. With `prev` (the previous sample's system, [`Interpolation::Linear`]) the linear
+/// forces at each substep's midpoint are blended from its and this sample's; the contacts'
+/// loads and the dampings' implicit part stay this sample's. None if a matrix is singular.
 #[allow(clippy::too_many_arguments)]
 fn advance(
     sys: &System,
@@ -897,9 +922,11 @@ fn advance(
     h: f64,
     x: &mut DVector<f64>,
     v: &mut DVector<f64>,
+    prev: Option<&System>,
 ) -> Option<()> {
     let nj = sys.mass.nrows() - NP;
     let dt = h / steps.n as f64;
+    let prev = prev.filter(|p| p.mass.shape() == sys.mass.shape());
     let force = |x: &DVector<f64>, v: &DVector<f64>, lc: &[f64; NP]| {
         let mut rhs = &sys.load - &sys.stiffness * x - &sys.damping * v;
         for r in 0..NP {
@@ -911,11 +938,17 @@ fn advance(
         let minv = sys.mass.clone().try_inverse()?;
         // In place (~2 000 substeps per 2 ms sample interval on the unit tests' joint): rhs = g − K·x − C·v + loads.
         let mut rhs = DVector::zeros(x.len());
-        for _ in 0..steps.n {
+        for j in 0..steps.n {
             let lc = contact_load(ks, &x.as_slice()[nj..], &v.as_slice()[nj..], play, contact);
             rhs.copy_from(&sys.load);
             rhs.gemv(-1.0, &sys.stiffness, x, 1.0);
             rhs.gemv(-1.0, &sys.damping, v, 1.0);
+            if let Some(p) = prev {
+                let w = 1.0 - (j as f64 + 0.5) / steps.n as f64;
+                rhs.axpy(w, &p.load, 1.0 - w);
+                rhs.gemv(-w, &p.stiffness, x, 1.0);
+                rhs.gemv(-w, &p.damping, v, 1.0);
+            }
             for r in 0..NP {
                 rhs[nj + r] += lc[r];
             }
@@ -927,9 +960,18 @@ fn advance(
     let base = &sys.mass + &sys.damping * dt;
     let base_inv = base.clone().try_inverse()?;
     let mut a = base.clone();
-    for _ in 0..steps.n {
+    for j in 0..steps.n {
         let (lc, cc) = contact_load_and_damping(ks, &x.as_slice()[nj..], &v.as_slice()[nj..], play, contact);
-        let rhs = force(x, v, &lc) * dt;
+        let mut rhs = force(x, v, &lc);
+        if let Some(p) = prev {
+            let w = 1.0 - (j as f64 + 0.5) / steps.n as f64;
+            let mut f0 = &p.load - &p.stiffness * &*x - &p.damping * &*v;
+            for r in 0..NP {
+                f0[nj + r] += lc[r];
+            }
+            rhs = rhs * (1.0 - w) + f0 * w;
+        }
+        let rhs = rhs * dt;
         let dv = if cc.iter().flatten().all(|&c| c == 0.0) {
             &base_inv * rhs
         } else {
@@ -948,16 +990,20 @@ fn advance(
 }
 
 /// The reduced play model along one recording's samples (in time order; None where the
-/// nominal model gave no data, which restarts it) for the joint's `play`. None at the
-/// samples without data or where a matrix is singular.
+/// nominal model gave no data, which restarts it) for the joint's `play`, the mechanics
+/// within each sample interval as `interpolation` says. None at the samples without data or
+/// where a matrix is singular.
 pub fn respond(
     samples: &[Option<PlaySample<'_>>],
     play: &JointPlay,
     contact: &BallContact,
+    interpolation: Interpolation,
 ) -> Vec<Option<PlayResponse>> {
     let mut out = vec![None; samples.len()];
     // (time, x, v) of the last sample reached.
     let mut state: Option<(f64, DVector<f64>, DVector<f64>)> = None;
+    // The last sample's system, for [`Interpolation::Linear`].
+    let mut prev_sys: Option<System> = None;
     for (i, s) in samples.iter().enumerate() {
         let Some(s) = s else {
             state = None;
@@ -975,7 +1021,10 @@ pub fn respond(
                 let Some(steps) = substeps(&sys, &ks, contact, load, s.t - t0) else {
                     continue;
                 };
-                if advance(&sys, &ks, play, contact, steps, s.t - t0, &mut x, &mut v).is_none() {
+                let prev = prev_sys
+                    .as_ref()
+                    .filter(|_| interpolation == Interpolation::Linear);
+                if advance(&sys, &ks, play, contact, steps, s.t - t0, &mut x, &mut v, prev).is_none() {
                     state = None;
                     continue;
                 }
@@ -986,6 +1035,7 @@ pub fn respond(
                 None => continue,
             },
         };
+        prev_sys = Some(sys);
         let (x, v) = next;
         if !x.iter().chain(v.iter()).all(|a| a.is_finite()) {
             continue;
@@ -1102,7 +1152,12 @@ mod tests {
         let transmission = fixtures::one_drive();
         let (up, down) = (dynamics(200.0), dynamics(-200.0));
         let samples = every_2_ms(400, |i| if i < 200 { &up } else { &down }, &transmission);
-        let r = respond(&samples, &JointPlay::radial(h), &BALL_CONTACT);
+        let r = respond(
+            &samples,
+            &JointPlay::radial(h),
+            &BALL_CONTACT,
+            Interpolation::Linear,
+        );
         let sits = -2.0 * h - 200.0 / k;
         let first = r[0].as_ref().unwrap();
         assert!(
@@ -1128,6 +1183,65 @@ mod tests {
         assert!(widest < 2.0 * h + 5.0 * 200.0 / k, "{widest}");
     }
 
+    /// A load that reverses within a sample interval: the hanging joint's 200 N ramped to
+    /// −200 N over 20 ms, starting between two samples. Sampled every 2 ms, the joint
+    /// crosses its play as the finely sampled model (every 0.2 ms, where holding and
+    /// blending agree) says, with the forces blended from sample to sample; held at each
+    /// interval's end, the load leads and the joint crosses early.
+    #[test]
+    fn blended_forces_cross_the_play_when_the_finely_sampled_load_does() {
+        let h = 5e-6;
+        let (start, ramp) = (0.2013, 0.02);
+        let load = |t: f64| 200.0 - 400.0 * ((t - start) / ramp).clamp(0.0, 1.0);
+        let transmission = fixtures::one_drive();
+        // The joint's shift along z every 2 ms over 0.3 s, sampled every `dt` s.
+        let shift = |dt: f64, interpolation: Interpolation| -> Vec<f64> {
+            let every = (2e-3 / dt).round() as usize;
+            let n = 150 * every;
+            let t: Vec<f64> = (0..n).map(|i| dt * i as f64).collect();
+            let joints: Vec<PlayDynamics> = t
+                .iter()
+                .map(|&t| fixtures::hanging_joint(load(t), 1000.0))
+                .collect();
+            let samples: Vec<Option<PlaySample>> = (0..n)
+                .map(|i| {
+                    Some(PlaySample {
+                        t: t[i],
+                        play: &joints[i],
+                        transmission: &transmission,
+                        about: None,
+                    })
+                })
+                .collect();
+            let r = respond(&samples, &JointPlay::radial(h), &BALL_CONTACT, interpolation);
+            r.iter()
+                .step_by(every)
+                .map(|x| x.as_ref().unwrap().offset[2])
+                .collect()
+        };
+        // The largest difference from the finely sampled shift, over the crossing (2h).
+        let fine = shift(2e-4, Interpolation::Linear);
+        let apart = |z: &[f64]| {
+            z.iter()
+                .zip(&fine)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max)
+                / (2.0 * h)
+        };
+        let fine_held = apart(&shift(2e-4, Interpolation::Held));
+        let blended = apart(&shift(2e-3, Interpolation::Linear));
+        let held = apart(&shift(2e-3, Interpolation::Held));
+        // (Measured: held every 0.2 ms 0.058 of the crossing apart, blended every 2 ms 0.0013,
+        // held every 2 ms 1.72 — a whole sample early, on the far wall already.)
+        assert!(
+            fine.first().unwrap() < &0.0 && fine.last().unwrap() > &0.0,
+            "{fine:?}"
+        );
+        assert!(fine_held < 0.1, "{fine_held}");
+        assert!(blended < 0.01, "blended {blended}");
+        assert!(held > 0.5, "held {held}");
+    }
+
     /// Load-proportional damping (γ·F, Hunt–Crossley's form) takes the ringing out of the
     /// landing after the load reverses, where the undamped contact keeps ringing; it changes
     /// nothing at rest (the joint sits where it did). A damping 500× critical for the
@@ -1146,7 +1260,12 @@ mod tests {
         let sits = 2.0 * h + 200.0 / k;
         // The ringing about the far wall over the last 100 samples, m RMS.
         let ringing = |d: ContactDamping| {
-            let r = respond(&samples, &JointPlay::radial(h), &BALL_CONTACT.with_damping(d));
+            let r = respond(
+                &samples,
+                &JointPlay::radial(h),
+                &BALL_CONTACT.with_damping(d),
+                Interpolation::Linear,
+            );
             assert!(
                 (r[0].as_ref().unwrap().offset[2] + sits).abs() < 1e-3 * sits,
                 "{d}: {:?}",
@@ -1182,7 +1301,12 @@ mod tests {
         let joint = fixtures::hanging_joint(200.0, tau_per_m);
         let transmission = fixtures::one_drive();
         let plain = every_2_ms(300, |_| &joint, &transmission);
-        let at = respond(&plain, &JointPlay::radial(h), &BALL_CONTACT);
+        let at = respond(
+            &plain,
+            &JointPlay::radial(h),
+            &BALL_CONTACT,
+            Interpolation::Linear,
+        );
         let (e1, w1) = (-7e-6, 3e-5);
         let point = PlayPoint {
             windup: vec![w1],
@@ -1203,7 +1327,12 @@ mod tests {
                     })
                 })
                 .collect();
-            respond(&samples, &JointPlay::radial(h), &BALL_CONTACT)
+            respond(
+                &samples,
+                &JointPlay::radial(h),
+                &BALL_CONTACT,
+                Interpolation::Linear,
+            )
         };
         let expanded = about(&point);
         for i in [0, 150, 299] {
@@ -1247,7 +1376,12 @@ mod tests {
         let joint = fixtures::hanging_joint(200.0, 0.0);
         let transmission = fixtures::one_drive();
         let samples = every_2_ms(50, |_| &joint, &transmission);
-        let r = respond(&samples, &JointPlay::default(), &BALL_CONTACT);
+        let r = respond(
+            &samples,
+            &JointPlay::default(),
+            &BALL_CONTACT,
+            Interpolation::Linear,
+        );
         let sits = -200.0 / BALL_CONTACT.stiffness;
         for at in [&r[0], &r[49]] {
             let at = at.as_ref().expect("a response");
@@ -1268,7 +1402,12 @@ mod tests {
         pull.reaction = [-60.0, 0.0, 0.0, 0.0];
         let transmission = fixtures::one_drive();
         let samples = every_2_ms(400, |i| if i < 200 { &push } else { &pull }, &transmission);
-        let r = respond(&samples, &JointPlay::axial(h_a), &BALL_CONTACT);
+        let r = respond(
+            &samples,
+            &JointPlay::axial(h_a),
+            &BALL_CONTACT,
+            Interpolation::Linear,
+        );
         let sits = -(0.5 * h_a + 90.0 / k);
         for (at, sign) in [(&r[0], 1.0), (&r[199], 1.0), (&r[399], -1.0)] {
             let at = at.as_ref().unwrap();
@@ -1299,7 +1438,7 @@ mod tests {
     ) {
         let transmission = fixtures::one_drive();
         let samples = every_2_ms(50, |_| joint, &transmission);
-        let r = respond(&samples, play, contact);
+        let r = respond(&samples, play, contact, Interpolation::Linear);
         for at in [&r[0], &r[49]] {
             let at = at.as_ref().expect("a response");
             assert!(
@@ -1392,7 +1531,12 @@ mod tests {
         joint.reaction = [0.0, 60.0, 80.0, 0.0];
         let transmission = fixtures::one_drive();
         let samples = every_2_ms(200, |_| &joint, &transmission);
-        let r = respond(&samples, &JointPlay::radial(h), &BALL_CONTACT);
+        let r = respond(
+            &samples,
+            &JointPlay::radial(h),
+            &BALL_CONTACT,
+            Interpolation::Linear,
+        );
         for at in [&r[0], &r[199]] {
             let at = at.as_ref().unwrap();
             for (ball, expected) in at.radial_forces.iter().zip([50.0, 50.0, 40.0, 40.0]) {

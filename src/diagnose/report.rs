@@ -3,6 +3,7 @@
 //! with the `plot` feature).
 
 use super::format::number;
+use super::play_dynamics::Interpolation;
 use super::Diagnosis;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -227,7 +228,7 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         };
         let _ = writeln!(
             m,
-            "- The reduced dynamic play model's contact damping: {c}, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}); the balls {}; {}.",
+            "- The reduced dynamic play model's contact damping: {c}, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}); the balls {}; {}; {}.",
             if tried.is_empty() { "one value given".into() } else { tried.join(", ") },
             if d.dynamic_play_hertz {
                 "on Hertz's law per direction, with the constants of the joint's own bearings".to_string()
@@ -238,6 +239,10 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
                 "the model re-linearised once about its own motion where its response is large"
             } else {
                 "the model linearised about the nominal motion"
+            },
+            match d.dynamic_play_interpolation {
+                Interpolation::Linear => "its forces blended from sample to sample",
+                Interpolation::Held => "its forces held over each sample interval",
             }
         );
     }

@@ -745,6 +745,7 @@ fn diagnose_once(
         backlash_place_cv: vec![],
         backlash_place_identified: None,
         dynamic_play_relinearized: opts.library.play_relinearize,
+        dynamic_play_interpolation: opts.library.play_interpolation,
         dynamic_play_reference_cv: vec![],
         relinearization_steps: vec![],
         relinearization_cv: vec![],
