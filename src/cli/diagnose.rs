@@ -124,9 +124,9 @@ pub struct Args {
     /// (by default they are held at each sample interval's end; also with --suite).
     #[arg(long)]
     play_blended_forces: bool,
-    /// Also try a load-proportional contact damping γ·F in the reduced dynamic play model
-    /// (γ in s/m, one or more, comma-separated, each over 20 N·s/m; cross-validation chooses among the dampings; also with
-    /// --suite).
+    /// Also try load-proportional contact dampings γ·F in the reduced dynamic play model (γ
+    /// in s/m, one or more, comma-separated, each over a small constant damping for the
+    /// balls' sliding; cross-validation chooses among the dampings; also with --suite).
     #[arg(long, value_name = "S_PER_M", value_parser = parse_positive, value_delimiter = ',')]
     play_load_damping: Vec<f64>,
     /// Where a found backlash's play sits, alone: "output" (between the transmission's
@@ -440,7 +440,6 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
     Ok(Output::checked(board.targets_met))
 }
 
-/// The place `--backlash-place` names, if given.
 /// The reduced dynamic play model's mechanics within a sample interval
 /// (`--play-blended-forces`).
 fn interpolation(a: &Args) -> Interpolation {
@@ -451,6 +450,7 @@ fn interpolation(a: &Args) -> Interpolation {
     }
 }
 
+/// The place `--backlash-place` names, if given.
 fn backlash_place(a: &Args) -> Option<PlayPlace> {
     a.backlash_place.as_deref().map(|p| match p {
         "spring" => PlayPlace::Spring,

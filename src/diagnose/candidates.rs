@@ -145,8 +145,9 @@ pub struct LibraryOptions {
     /// How the reduced dynamic play model's linearised mechanics varies within a sample
     /// interval ([`Interpolation`]). Held at each interval's end by default: with linear
     /// balls and constant dampings (the defaults) the suite's bearing cases held out worse
-    /// blended (clearance-F 3.70× against 3.18×, README "The dead zone itself in the second
-    /// pass").
+    /// blended (clearance-F 3.70× against 3.18×, README "Where the play sits: a gear mesh as
+    /// the truth"), and with Hertz balls and a load-proportional damping not better either
+    /// (README "The rattle reproduced at the truth's play").
     pub play_interpolation: Interpolation,
     /// Whether the play candidates that take drive-torque rows from the reduced dynamic play
     /// model ([`dynamic_play_clearance`](Self::dynamic_play_clearance),

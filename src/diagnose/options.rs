@@ -54,11 +54,14 @@ pub struct DiagnoseOptions {
     /// ([`Diagnosis::dynamic_play_damping`](super::Diagnosis)). How fast a joint's rattle dies
     /// is not known beforehand (a dry or a lubricated joint); the default tries two constant
     /// dampings, 200 and 2 000 N·s/m (1 % and 10 % of critical for a kilogram on the model's
-    /// 1e8 N/m), one re-linearised pass each. A load-proportional one
-    /// ([`ContactDamping::load_proportional`], the hysteresis of a Hertzian contact) may be
-    /// added (`lash diagnose --play-load-damping`): measured on clearance-F it was chosen by
-    /// cross-validation but did not lower the held-out residual (README, "Load-proportional
-    /// contact damping"), so it is not tried by default.
+    /// 1e8 N/m), one re-linearised pass each. Load-proportional ones
+    /// ([`ContactDamping::load_proportional`], the hysteresis of a Hertzian contact, each over
+    /// [`LOAD_DAMPING_BASE`](super::play_dynamics::LOAD_DAMPING_BASE)) may be added (`lash
+    /// diagnose --play-load-damping 250,500,1000`): measured on clearance-F they were chosen
+    /// by cross-validation but did not lower the held-out residual (session 30 over 200
+    /// N·s/m with held forces; session 47 over 20 N·s/m with blended forces; README,
+    /// "Load-proportional contact damping", "The rattle reproduced at the truth's play"), so
+    /// they are not tried by default.
     pub play_contact_dampings: Vec<ContactDamping>,
     /// The balls' stiffnesses on their bores' end faces (N/m, the linear law) tried in the
     /// reduced dynamic play model when the play's dynamics are in the selection: after the

@@ -310,7 +310,7 @@ pub struct Diagnosis {
     pub dynamic_play_relinearized: bool,
     /// How the reduced dynamic play model's linearised mechanics varied within a sample
     /// interval ([`LibraryOptions::play_interpolation`](super::candidates::LibraryOptions));
-    /// JSON `dynamic_play_interpolation` (`"Linear"` or `"Held"`).
+    /// JSON `dynamic_play_interpolation` (`"held"` or `"linear"`).
     pub dynamic_play_interpolation: super::play_dynamics::Interpolation,
     /// The reference plays tried at the kept damping — (radial clearance, axial play) in m,
     /// `None` where that direction's candidates were quasi-static — and the selection's

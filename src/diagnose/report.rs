@@ -242,7 +242,7 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             },
             match d.dynamic_play_interpolation {
                 Interpolation::Linear => "its forces blended from sample to sample",
-                Interpolation::Held => "its forces held over each sample interval",
+                Interpolation::Held => "its forces held at each sample interval's end",
             }
         );
     }
