@@ -1130,10 +1130,20 @@ mod tests {
         play: impl Fn(usize) -> &'a PlayDynamics,
         transmission: &'a TransmissionDynamics,
     ) -> Vec<Option<PlaySample<'a>>> {
+        sampled(0.002, n, play, transmission)
+    }
+
+    /// `n` samples `dt` s apart, the joint at sample i `play(i)`.
+    fn sampled<'a>(
+        dt: f64,
+        n: usize,
+        play: impl Fn(usize) -> &'a PlayDynamics,
+        transmission: &'a TransmissionDynamics,
+    ) -> Vec<Option<PlaySample<'a>>> {
         (0..n)
             .map(|i| {
                 Some(PlaySample {
-                    t: 0.002 * i as f64,
+                    t: dt * i as f64,
                     play: play(i),
                     transmission,
                     about: None,
@@ -1208,16 +1218,7 @@ mod tests {
                 .iter()
                 .map(|&t| fixtures::hanging_joint(load(t), 1000.0))
                 .collect();
-            let samples: Vec<Option<PlaySample>> = (0..n)
-                .map(|i| {
-                    Some(PlaySample {
-                        t: t[i],
-                        play: &joints[i],
-                        transmission: &transmission,
-                        about: None,
-                    })
-                })
-                .collect();
+            let samples = sampled(dt, n, |i| &joints[i], &transmission);
             let r = respond(&samples, &JointPlay::radial(h), &BALL_CONTACT, interpolation);
             r.iter()
                 .step_by(every)
