@@ -254,15 +254,22 @@ fn main() -> Result<(), Box<dyn Error>> {
         (0.6, t[n - 1] + 1e-9),
     ];
     println!(
-        "joint {name}, radial clearance {:.1} µm, axial play {:.1} µm, recording {recording}, balls {} and {:e} N·s/m: the play's effect on the drive torques \
+        "joint {name}, radial clearance {:.1} µm (the model's {:.2} µm), axial play {:.1} µm, recording {recording}, balls {} and {:e} N·s/m + {} s/m × their force, \
+         forces {} within a sample interval, {passes} re-linearisation pass(es): the play's effect on the drive torques \
          (truth with clearance − without) and what the reduced model leaves of it, RMS in torque-noise units ({sigma} N·m)",
         h * 1e6,
+        h_model * 1e6,
         h_a * 1e6,
         match contact.hertz {
             Some(k) => format!("Hertz {:.3e} N/m^1.5 radially, {:.3e} axially", k.radial, k.axial),
             None => format!("{:e} N/m", contact.stiffness),
         },
-        contact.damping
+        contact.damping,
+        contact.load_damping,
+        match interpolation {
+            Interpolation::Linear => "blended from sample to sample",
+            Interpolation::Held => "held at the interval's end",
+        }
     );
     let what = format!(
         "the play of joint {name} ({:.1} µm radial, {:.1} µm axial), recording {recording}",

@@ -124,6 +124,11 @@ pub struct Args {
     /// (by default they are held at each sample interval's end; also with --suite).
     #[arg(long)]
     play_blended_forces: bool,
+    /// Search the first found radial play's size: the selection refitted with the reduced
+    /// dynamic play model run at each trial size (steps of 4, 2 and 1 %), the best size's
+    /// whole selection kept if it cross-validates better (also with --suite).
+    #[arg(long)]
+    play_size_search: bool,
     /// Also try load-proportional contact dampings γ·F in the reduced dynamic play model (γ
     /// in s/m, one or more, comma-separated, each over a small constant damping for the
     /// balls' sliding; cross-validation chooses among the dampings; also with --suite).
@@ -270,6 +275,7 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     }
     opts.library.play_relinearize = a.play_relinearize;
     opts.library.play_interpolation = interpolation(&a);
+    opts.play_size_search |= a.play_size_search;
     opts.play_contact_dampings.extend(
         a.play_load_damping
             .iter()
@@ -349,6 +355,7 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
     }
     opts.diagnose.library.play_relinearize = a.play_relinearize;
     opts.diagnose.library.play_interpolation = interpolation(a);
+    opts.diagnose.play_size_search |= a.play_size_search;
     opts.diagnose.play_contact_dampings.extend(
         a.play_load_damping
             .iter()

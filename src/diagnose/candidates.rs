@@ -1953,6 +1953,7 @@ mod tests {
                 play_load_scales: vec![5.0],
                 ..LibraryOptions::default()
             },
+            play_size_search: true,
             ..crate::diagnose::DiagnoseOptions::default()
         };
         let d = crate::diagnose::diagnose(&Carried, &recordings[..3], &recordings[3..], &opts, |_, _| {})
@@ -2005,9 +2006,31 @@ mod tests {
             }
         }
         let kept = refs.iter().min_by(|a, b| a.2.total_cmp(&b.2)).expect("one");
-        assert_eq!(
-            (kept.0, kept.1),
-            (d.dynamic_play_reference, d.dynamic_axial_play_reference)
+        // Then the radial play's size searched: distinct sizes, at most the most; where a
+        // whole selection at the best of them was kept, it cross-validates better than the
+        // reference plays' best, else the reference plays' best stays.
+        let sizes = &d.dynamic_play_size_cv;
+        assert!(
+            !sizes.is_empty() && sizes.len() <= crate::diagnose::MAX_PLAY_SIZES,
+            "{sizes:?}"
         );
+        for (k, (h, _)) in sizes.iter().enumerate() {
+            assert!(sizes[..k].iter().all(|(g, _)| g != h), "{sizes:?}");
+        }
+        let best = sizes.iter().min_by(|a, b| a.1.total_cmp(&b.1)).expect("one");
+        if d.dynamic_play_reference == Some(best.0) {
+            assert_eq!(d.dynamic_axial_play_reference, kept.1);
+            // (Equal where the reference plays' best was already at the best size.)
+            assert!(
+                d.cv_rms_noise_units <= kept.2,
+                "{} against {refs:?}",
+                d.cv_rms_noise_units
+            );
+        } else {
+            assert_eq!(
+                (kept.0, kept.1),
+                (d.dynamic_play_reference, d.dynamic_axial_play_reference)
+            );
+        }
     }
 }

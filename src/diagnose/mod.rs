@@ -75,6 +75,7 @@ pub mod mr2120;
 mod options;
 mod outcome;
 pub mod play_dynamics;
+mod play_size;
 pub mod recording;
 mod relinearize;
 pub mod report;
@@ -93,6 +94,7 @@ pub use outcome::{
     claimed_name, ChannelFit, Confound, Diagnosis, Estimate, LinearizationStep, Ranked, ResidualTrace, Step,
     UnresolvedPlay,
 };
+pub use play_size::{search_play_size, MAX_PLAY_SIZES, PLAY_SIZE_STEPS};
 pub use relinearize::{
     CONTINUED_STEP_GAIN, CONVERGED_STEP, MAX_RELINEARIZATIONS, MAX_RESIZES, RESIZE_FACTOR,
     SHIFT_LINEARITY_TOLERANCE,

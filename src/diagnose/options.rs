@@ -90,6 +90,20 @@ pub struct DiagnoseOptions {
     /// multibody suite, each fits a truth of its own structure at the noise and the other's
     /// at 1.4× it (README, "Where the play sits").
     pub backlash_places: Vec<super::transmission::PlayPlace>,
+    /// With the play's dynamics in the selection, the first selected radial play's size
+    /// searched after the selection: the kept selection refitted with the reduced dynamic
+    /// play model run at each trial size ([`search_play_size`](super::search_play_size),
+    /// from the selection's estimate, steps of 4, 2 and 1 %), the size whose refit
+    /// cross-validates best taken as the reference, and one more whole selection there,
+    /// kept if it cross-validates better ([`Diagnosis::dynamic_play_size_cv`](super::Diagnosis)).
+    /// The candidates' columns are secants at a reference play, scaled in proportion to
+    /// the estimate; a joint's rattle moves in time with its play, so the scaling is
+    /// exact only at the reference. At each trial size the play's effect is the model's at
+    /// that size, held, not fitted; the other selected effects are refitted (every other
+    /// radial play's column too is taken at that reference). Costs up to
+    /// [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) refits of the selected candidates and one
+    /// whole selection.
+    pub play_size_search: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -113,6 +127,7 @@ impl Default for DiagnoseOptions {
                 super::transmission::PlayPlace::Output,
                 super::transmission::PlayPlace::Spring,
             ],
+            play_size_search: false,
         }
     }
 }

@@ -931,13 +931,6 @@ fn advance(
     let nj = sys.mass.nrows() - NP;
     let dt = h / steps.n as f64;
     let prev = prev.filter(|p| p.mass.shape() == sys.mass.shape());
-    let force = |x: &DVector<f64>, v: &DVector<f64>, lc: &[f64; NP]| {
-        let mut rhs = &sys.load - &sys.stiffness * x - &sys.damping * v;
-        for r in 0..NP {
-            rhs[nj + r] += lc[r];
-        }
-        rhs
-    };
     if !steps.implicit {
         let minv = sys.mass.clone().try_inverse()?;
         // In place (~2 000 substeps per 2 ms sample interval on the unit tests' joint): rhs = g − K·x − C·v + loads.
@@ -964,20 +957,25 @@ fn advance(
     let base = &sys.mass + &sys.damping * dt;
     let base_inv = base.clone().try_inverse()?;
     let mut a = base.clone();
+    // In place, as above: dt·(g − K·x − C·v + loads), then Δv.
+    let (mut rhs, mut dv) = (DVector::zeros(x.len()), DVector::zeros(x.len()));
     for j in 0..steps.n {
         let (lc, cc) = contact_load_and_damping(ks, &x.as_slice()[nj..], &v.as_slice()[nj..], play, contact);
-        let mut rhs = force(x, v, &lc);
+        rhs.copy_from(&sys.load);
+        rhs.gemv(-1.0, &sys.stiffness, x, 1.0);
+        rhs.gemv(-1.0, &sys.damping, v, 1.0);
         if let Some(p) = prev {
             let w = 1.0 - (j as f64 + 0.5) / steps.n as f64;
-            let mut f0 = &p.load - &p.stiffness * &*x - &p.damping * &*v;
-            for r in 0..NP {
-                f0[nj + r] += lc[r];
-            }
-            rhs = rhs * (1.0 - w) + f0 * w;
+            rhs.axpy(w, &p.load, 1.0 - w);
+            rhs.gemv(-w, &p.stiffness, x, 1.0);
+            rhs.gemv(-w, &p.damping, v, 1.0);
         }
-        let rhs = rhs * dt;
-        let dv = if cc.iter().flatten().all(|&c| c == 0.0) {
-            &base_inv * rhs
+        for r in 0..NP {
+            rhs[nj + r] += lc[r];
+        }
+        rhs *= dt;
+        if cc.iter().flatten().all(|&c| c == 0.0) {
+            dv.gemv(1.0, &base_inv, &rhs, 0.0);
         } else {
             a.copy_from(&base);
             for r in 0..NP {
@@ -985,10 +983,14 @@ fn advance(
                     a[(nj + r, nj + c)] += dt * cc[r][c];
                 }
             }
-            a.clone().lu().solve(&rhs)?
-        };
-        *v += dv;
-        *x += &*v * dt;
+            // (The factorisation takes its matrix: one copy per substep in contact.)
+            dv.copy_from(&rhs);
+            if !a.clone().lu().solve_mut(&mut dv) {
+                return None;
+            }
+        }
+        *v += &dv;
+        x.axpy(dt, v, 1.0);
     }
     Some(())
 }

@@ -267,6 +267,23 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             tried.join("; ")
         );
     }
+    if !d.dynamic_play_size_cv.is_empty() {
+        let tried: Vec<String> = d
+            .dynamic_play_size_cv
+            .iter()
+            .map(|(h, cv)| format!("{:.3} µm: {cv:.3}", h * 1e6))
+            .collect();
+        let _ = writeln!(
+            m,
+            "- The radial play's size, searched (the selection refitted with the play's effect held at the reduced model's at each size; leave-one-recording-out RMS in noise units): {}; {}.",
+            tried.join("; "),
+            if d.dynamic_play_size_cv.iter().any(|(h, _)| Some(*h) == d.dynamic_play_reference) {
+                "the selection at the best size kept"
+            } else {
+                "a whole selection at the best size did not cross-validate better, the one before kept"
+            }
+        );
+    }
     let _ = writeln!(m);
 }
 
@@ -275,6 +292,12 @@ fn reference_source(d: &Diagnosis) -> &'static str {
     let kept = |(r, a, _): &(Option<f64>, Option<f64>, f64)| {
         *r == d.dynamic_play_reference && *a == d.dynamic_axial_play_reference
     };
+    if d.dynamic_play_size_cv
+        .iter()
+        .any(|(h, _)| Some(*h) == d.dynamic_play_reference)
+    {
+        return "the size whose refit cross-validated best in a search on it";
+    }
     match d.dynamic_play_reference_cv.iter().position(kept) {
         Some(k) if k > 0 => "the selection's own estimate of a play, after a pass at the first pass's",
         _ => "the first pass's estimate of a play",

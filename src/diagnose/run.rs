@@ -12,6 +12,7 @@ use super::model::{on_copies, InverseDynamicsModel};
 use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, ResidualTrace};
 use super::play_dynamics::{ContactDamping, BALL_CONTACT};
+use super::play_size::{held_play_cv, search_play_size, MAX_PLAY_SIZES};
 use super::recording::{Recording, MIN_SAMPLES};
 use super::relinearize;
 use super::residuals::{prepare, Prepared};
@@ -227,14 +228,18 @@ fn diagnose_folds(
         };
     // (One share of the progress per damping and stiffness, and one per pass at resized
     // references.)
-    let passes = dampings.len() + stiffnesses.len() + places.len() - 2
+    let search = dynamic && opts.play_size_search;
+    // (The play-size search's shares after those.)
+    let size_share = dampings.len() + stiffnesses.len() + places.len() - 2
         + if dynamic { relinearize::MAX_RESIZES } else { 0 };
+    let passes = size_share + if search { MAX_PLAY_SIZES + 1 } else { 0 };
     let share = 0.4 / passes as f64;
-    let mut pass = |k: usize,
-                    damping: Option<ContactDamping>,
-                    stiffness: Option<f64>,
-                    place: PlayPlace,
-                    refs: (Option<f64>, Option<f64>)| {
+    let pass = |k: usize,
+                damping: Option<ContactDamping>,
+                stiffness: Option<f64>,
+                place: PlayPlace,
+                refs: (Option<f64>, Option<f64>),
+                progress: &mut dyn FnMut(&str, f64)| {
         let mut o = o2.clone();
         o.library.play_contact_damping = damping;
         o.library.play_axial_stiffness = stiffness;
@@ -244,12 +249,26 @@ fn diagnose_folds(
             progress(s, 0.5 + share * (k as f64 + f))
         })
     };
-    let mut second = pass(0, dampings[0], stiffnesses[0], places[0], references)?;
+    let mut second = pass(
+        0,
+        dampings[0],
+        stiffnesses[0],
+        places[0],
+        references,
+        &mut *progress,
+    )?;
     // The damping and end-face stiffness the kept pass ran with.
     let (mut used_damping, mut used_stiffness) = (dampings[0], stiffnesses[0]);
     let mut tried = vec![(dampings[0], second.cv_rms_noise_units)];
     for k in 1..dampings.len() {
-        let d = pass(k, dampings[k], stiffnesses[0], places[0], references)?;
+        let d = pass(
+            k,
+            dampings[k],
+            stiffnesses[0],
+            places[0],
+            references,
+            &mut *progress,
+        )?;
         tried.push((dampings[k], d.cv_rms_noise_units));
         if d.cv_rms_noise_units < second.cv_rms_noise_units {
             second = d;
@@ -264,6 +283,7 @@ fn diagnose_folds(
             stiffness,
             places[0],
             references,
+            &mut *progress,
         )?;
         tried_stiffness.push((stiffness, d.cv_rms_noise_units));
         if d.cv_rms_noise_units < second.cv_rms_noise_units {
@@ -298,6 +318,7 @@ fn diagnose_folds(
             used_stiffness,
             place,
             references,
+            &mut *progress,
         )?;
         tried_place.push((place, d.cv_rms_noise_units));
         let best = better
@@ -352,6 +373,7 @@ fn diagnose_folds(
                 stiffness,
                 place,
                 refs,
+                &mut *progress,
             )?;
             log.push((refs.0, refs.1, d.cv_rms_noise_units));
             if d.cv_rms_noise_units >= second.cv_rms_noise_units {
@@ -364,6 +386,67 @@ fn diagnose_folds(
             (second, at) = (d, refs);
         }
         second.dynamic_play_reference_cv = log;
+    }
+    // The radial play's size searched (`DiagnoseOptions::play_size_search`, `play_size`):
+    // the kept selection refitted with the play held at each size a pattern search tries,
+    // from the selection's estimate; the best size becomes the reference of one more whole
+    // selection, kept if it cross-validates better.
+    if search {
+        if let Some((name, h0)) = relinearize::dynamic_play_clearance(model, &second, &cands2) {
+            let mut o = o2.clone();
+            o.library.play_contact_damping = second.dynamic_play_damping;
+            o.library.play_axial_stiffness = second.dynamic_play_axial_stiffness;
+            o.library.backlash_place = second.backlash_place.unwrap_or(places[0]);
+            o.library.dynamic_axial_play = second.dynamic_axial_play_reference;
+            // Each channel weighted by the larger of its noise floor and what the kept
+            // selection leaves of it; the error in the measured channels' noise floors, as
+            // the selection's.
+            let floors = measured_floors(fit);
+            let weights: Vec<f64> = second
+                .channels
+                .iter()
+                .map(|c| c.fit_after.max(c.noise_floor))
+                .collect();
+            let mut tried = 0;
+            // (A refit that fails counts as no improvement.)
+            let log = search_play_size::<()>(h0, &mut |h| {
+                progress("play size", 0.5 + share * (size_share + tried) as f64);
+                tried += 1;
+                o.library.dynamic_play_clearance = Some(h);
+                Ok(
+                    match held_play_cv(&shifted, fit, &o, &second.selected, &name, &weights, &floors) {
+                        Ok(Some(cv)) => cv,
+                        _ => f64::NAN,
+                    },
+                )
+            })
+            .unwrap_or_default();
+            let best = log
+                .iter()
+                .copied()
+                .filter(|(_, cv)| cv.is_finite())
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((h, _)) = best.filter(|(h, _)| second.dynamic_play_reference != Some(*h)) {
+                let mut d = pass(
+                    size_share + MAX_PLAY_SIZES,
+                    second.dynamic_play_damping,
+                    second.dynamic_play_axial_stiffness,
+                    second.backlash_place.unwrap_or(places[0]),
+                    (Some(h), second.dynamic_axial_play_reference),
+                    &mut *progress,
+                )?;
+                if d.cv_rms_noise_units < second.cv_rms_noise_units {
+                    d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
+                    d.dynamic_play_axial_stiffness_cv =
+                        std::mem::take(&mut second.dynamic_play_axial_stiffness_cv);
+                    d.dynamic_play_reference_cv = std::mem::take(&mut second.dynamic_play_reference_cv);
+                    d.backlash_place_cv = std::mem::take(&mut second.backlash_place_cv);
+                    d.backlash_place_identified = second.backlash_place_identified;
+                    second = d;
+                }
+            }
+            second.dynamic_play_size_cv = log;
+        }
     }
     // Gauss–Newton continued: where a step was held back (the model not linear enough
     // between the nominal point and the first pass's estimates), a whole step from the
@@ -414,6 +497,7 @@ fn diagnose_folds(
         d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
         d.dynamic_play_axial_stiffness_cv = std::mem::take(&mut second.dynamic_play_axial_stiffness_cv);
         d.dynamic_play_reference_cv = std::mem::take(&mut second.dynamic_play_reference_cv);
+        d.dynamic_play_size_cv = std::mem::take(&mut second.dynamic_play_size_cv);
         d.backlash_place_cv = std::mem::take(&mut second.backlash_place_cv);
         d.backlash_place_identified = second.backlash_place_identified;
         (second, shifted, base) = (d, shifted_k, point);
@@ -572,6 +656,20 @@ fn check_recordings(
     super::residuals::check_defined(model, &all)
 }
 
+/// Each channel's measured noise floor: the median over the fit recordings (in the
+/// channel's unit; at least 1e-12).
+fn measured_floors(fit: &[MotionData]) -> Vec<f64> {
+    let chans = fit.first().map(MotionData::channels).unwrap_or_default();
+    chans
+        .iter()
+        .map(|&c| {
+            let mut v: Vec<f64> = fit.iter().map(|d| noise_floor(d.measured(c))).collect();
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2].max(1e-12)
+        })
+        .collect()
+}
+
 /// One pass of the diagnosis at the model's nominal parameters (recordings checked by
 /// [`check_recordings`]).
 fn diagnose_once(
@@ -588,14 +686,7 @@ fn diagnose_once(
     // Noise floor per channel: median over the fit recordings of the measured channel's,
     // with a torque channel's share of the accelerations' noise added in quadrature.
     let from_motion = motion_noise(model, fit, &theta0);
-    let measured: Vec<f64> = chans
-        .iter()
-        .map(|&c| {
-            let mut v: Vec<f64> = fit.iter().map(|d| noise_floor(d.measured(c))).collect();
-            v.sort_by(f64::total_cmp);
-            v[v.len() / 2].max(1e-12)
-        })
-        .collect();
+    let measured = measured_floors(fit);
     let sigma: Vec<f64> = chans
         .iter()
         .zip(&measured)
@@ -747,6 +838,7 @@ fn diagnose_once(
         dynamic_play_relinearized: opts.library.play_relinearize,
         dynamic_play_interpolation: opts.library.play_interpolation,
         dynamic_play_reference_cv: vec![],
+        dynamic_play_size_cv: vec![],
         relinearization_steps: vec![],
         relinearization_cv: vec![],
         relinearization_passes: 0,

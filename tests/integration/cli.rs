@@ -146,7 +146,8 @@ fn bad_input_exits_with_2_and_names_the_cause() {
         err.contains("--derivative-window") && err.contains("wide"),
         "{err}"
     );
-    for bad in ["fast", "0"] {
+    // Alone or as one element of a list.
+    for bad in ["fast", "0", "250,fast,1000", "250,-1"] {
         let (code, err) = status(&["diagnose", "--play-load-damping", bad]);
         assert_eq!(code, Some(2), "{err}");
         assert!(
