@@ -1630,6 +1630,84 @@ mod tests {
         }
     }
 
+    /// The play-size search's refit ([`HeldPlay`](crate::diagnose::play_size::HeldPlay))
+    /// holds the play's effect at the reduced model's at each trial size: on recordings
+    /// whose channels are the nominal model's plus that effect at 5 µm, nothing remains at
+    /// 5 µm, and at 5.5 µm exactly the difference of the model's two responses remains.
+    #[test]
+    fn a_play_held_at_its_size_leaves_nothing_and_at_another_the_difference_of_the_responses() {
+        use crate::diagnose::play_size::HeldPlay;
+        let h0 = 5e-6;
+        let opts = |h: f64| LibraryOptions {
+            play_load_scales: vec![5.0],
+            dynamic_play_clearance: Some(h),
+            ..LibraryOptions::default()
+        };
+        let name = "radial clearance in joint F (reduced dynamic model)";
+        let play: Vec<Candidate> = library(&Carried, &opts(h0))
+            .into_iter()
+            .filter(|c| c.name == name)
+            .collect();
+        assert_eq!(play.len(), 1);
+        let n = 401;
+        // The effect, h·column at reference h, per channel (torque, then output).
+        let effect = |d: &MotionData, h: f64| {
+            let c = columns(&play, d, &Carried, &opts(h));
+            let col = &c.cols[0][0];
+            (c.nominal, col.iter().map(|v| h * v).collect::<Vec<f64>>())
+        };
+        let recordings: Vec<MotionData> = (0..2)
+            .map(|r| {
+                let mut d = carried_swing(n + 100 * r);
+                d.name = format!("carried-{r}");
+                let m = d.len();
+                let (nominal, e) = effect(&d, h0);
+                d.tau[0] = (0..m).map(|i| nominal[0][i] + e[i]).collect();
+                d.y[0] = (0..m).map(|i| nominal[1][i] + e[m + i]).collect();
+                d
+            })
+            .collect();
+        let o = crate::diagnose::DiagnoseOptions {
+            library: opts(h0),
+            ..crate::diagnose::DiagnoseOptions::default()
+        };
+        let (weights, floors) = ([0.01, 1e-6], [0.002, 2e-7]);
+        let held = HeldPlay::new(
+            &Carried,
+            &recordings,
+            &o,
+            &[name.to_string()],
+            name,
+            &weights,
+            &floors,
+        )
+        .expect("assembled")
+        .expect("the play is a candidate");
+        let at_size = held.cv(h0).expect("assembled").expect("one column");
+        let off = held.cv(1.1 * h0).expect("assembled").expect("one column");
+        // What remains at 5.5 µm, in noise floors, from the responses directly.
+        let (mut ss, mut count) = (0.0, 0);
+        for d in &recordings {
+            let m = d.len();
+            let (_, a) = effect(d, h0);
+            let (_, b) = effect(d, 1.1 * h0);
+            for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+                ss += ((x - y) / floors[k / m]).powi(2);
+                count += 1;
+            }
+        }
+        let expected = (ss / count as f64).sqrt();
+        assert!(expected > 1.0, "a size 10 % off shows: {expected}");
+        assert!(
+            at_size < 1e-9 * expected,
+            "{at_size} at the size, {expected} off it"
+        );
+        assert!(
+            (off - expected).abs() < 1e-9 * expected,
+            "{off} against {expected}"
+        );
+    }
+
     thread_local! {
         /// [`Carried::play_dynamics_at`]'s calls on this test's thread.
         static EXPANSIONS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };

@@ -99,8 +99,8 @@ pub struct DiagnoseOptions {
     /// The candidates' columns are secants at a reference play, scaled in proportion to
     /// the estimate; a joint's rattle moves in time with its play, so the scaling is
     /// exact only at the reference. At each trial size the play's effect is the model's at
-    /// that size, held, not fitted; the other selected effects are refitted (every other
-    /// radial play's column too is taken at that reference). Costs up to
+    /// that size, held, not fitted; the other selected effects are refitted, their columns
+    /// (other plays' too) as the selection took them. Costs up to
     /// [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) refits of the selected candidates and one
     /// whole selection.
     pub play_size_search: bool,

@@ -3,11 +3,11 @@
 //! candidate's play: exact at the reference only, for a joint's rattle moves in time with
 //! its play. Here the reduced model is run at each size a pattern search tries
 //! ([`search_play_size`]), the play's effect held at that size — the model's own prediction,
-//! not a scaled one — and the other selected effects refitted ([`held_play_cv`]); the size
+//! not a scaled one — and the other selected effects refitted ([`HeldPlay`]); the size
 //! whose refit cross-validates best is the one the model explains the data with.
 //! A variable projection: one nonlinear parameter searched, the linear ones solved.
 
-use super::candidates::library;
+use super::candidates::{library, Candidate};
 use super::data::MotionData;
 use super::error::DiagnoseError;
 use super::model::InverseDynamicsModel;
@@ -85,67 +85,131 @@ pub fn search_play_size<E>(
     Ok(log)
 }
 
-/// The leave-one-recording-out RMS (in units of each channel's measured noise floor
-/// `floors`) of the candidates named `selected` refitted on `fit`, the radial play
-/// candidate `play` among them held at its reference `opts.library.dynamic_play_clearance`
-/// (m): its effect, the reduced dynamic play model's response at that play, taken from the
-/// residual rather than fitted; the others fitted with channel j weighted by `weights[j]`
-/// (in the channel's unit). Effects the linearisation point moved (`opts.shift`) that are
-/// not in `selected` are taken back, as in the selection. Every radial play candidate's
-/// column is the model's at that reference. `None` when no reference is set, `play` is
-/// not among the candidates, or it has other than one column.
-///
-/// Errors: those of the columns' and residuals' assembly.
-pub(super) fn held_play_cv(
-    model: &dyn InverseDynamicsModel,
-    fit: &[MotionData],
-    opts: &DiagnoseOptions,
-    selected: &[String],
-    play: &str,
-    weights: &[f64],
-    floors: &[f64],
-) -> Result<Option<f64>, DiagnoseError> {
-    let Some(h) = opts.library.dynamic_play_clearance else {
-        return Ok(None);
-    };
-    let mut o = opts.clone();
-    o.library.only = selected.to_vec();
-    o.library.only.extend(
-        opts.shift
-            .iter()
-            .map(|(name, _)| name.clone())
-            .filter(|n| !selected.contains(n)),
-    );
-    let cands = library(model, &o.library);
-    let Some(c) = cands.iter().position(|c| c.name == play) else {
-        return Ok(None);
-    };
-    let raw = prepare(model, fit, &vec![1.0; weights.len()], &cands, &o)?;
-    let [col] = raw.cols_of[c][..] else {
-        return Ok(None);
-    };
-    let Prepared {
-        cands,
-        cols_of,
-        mut blocks,
-        ..
-    } = raw;
-    for (cols, b) in &mut blocks {
-        for (bi, ai) in b.iter_mut().zip(&cols[col]) {
-            *bi -= h * ai;
-        }
+/// The selection refitted with a radial play held at trial sizes ([`HeldPlay::cv`]): the
+/// columns that do not change with the size — every candidate but the play's, at the
+/// selection's reference plays — and the residual, assembled once.
+pub(super) struct HeldPlay<'a> {
+    model: &'a dyn InverseDynamicsModel,
+    fit: &'a [MotionData],
+    /// The options with the play candidate alone in the library.
+    opts: DiagnoseOptions,
+    /// The play candidate.
+    play: Candidate,
+    /// The other candidates' columns and the residual (channel units).
+    others: Prepared,
+    /// The selected among `others`.
+    refitted: Vec<usize>,
+    weights: Vec<f64>,
+    floors: Vec<f64>,
+}
+
+impl<'a> HeldPlay<'a> {
+    /// For the candidates named `selected` on `fit` (the library and linearisation point of
+    /// `opts`), the radial play candidate `play` among them to be held; channel j weighted
+    /// by `weights[j]`, errors in units of `floors[j]` (both in the channel's unit). Effects
+    /// the linearisation point moved (`opts.shift`) that are not in `selected` are taken
+    /// back, as in the selection. `None` when `play` is not among the candidates.
+    ///
+    /// Errors: those of the columns' and residuals' assembly.
+    pub(super) fn new(
+        model: &'a dyn InverseDynamicsModel,
+        fit: &'a [MotionData],
+        opts: &DiagnoseOptions,
+        selected: &[String],
+        play: &str,
+        weights: &[f64],
+        floors: &[f64],
+    ) -> Result<Option<Self>, DiagnoseError> {
+        let mut o = opts.clone();
+        o.library.only = selected.iter().filter(|n| *n != play).cloned().collect();
+        o.library.only.extend(
+            opts.shift
+                .iter()
+                .map(|(name, _)| name.clone())
+                .filter(|n| !selected.contains(n)),
+        );
+        // (An empty list would be the whole library.)
+        let cands = if o.library.only.is_empty() {
+            vec![]
+        } else {
+            library(model, &o.library)
+        };
+        o.library.only = vec![play.to_string()];
+        let Some(play) = library(model, &o.library).into_iter().find(|c| c.name == play) else {
+            return Ok(None);
+        };
+        let others = prepare(model, fit, &vec![1.0; weights.len()], &cands, &o)?;
+        let refitted = (0..cands.len())
+            .filter(|&k| cands[k].name != play.name && selected.contains(&cands[k].name))
+            .collect();
+        Ok(Some(HeldPlay {
+            model,
+            fit,
+            opts: o,
+            play,
+            others,
+            refitted,
+            weights: weights.to_vec(),
+            floors: floors.to_vec(),
+        }))
     }
-    let lens: Vec<usize> = fit.iter().map(MotionData::len).collect();
-    let held = Prepared::new(cands, cols_of, blocks)?.reweighed(weights, &lens)?;
-    let others: Vec<usize> = (0..held.cands.len())
-        .filter(|&k| k != c && selected.contains(&held.cands[k].name))
-        .collect();
-    let factor: Vec<f64> = weights
-        .iter()
-        .zip(floors)
-        .map(|(w, s)| w / s.max(1e-300))
-        .collect();
-    Ok(Some(held.cv_rms_rescaled(&others, &factor, &lens)))
+
+    /// The leave-one-recording-out RMS (in noise floors) of the selection refitted with the
+    /// play held at `h` (m): its effect, the reduced dynamic play model's response at that
+    /// play, taken from the residual rather than fitted; the other selected candidates
+    /// fitted. `None` when the play's candidate has other than one column.
+    ///
+    /// Errors: those of the play column's assembly.
+    pub(super) fn cv(&self, h: f64) -> Result<Option<f64>, DiagnoseError> {
+        let mut o = self.opts.clone();
+        o.library.dynamic_play_clearance = Some(h);
+        let one = prepare(
+            self.model,
+            self.fit,
+            &vec![1.0; self.weights.len()],
+            std::slice::from_ref(&self.play),
+            &o,
+        )?;
+        let [col] = one.cols_of[0][..] else {
+            return Ok(None);
+        };
+        let lens: Vec<usize> = self.fit.iter().map(MotionData::len).collect();
+        let mut blocks = vec![];
+        for (r, ((cols, b), (play_cols, _))) in self.others.blocks.iter().zip(&one.blocks).enumerate() {
+            let (mut cols, mut b, mut a) = (cols.clone(), b.clone(), play_cols[col].clone());
+            // A sample either assembly left out is left out of both.
+            let n = lens[r];
+            let out = |p: &Prepared, i: usize| p.left_out.get(r).is_some_and(|o| o[i]);
+            for i in 0..n {
+                if out(&one, i) || out(&self.others, i) {
+                    for j in 0..b.len() / n.max(1) {
+                        b[j * n + i] = 0.0;
+                        a[j * n + i] = 0.0;
+                        for c in cols.iter_mut() {
+                            c[j * n + i] = 0.0;
+                        }
+                    }
+                }
+            }
+            for (bi, ai) in b.iter_mut().zip(&a) {
+                *bi -= h * ai;
+            }
+            cols.push(a);
+            blocks.push((cols, b));
+        }
+        let mut cands = self.others.cands.clone();
+        cands.push(self.play.clone());
+        let mut cols_of = self.others.cols_of.clone();
+        cols_of.push(vec![blocks.first().map_or(0, |(c, _)| c.len() - 1)]);
+        let held = Prepared::new(cands, cols_of, blocks)?.reweighed(&self.weights, &lens)?;
+        let factor: Vec<f64> = self
+            .weights
+            .iter()
+            .zip(&self.floors)
+            .map(|(w, s)| w / s.max(1e-300))
+            .collect();
+        Ok(Some(held.cv_rms_rescaled(&self.refitted, &factor, &lens)))
+    }
 }
 
 #[cfg(test)]

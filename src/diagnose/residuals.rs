@@ -35,6 +35,9 @@ pub(super) struct Prepared {
     /// ([`Columns::compression`](super::candidates::Columns::compression)), over all
     /// recordings.
     pub compression: Vec<Option<f64>>,
+    /// Per recording assembled by [`prepare`], the samples left out (undefined in the
+    /// residual or a column, zeroed in both); empty otherwise.
+    pub left_out: Vec<Vec<bool>>,
 }
 
 /// A recording whose residual `b` (measured − nominal, channel by channel) is undefined at
@@ -92,6 +95,7 @@ pub(super) fn prepare(
 ) -> Result<Prepared, DiagnoseError> {
     let mut cols_of = vec![];
     let mut blocks = vec![];
+    let mut left_out = vec![];
     // Every recording's columns (side by side on copies of the model where it makes them).
     let all = on_copies(data, model, &|d, m| columns(cands, d, m, &opts.library));
     // The play candidates' compressions over all recordings (RMS, weighted by samples).
@@ -124,13 +128,15 @@ pub(super) fn prepare(
         // Samples the model cannot evaluate (e.g. beyond a singular configuration), or where
         // a candidate's column is undefined (e.g. a time derivative next to such a sample),
         // carry no weight.
-        for i in 0..n {
+        let mut out = vec![false; n];
+        for (i, out) in out.iter_mut().enumerate() {
             let undefined = (0..nc).any(|j| {
                 !b[j * n + i].is_finite()
                     || per
                         .iter()
                         .any(|cc| cc.iter().any(|col| !col[j * n + i].is_finite()))
             });
+            *out = undefined;
             if undefined {
                 for j in 0..nc {
                     b[j * n + i] = 0.0;
@@ -170,9 +176,11 @@ pub(super) fn prepare(
         }
         cols_of = idx;
         blocks.push((flat, b));
+        left_out.push(out);
     }
     let mut prep = Prepared::new(cands.to_vec(), cols_of, blocks)?;
     prep.compression = compression;
+    prep.left_out = left_out;
     Ok(prep)
 }
 
@@ -193,6 +201,7 @@ impl Prepared {
             grams,
             total,
             compression,
+            left_out: vec![],
         })
     }
     /// The same columns and residual with channel j divided by `w[j]` (recording r has

@@ -12,7 +12,7 @@ use super::model::{on_copies, InverseDynamicsModel};
 use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, ResidualTrace};
 use super::play_dynamics::{ContactDamping, BALL_CONTACT};
-use super::play_size::{held_play_cv, search_play_size, MAX_PLAY_SIZES};
+use super::play_size::{search_play_size, HeldPlay, MAX_PLAY_SIZES};
 use super::recording::{Recording, MIN_SAMPLES};
 use super::relinearize;
 use super::residuals::{prepare, Prepared};
@@ -397,7 +397,8 @@ fn diagnose_folds(
             o.library.play_contact_damping = second.dynamic_play_damping;
             o.library.play_axial_stiffness = second.dynamic_play_axial_stiffness;
             o.library.backlash_place = second.backlash_place.unwrap_or(places[0]);
-            o.library.dynamic_axial_play = second.dynamic_axial_play_reference;
+            (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) =
+                (second.dynamic_play_reference, second.dynamic_axial_play_reference);
             // Each channel weighted by the larger of its noise floor and what the kept
             // selection leaves of it; the error in the measured channels' noise floors, as
             // the selection's.
@@ -409,18 +410,20 @@ fn diagnose_folds(
                 .collect();
             let mut tried = 0;
             // (A refit that fails counts as no improvement.)
-            let log = search_play_size::<()>(h0, &mut |h| {
-                progress("play size", 0.5 + share * (size_share + tried) as f64);
-                tried += 1;
-                o.library.dynamic_play_clearance = Some(h);
-                Ok(
-                    match held_play_cv(&shifted, fit, &o, &second.selected, &name, &weights, &floors) {
-                        Ok(Some(cv)) => cv,
-                        _ => f64::NAN,
-                    },
-                )
-            })
-            .unwrap_or_default();
+            let held = HeldPlay::new(&shifted, fit, &o, &second.selected, &name, &weights, &floors)?;
+            let log = held
+                .map(|held| {
+                    search_play_size::<()>(h0, &mut |h| {
+                        progress("play size", 0.5 + share * (size_share + tried) as f64);
+                        tried += 1;
+                        Ok(match held.cv(h) {
+                            Ok(Some(cv)) => cv,
+                            _ => f64::NAN,
+                        })
+                    })
+                    .unwrap_or_default()
+                })
+                .unwrap_or_default();
             let best = log
                 .iter()
                 .copied()
