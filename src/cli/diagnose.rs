@@ -125,8 +125,10 @@ pub struct Args {
     #[arg(long)]
     play_blended_forces: bool,
     /// Search the first found radial play's size: the selection refitted with the reduced
-    /// dynamic play model run at each trial size (steps of 4, 2 and 1 %), the best size's
-    /// whole selection kept if it cross-validates better (also with --suite).
+    /// dynamic play model run at each trial size (steps of 4, 2 and 1 %), then the other
+    /// contact dampings at the best size (and the size again at a better one); the whole
+    /// selection at the best size and damping kept if it cross-validates better (also with
+    /// --suite).
     #[arg(long)]
     play_size_search: bool,
     /// Also try load-proportional contact dampings γ·F in the reduced dynamic play model (γ

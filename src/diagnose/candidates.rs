@@ -2084,21 +2084,32 @@ mod tests {
             }
         }
         let kept = refs.iter().min_by(|a, b| a.2.total_cmp(&b.2)).expect("one");
-        // Then the radial play's size searched: distinct sizes, at most the most; where a
-        // whole selection at the best of them was kept, it cross-validates better than the
-        // reference plays' best, else the reference plays' best stays.
+        // Then the radial play's size searched at the kept damping, every other damping of
+        // the grid at the best size, and the size again at a damping better there: distinct
+        // (damping, size) pairs, each damping one tried; where a whole selection at the best
+        // pair was kept, it cross-validates no worse than the reference plays' best, else
+        // the reference plays' best stays.
         let sizes = &d.dynamic_play_size_cv;
+        let grid: Vec<ContactDamping> = opts.play_contact_dampings.clone();
         assert!(
-            !sizes.is_empty() && sizes.len() <= crate::diagnose::MAX_PLAY_SIZES,
+            !sizes.is_empty() && sizes.len() <= crate::diagnose::MAX_PLAY_SIZES * 2 + grid.len(),
             "{sizes:?}"
         );
-        for (k, (h, _)) in sizes.iter().enumerate() {
-            assert!(sizes[..k].iter().all(|(g, _)| g != h), "{sizes:?}");
+        for c in &grid {
+            assert!(sizes.iter().any(|x| x.0 == *c), "{c} not tried: {sizes:?}");
         }
-        let best = sizes.iter().min_by(|a, b| a.1.total_cmp(&b.1)).expect("one");
-        if d.dynamic_play_reference == Some(best.0) {
+        for (k, (c, h, _)) in sizes.iter().enumerate() {
+            assert!(grid.contains(c), "{sizes:?}");
+            assert!(sizes[..k].iter().all(|(c2, g, _)| (c2, g) != (c, h)), "{sizes:?}");
+        }
+        let best = sizes
+            .iter()
+            .filter(|x| x.2.is_finite())
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+            .expect("one");
+        if (d.dynamic_play_reference, d.dynamic_play_damping) == (Some(best.1), Some(best.0)) {
             assert_eq!(d.dynamic_axial_play_reference, kept.1);
-            // (Equal where the reference plays' best was already at the best size.)
+            // (Equal where the reference plays' best was already at the best pair.)
             assert!(
                 d.cv_rms_noise_units <= kept.2,
                 "{} against {refs:?}",

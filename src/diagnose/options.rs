@@ -100,9 +100,12 @@ pub struct DiagnoseOptions {
     /// the estimate; a joint's rattle moves in time with its play, so the scaling is
     /// exact only at the reference. At each trial size the play's effect is the model's at
     /// that size, held, not fitted; the other selected effects are refitted, their columns
-    /// (other plays' too) as the selection took them. Costs up to
-    /// [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) refits of the selected candidates and one
-    /// whole selection.
+    /// (other plays' too) as the selection took them. Then every other contact damping of
+    /// [`play_contact_dampings`](Self::play_contact_dampings) at the best size, and where one
+    /// refits better there, the size again at it (the damping was chosen at the reference
+    /// play; a rattle's damping and timing go together); the whole selection runs at the
+    /// best size and damping. Costs up to twice [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES)
+    /// refits of the selected candidates, one per other damping, and one whole selection.
     pub play_size_search: bool,
 }
 

@@ -320,11 +320,12 @@ pub struct Diagnosis {
     /// (at most [`MAX_RESIZES`](super::MAX_RESIZES) times). The kept selection is the one
     /// with the smallest. Empty when the play candidates were quasi-static.
     pub dynamic_play_reference_cv: Vec<(Option<f64>, Option<f64>, f64)>,
-    /// The radial play sizes (m) the play-size search
+    /// The contact dampings and radial play sizes (m) the play-size search
     /// ([`DiagnoseOptions::play_size_search`](super::DiagnoseOptions)) refitted the kept
     /// selection at, in the order tried, each with the refit's leave-one-recording-out RMS
-    /// (noise units); empty when it did not run.
-    pub dynamic_play_size_cv: Vec<(f64, f64)>,
+    /// (noise units): the sizes at the kept damping, every other damping at the best of
+    /// them, and the sizes again at a damping better there; empty when it did not run.
+    pub dynamic_play_size_cv: Vec<(super::play_dynamics::ContactDamping, f64, f64)>,
     /// The first pass's estimates that moved the model for the second pass, each with the
     /// fraction of its step kept ([`SHIFT_LINEARITY_TOLERANCE`](super::SHIFT_LINEARITY_TOLERANCE));
     /// empty without a second pass.

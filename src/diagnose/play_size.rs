@@ -30,21 +30,24 @@ pub const MAX_PLAY_SIZES: usize = 12;
 /// A pattern search on a play's size: from `h0` (m), each step of [`PLAY_SIZE_STEPS`]
 /// tried either way from the best size so far, the way that improves followed while it
 /// does, then the next smaller step; at most [`MAX_PLAY_SIZES`] evaluations of `objective`
-/// (a refit's leave-one-recording-out RMS). Returns every (size, objective) tried, in order;
-/// a size is never tried twice. A non-finite objective counts as no improvement.
+/// (a refit's leave-one-recording-out RMS; `known`, if given, its value at `h0`, not
+/// evaluated again). Returns every (size, objective) tried, in order, `h0` first; a size is
+/// never tried twice. A non-finite objective counts as no improvement.
 ///
 /// ```
 /// // An objective with its minimum at 6 µm, searched from 5.6 µm: found within the last step.
-/// let log = lash::diagnose::search_play_size::<()>(5.6e-6, &mut |h| Ok((h / 6e-6).ln().powi(2)))?;
+/// let log = lash::diagnose::search_play_size::<()>(5.6e-6, None, &mut |h| Ok((h / 6e-6).ln().powi(2)))?;
 /// let (best, _) = log.iter().copied().min_by(|a, b| a.1.total_cmp(&b.1)).expect("one tried");
 /// assert!((best / 6e-6 - 1.0).abs() <= 0.01 && log.len() <= lash::diagnose::MAX_PLAY_SIZES);
 /// # Ok::<(), ()>(())
 /// ```
 pub fn search_play_size<E>(
     h0: f64,
+    known: Option<f64>,
     objective: &mut dyn FnMut(f64) -> Result<f64, E>,
 ) -> Result<Vec<(f64, f64)>, E> {
-    let mut log: Vec<(f64, f64)> = vec![];
+    // (The objective at `h0`, if already known, is the log's first entry.)
+    let mut log: Vec<(f64, f64)> = known.map(|f| vec![(h0, f)]).unwrap_or_default();
     let mut eval = |h: f64, log: &mut Vec<(f64, f64)>| -> Result<Option<f64>, E> {
         if let Some(&(_, f)) = log.iter().find(|(x, _)| (x / h - 1.0).abs() < 1e-9) {
             return Ok(Some(f));
@@ -154,6 +157,17 @@ impl<'a> HeldPlay<'a> {
         }))
     }
 
+    /// [`search_play_size`] from `h0` on [`cv`](Self::cv) (`known`: its value at `h0`, if
+    /// known), `on_try` called before each refit; a refit that fails counts as no
+    /// improvement.
+    pub(super) fn search(&self, h0: f64, known: Option<f64>, on_try: &mut dyn FnMut()) -> Vec<(f64, f64)> {
+        search_play_size::<std::convert::Infallible>(h0, known, &mut |h| {
+            on_try();
+            Ok(self.cv(h).ok().flatten().unwrap_or(f64::NAN))
+        })
+        .unwrap_or_default()
+    }
+
     /// The leave-one-recording-out RMS (in noise floors) of the selection refitted with the
     /// play held at `h` (m): its effect, the reduced dynamic play model's response at that
     /// play, taken from the residual rather than fitted; the other selected candidates
@@ -226,7 +240,7 @@ mod tests {
             0.4 + (x / 0.03).powi(2).min(6.0) + 0.02 * (h * 5e7).sin()
         };
         let mut calls = vec![];
-        let log = search_play_size::<()>(5.6e-6, &mut |h| {
+        let log = search_play_size::<()>(5.6e-6, None, &mut |h| {
             calls.push(h);
             Ok(f(h))
         })
@@ -249,12 +263,12 @@ mod tests {
         assert!((best / truth - 1.0).abs() <= last, "{best} from {log:?}");
         // The objective's errors pass through.
         assert_eq!(
-            search_play_size(5e-6, &mut |_| Err::<f64, _>("refit failed")),
+            search_play_size(5e-6, None, &mut |_| Err::<f64, _>("refit failed")),
             Err("refit failed")
         );
         // A non-finite value is no improvement, however it compares: −∞ and NaN above the
         // start, so each step tries both ways and moves neither.
-        let log = search_play_size::<()>(5e-6, &mut |h| {
+        let log = search_play_size::<()>(5e-6, None, &mut |h| {
             Ok(if h > 5.08e-6 {
                 f64::NAN
             } else if h > 5e-6 {
@@ -266,7 +280,7 @@ mod tests {
         .expect("no error");
         assert_eq!(log.len(), 1 + 2 * PLAY_SIZE_STEPS.len(), "{log:?}");
         // A non-finite start: the first finite size is better.
-        let log = search_play_size::<()>(5e-6, &mut |h| {
+        let log = search_play_size::<()>(5e-6, None, &mut |h| {
             Ok(if h == 5e-6 {
                 f64::NAN
             } else {
@@ -275,5 +289,17 @@ mod tests {
         })
         .expect("no error");
         assert!(log[1].1.is_finite() && log.len() > 3, "{log:?}");
+        // A value known at the start is not asked for again.
+        let mut asked = vec![];
+        let log = search_play_size::<()>(5.6e-6, Some(f(5.6e-6)), &mut |h| {
+            asked.push(h);
+            Ok(f(h))
+        })
+        .expect("no error");
+        assert_eq!(log[0], (5.6e-6, f(5.6e-6)));
+        assert!(
+            !asked.contains(&5.6e-6) && asked.len() + 1 == log.len(),
+            "{asked:?}"
+        );
     }
 }

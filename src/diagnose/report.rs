@@ -3,7 +3,7 @@
 //! with the `plot` feature).
 
 use super::format::number;
-use super::play_dynamics::Interpolation;
+use super::play_dynamics::{ContactDamping, Interpolation};
 use super::Diagnosis;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -271,13 +271,16 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         let tried: Vec<String> = d
             .dynamic_play_size_cv
             .iter()
-            .map(|(h, cv)| format!("{:.3} µm: {cv:.3}", h * 1e6))
+            .map(|(c, h, cv)| format!("{:.3} µm with {c}: {cv:.3}", h * 1e6))
             .collect();
+        let kept = |(c, h, _): &(ContactDamping, f64, f64)| {
+            Some(*h) == d.dynamic_play_reference && Some(*c) == d.dynamic_play_damping
+        };
         let _ = writeln!(
             m,
-            "- The radial play's size, searched (the selection refitted with the play's effect held at the reduced model's at each size; leave-one-recording-out RMS in noise units): {}; {}.",
+            "- The radial play's size, searched, and the contact damping at the best size (the selection refitted with the play's effect held at the reduced model's at each size and damping; leave-one-recording-out RMS in noise units): {}; {}.",
             tried.join("; "),
-            if d.dynamic_play_size_cv.iter().any(|(h, _)| Some(*h) == d.dynamic_play_reference) {
+            if d.dynamic_play_size_cv.iter().any(kept) {
                 "the selection at the best size kept"
             } else {
                 "a whole selection at the best size did not cross-validate better, the one before kept"
@@ -294,7 +297,7 @@ fn reference_source(d: &Diagnosis) -> &'static str {
     };
     if d.dynamic_play_size_cv
         .iter()
-        .any(|(h, _)| Some(*h) == d.dynamic_play_reference)
+        .any(|(_, h, _)| Some(*h) == d.dynamic_play_reference)
     {
         return "the size whose refit cross-validated best in a search on it";
     }

@@ -12,7 +12,7 @@ use super::model::{on_copies, InverseDynamicsModel};
 use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, ResidualTrace};
 use super::play_dynamics::{ContactDamping, BALL_CONTACT};
-use super::play_size::{search_play_size, HeldPlay, MAX_PLAY_SIZES};
+use super::play_size::{HeldPlay, MAX_PLAY_SIZES};
 use super::recording::{Recording, MIN_SAMPLES};
 use super::relinearize;
 use super::residuals::{prepare, Prepared};
@@ -408,31 +408,64 @@ fn diagnose_folds(
                 .iter()
                 .map(|c| c.fit_after.max(c.noise_floor))
                 .collect();
+            // The size at the kept damping; then every other damping at the best size, and
+            // where one is better there, the size again at it (one round of coordinate
+            // descent: the damping was chosen at the reference play, and a rattle's damping
+            // and timing go together).
+            let resolved = |d: Option<ContactDamping>| d.unwrap_or(BALL_CONTACT.contact_damping());
+            let kept = resolved(second.dynamic_play_damping);
             let mut tried = 0;
-            // (A refit that fails counts as no improvement.)
-            let held = HeldPlay::new(&shifted, fit, &o, &second.selected, &name, &weights, &floors)?;
-            let log = held
-                .map(|held| {
-                    search_play_size::<()>(h0, &mut |h| {
-                        progress("play size", 0.5 + share * (size_share + tried) as f64);
-                        tried += 1;
-                        Ok(match held.cv(h) {
-                            Ok(Some(cv)) => cv,
-                            _ => f64::NAN,
-                        })
-                    })
-                    .unwrap_or_default()
-                })
-                .unwrap_or_default();
-            let best = log
-                .iter()
-                .copied()
-                .filter(|(_, cv)| cv.is_finite())
-                .min_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some((h, _)) = best.filter(|(h, _)| second.dynamic_play_reference != Some(*h)) {
+            let mut on_try = || {
+                progress(
+                    "play size",
+                    0.5 + share * (size_share + tried.min(MAX_PLAY_SIZES)) as f64,
+                );
+                tried += 1;
+            };
+            let held_at = |damping: ContactDamping| {
+                let mut o = o.clone();
+                o.library.play_contact_damping = Some(damping);
+                HeldPlay::new(&shifted, fit, &o, &second.selected, &name, &weights, &floors)
+                    .ok()
+                    .flatten()
+            };
+            let best_of = |log: &[(ContactDamping, f64, f64)]| {
+                log.iter()
+                    .copied()
+                    .filter(|x| x.2.is_finite())
+                    .min_by(|a, b| a.2.total_cmp(&b.2))
+            };
+            let mut log: Vec<(ContactDamping, f64, f64)> = vec![];
+            if let Some(held) = held_at(kept) {
+                log.extend(
+                    held.search(h0, None, &mut on_try)
+                        .into_iter()
+                        .map(|(h, cv)| (kept, h, cv)),
+                );
+            }
+            if let Some((_, h, cv)) = best_of(&log) {
+                let mut better: Option<(HeldPlay, ContactDamping, f64)> = None;
+                for damping in dampings.iter().map(|d| resolved(*d)).filter(|d| *d != kept) {
+                    let Some(held) = held_at(damping) else { continue };
+                    on_try();
+                    let cv_d = held.cv(h).ok().flatten().unwrap_or(f64::NAN);
+                    log.push((damping, h, cv_d));
+                    if cv_d < better.as_ref().map_or(cv, |b| b.2) {
+                        better = Some((held, damping, cv_d));
+                    }
+                }
+                if let Some((held, damping, cv_d)) = better {
+                    let again = held.search(h, Some(cv_d), &mut on_try);
+                    log.extend(again.into_iter().skip(1).map(|(h, cv)| (damping, h, cv)));
+                }
+            }
+            let best = best_of(&log).filter(|&(damping, h, _)| {
+                second.dynamic_play_reference != Some(h) || resolved(second.dynamic_play_damping) != damping
+            });
+            if let Some((damping, h, _)) = best {
                 let mut d = pass(
                     size_share + MAX_PLAY_SIZES,
-                    second.dynamic_play_damping,
+                    Some(damping),
                     second.dynamic_play_axial_stiffness,
                     second.backlash_place.unwrap_or(places[0]),
                     (Some(h), second.dynamic_axial_play_reference),
