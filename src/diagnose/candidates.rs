@@ -2052,7 +2052,18 @@ mod tests {
         }
         let (tried, best) = tried_and_best(&d.dynamic_play_damping_cv);
         assert_eq!(tried, opts.play_contact_dampings);
-        assert_eq!(d.dynamic_play_damping, best);
+        // (Or the damping the play-size search's refits chose at the searched size, below.)
+        let searched = d
+            .dynamic_play_size_cv
+            .iter()
+            .filter(|x| x.2.is_finite())
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+            .map(|x| x.0);
+        assert!(
+            d.dynamic_play_damping == best || d.dynamic_play_damping == searched,
+            "{:?}",
+            d.dynamic_play_damping
+        );
         let (tried, best) = tried_and_best(&d.dynamic_play_axial_stiffness_cv);
         assert_eq!(tried, opts.play_axial_stiffnesses);
         assert_eq!(d.dynamic_play_axial_stiffness, best);

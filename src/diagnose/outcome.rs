@@ -270,8 +270,10 @@ pub struct Diagnosis {
     pub dynamic_axial_play_reference: Option<f64>,
     /// The balls' contact damping the reduced dynamic play model took in the selection
     /// (JSON `{"constant": N·s/m, "load": s/m}`), chosen by cross-validation among
-    /// [`DiagnoseOptions::play_contact_dampings`](super::DiagnoseOptions); `None` when the
-    /// play candidates were quasi-static.
+    /// [`DiagnoseOptions::play_contact_dampings`](super::DiagnoseOptions) at the reference
+    /// play, or, with the play-size search, by its refits at the searched size
+    /// ([`dynamic_play_size_cv`](Self::dynamic_play_size_cv)); `None` when the play
+    /// candidates were quasi-static.
     pub dynamic_play_damping: Option<ContactDamping>,
     /// Each damping tried and the selection's leave-one-recording-out RMS with it (noise
     /// units).

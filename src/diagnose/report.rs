@@ -228,8 +228,13 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         };
         let _ = writeln!(
             m,
-            "- The reduced dynamic play model's contact damping: {c}, chosen by cross-validation (leave-one-recording-out RMS in noise units: {}); the balls {}; {}; {}.",
+            "- The reduced dynamic play model's contact damping: {c}, chosen by cross-validation (leave-one-recording-out RMS in noise units at the reference play: {}{}); the balls {}; {}; {}.",
             if tried.is_empty() { "one value given".into() } else { tried.join(", ") },
+            if searched_damping(d) {
+                "; at the searched play size the size search's refits chose it, below"
+            } else {
+                ""
+            },
             if d.dynamic_play_hertz {
                 "on Hertz's law per direction, with the constants of the joint's own bearings".to_string()
             } else {
@@ -281,13 +286,29 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             "- The radial play's size, searched, and the contact damping at the best size (the selection refitted with the play's effect held at the reduced model's at each size and damping; leave-one-recording-out RMS in noise units): {}; {}.",
             tried.join("; "),
             if d.dynamic_play_size_cv.iter().any(kept) {
-                "the selection at the best size kept"
+                "the selection at the best size and damping kept"
+            } else if d.dynamic_play_size_cv.iter().all(|x| !x.2.is_finite()) {
+                "no refit succeeded, the selection before kept"
             } else {
-                "a whole selection at the best size did not cross-validate better, the one before kept"
+                "a whole selection at the best size and damping did not cross-validate better, the one before kept"
             }
         );
     }
     let _ = writeln!(m);
+}
+
+/// Whether the play-size search's refits chose the damping the selection ran with (a
+/// damping other than the best of the grid at the reference play).
+fn searched_damping(d: &Diagnosis) -> bool {
+    let grid_best = d
+        .dynamic_play_damping_cv
+        .iter()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(c, _)| *c);
+    d.dynamic_play_size_cv
+        .iter()
+        .any(|(c, h, _)| Some(*h) == d.dynamic_play_reference && Some(*c) == d.dynamic_play_damping)
+        && grid_best.is_some_and(|b| Some(b) != d.dynamic_play_damping)
 }
 
 /// Where the reduced dynamic play model's reference plays came from, as a parenthesis.

@@ -422,6 +422,8 @@ fn diagnose_folds(
                 );
                 tried += 1;
             };
+            // (A search that cannot assemble its columns leaves the selection as it is, as
+            // the play-dynamics check does.)
             let held_at = |damping: ContactDamping| {
                 let mut o = o.clone();
                 o.library.play_contact_damping = Some(damping);
