@@ -910,6 +910,33 @@ fn static_start(
     (x.iter().all(|v| v.is_finite()) && r.rows(nj, NP).amax() <= 1e-6 * load).then_some(x)
 }
 
+/// The forces of substep `j` of `n` into `rhs`, in place: g − K·x − C·v of `sys`, blended
+/// at the substep's midpoint with `prev`'s where given ([`Interpolation::Linear`]), plus the
+/// contacts' loads `lc` on the play coordinates (the last [`NP`] rows).
+fn forces_into(
+    rhs: &mut DVector<f64>,
+    sys: &System,
+    prev: Option<&System>,
+    (j, n): (usize, usize),
+    x: &DVector<f64>,
+    v: &DVector<f64>,
+    lc: &[f64; NP],
+) {
+    rhs.copy_from(&sys.load);
+    rhs.gemv(-1.0, &sys.stiffness, x, 1.0);
+    rhs.gemv(-1.0, &sys.damping, v, 1.0);
+    if let Some(p) = prev {
+        let w = 1.0 - (j as f64 + 0.5) / n as f64;
+        rhs.axpy(w, &p.load, 1.0 - w);
+        rhs.gemv(-w, &p.stiffness, x, 1.0);
+        rhs.gemv(-w, &p.damping, v, 1.0);
+    }
+    let nj = rhs.len() - NP;
+    for r in 0..NP {
+        rhs[nj + r] += lc[r];
+    }
+}
+
 /// Advances (x, v) over one sample interval of `h` s in `steps` substeps of semi-implicit
 /// Euler, the mass held: the dampings explicit, v += M⁻¹·f(x, v)·dt, or implicit
 /// (linearised in the rates), (M + dt·(C + C_c))·Δv = dt·f(x, v); then x += v·dt with the
@@ -937,18 +964,7 @@ fn advance(
         let mut rhs = DVector::zeros(x.len());
         for j in 0..steps.n {
             let lc = contact_load(ks, &x.as_slice()[nj..], &v.as_slice()[nj..], play, contact);
-            rhs.copy_from(&sys.load);
-            rhs.gemv(-1.0, &sys.stiffness, x, 1.0);
-            rhs.gemv(-1.0, &sys.damping, v, 1.0);
-            if let Some(p) = prev {
-                let w = 1.0 - (j as f64 + 0.5) / steps.n as f64;
-                rhs.axpy(w, &p.load, 1.0 - w);
-                rhs.gemv(-w, &p.stiffness, x, 1.0);
-                rhs.gemv(-w, &p.damping, v, 1.0);
-            }
-            for r in 0..NP {
-                rhs[nj + r] += lc[r];
-            }
+            forces_into(&mut rhs, sys, prev, (j, steps.n), x, v, &lc);
             v.gemv(dt, &minv, &rhs, 1.0);
             x.axpy(dt, v, 1.0);
         }
@@ -961,18 +977,7 @@ fn advance(
     let (mut rhs, mut dv) = (DVector::zeros(x.len()), DVector::zeros(x.len()));
     for j in 0..steps.n {
         let (lc, cc) = contact_load_and_damping(ks, &x.as_slice()[nj..], &v.as_slice()[nj..], play, contact);
-        rhs.copy_from(&sys.load);
-        rhs.gemv(-1.0, &sys.stiffness, x, 1.0);
-        rhs.gemv(-1.0, &sys.damping, v, 1.0);
-        if let Some(p) = prev {
-            let w = 1.0 - (j as f64 + 0.5) / steps.n as f64;
-            rhs.axpy(w, &p.load, 1.0 - w);
-            rhs.gemv(-w, &p.stiffness, x, 1.0);
-            rhs.gemv(-w, &p.damping, v, 1.0);
-        }
-        for r in 0..NP {
-            rhs[nj + r] += lc[r];
-        }
+        forces_into(&mut rhs, sys, prev, (j, steps.n), x, v, &lc);
         rhs *= dt;
         if cc.iter().flatten().all(|&c| c == 0.0) {
             dv.gemv(1.0, &base_inv, &rhs, 0.0);

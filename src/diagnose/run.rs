@@ -379,10 +379,7 @@ fn diagnose_folds(
             if d.cv_rms_noise_units >= second.cv_rms_noise_units {
                 break;
             }
-            d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
-            d.dynamic_play_axial_stiffness_cv = std::mem::take(&mut second.dynamic_play_axial_stiffness_cv);
-            d.backlash_place_cv = std::mem::take(&mut second.backlash_place_cv);
-            d.backlash_place_identified = second.backlash_place_identified;
+            carry_choices(&mut second, &mut d);
             (second, at) = (d, refs);
         }
         second.dynamic_play_reference_cv = log;
@@ -474,12 +471,7 @@ fn diagnose_folds(
                     &mut *progress,
                 )?;
                 if d.cv_rms_noise_units < second.cv_rms_noise_units {
-                    d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
-                    d.dynamic_play_axial_stiffness_cv =
-                        std::mem::take(&mut second.dynamic_play_axial_stiffness_cv);
-                    d.dynamic_play_reference_cv = std::mem::take(&mut second.dynamic_play_reference_cv);
-                    d.backlash_place_cv = std::mem::take(&mut second.backlash_place_cv);
-                    d.backlash_place_identified = second.backlash_place_identified;
+                    carry_choices(&mut second, &mut d);
                     second = d;
                 }
             }
@@ -532,12 +524,7 @@ fn diagnose_folds(
         if d.cv_rms_noise_units > (1.0 - relinearize::CONTINUED_STEP_GAIN) * second.cv_rms_noise_units {
             break;
         }
-        d.dynamic_play_damping_cv = std::mem::take(&mut second.dynamic_play_damping_cv);
-        d.dynamic_play_axial_stiffness_cv = std::mem::take(&mut second.dynamic_play_axial_stiffness_cv);
-        d.dynamic_play_reference_cv = std::mem::take(&mut second.dynamic_play_reference_cv);
-        d.dynamic_play_size_cv = std::mem::take(&mut second.dynamic_play_size_cv);
-        d.backlash_place_cv = std::mem::take(&mut second.backlash_place_cv);
-        d.backlash_place_identified = second.backlash_place_identified;
+        carry_choices(&mut second, &mut d);
         (second, shifted, base) = (d, shifted_k, point);
         passes += 1;
     }
@@ -566,6 +553,18 @@ fn diagnose_folds(
     d.verdict = verdict_text(model, &d, &cands2);
     progress("done", 1.0);
     Ok(d)
+}
+
+/// A later pass `to` replacing `from` takes over the record of the choices made before it
+/// (the dampings, end-face stiffnesses, reference plays, play sizes and backlash places
+/// tried), which a single pass does not make.
+fn carry_choices(from: &mut Diagnosis, to: &mut Diagnosis) {
+    to.dynamic_play_damping_cv = std::mem::take(&mut from.dynamic_play_damping_cv);
+    to.dynamic_play_axial_stiffness_cv = std::mem::take(&mut from.dynamic_play_axial_stiffness_cv);
+    to.dynamic_play_reference_cv = std::mem::take(&mut from.dynamic_play_reference_cv);
+    to.dynamic_play_size_cv = std::mem::take(&mut from.dynamic_play_size_cv);
+    to.backlash_place_cv = std::mem::take(&mut from.backlash_place_cv);
+    to.backlash_place_identified = from.backlash_place_identified;
 }
 
 /// How much of what remains the found play's dynamics explain: when the diagnosis selected a
