@@ -10,8 +10,14 @@
 //! platform centre): the truth's effect against the reduced model's (its play coordinates
 //! and extra wind-up through the nominal model's output sensitivities; with the play less
 //! without in parentheses) and the quasi-static shift at load scales of 1, 5 and 20 N.
-//! Prints the RMS per channel and time window in noise units and writes plots, then the
-//! joint's play coordinates in the truth and the model side by side over the plot window.
+//! Prints the RMS per channel and time window in noise units and writes plots; then, against
+//! a third truth with no bearing in the joint (the ideal joint the diagnosis's nominal model
+//! has), the balls' own compliance at zero clearance (tight − ideal) and what the reduced
+//! model's run without play leaves of it — the joint's contact-compliance candidate under
+//! Hertz's law — and what the response with the play leaves of the whole (with − ideal);
+//! then the joint's play coordinates in the truth and the model side by side over the plot
+//! window. `LASH_LAG_SCAN=1` also prints drive C's miss with the model's effect shifted by
+//! −3 … +3 samples (a timing error shows as a minimum away from 0).
 //!
 //! ```text
 //! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m, or hertz] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes] [load-proportional damping γ s/m] [interpolation linear|held] [the model's radial clearance m]
@@ -325,6 +331,61 @@ fn main() -> Result<(), Box<dyn Error>> {
             vec![],
         )
         .save(&out.join(format!("drive-{}", drive.to_lowercase())))?;
+    }
+
+    // Timing: the model's effect shifted by whole samples (model at i + lag against the
+    // truth at i), drive C, in torque-noise units: a lag that lowers the miss is a delay.
+    if std::env::var("LASH_LAG_SCAN").is_ok() {
+        for (w0, w1) in [(0.6, 2.6), (2.77, 3.1)] {
+            let mut line = format!("  lag scan, drive C, {w0:.2}–{w1:.2} s:");
+            for lag in -3i64..=3 {
+                let (mut s1, mut m) = (0.0, 0usize);
+                for i in (0..n).filter(|&i| t[i] >= w0 && t[i] < w1) {
+                    let j = i as i64 + lag;
+                    if j < 0 || j >= n as i64 {
+                        continue;
+                    }
+                    if let Some(x) = reduced[j as usize].as_ref() {
+                        s1 += (loose.tau[2][i] - tight.tau[2][i] - x[2]).powi(2);
+                        m += 1;
+                    }
+                }
+                line.push_str(&format!(
+                    "  {lag:+}: {:.2}",
+                    (s1 / m.max(1) as f64).sqrt() / sigma
+                ));
+            }
+            println!("{line}");
+        }
+    }
+
+    // What the diagnosis's data hold beyond the play: the ideal truth (no bearing in the
+    // joint) against the tight one — the balls' own compliance at zero clearance, which the
+    // play's column (with the play less without) leaves to other candidates — and how the
+    // reduced model's tight run and its response alone (with the play, not less without)
+    // match it, over 0.6 s to the end, in torque-noise units.
+    let ideal = simulate_run(&TruthSpec::nominal(), &path, &ropts)?;
+    for (k, drive) in ["A", "B", "C"].iter().enumerate() {
+        let (mut s0, mut s1, mut s2, mut s3, mut m) = (0.0, 0.0, 0.0, 0.0, 0usize);
+        for i in (0..n).filter(|&i| t[i] >= 0.6) {
+            if let (Some(a), Some(b)) = (&loose_model[i], &tight_model[i]) {
+                let compliance = tight.tau[k][i] - ideal.tau[k][i];
+                let whole = loose.tau[k][i] - ideal.tau[k][i];
+                s0 += compliance.powi(2);
+                s1 += (compliance - b.torque[k]).powi(2);
+                s2 += whole.powi(2);
+                s3 += (whole - a.torque[k]).powi(2);
+                m += 1;
+            }
+        }
+        let rms = |s: f64| (s / m.max(1) as f64).sqrt() / sigma;
+        println!(
+            "  drive {drive}, against the ideal truth: tight − ideal {:.2} → model's tight run leaves {:.2}; with clearance − ideal {:.2} → response alone leaves {:.2}",
+            rms(s0),
+            rms(s1),
+            rms(s2),
+            rms(s3)
+        );
     }
 
     // The joint's own motion: its play coordinates in the truth (`TruthRun::joint_play`) and

@@ -39,7 +39,7 @@
 use super::data::{Channel, MotionData};
 use super::model::{
     on_copies, DeclaredCandidate, InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily,
-    PlayDynamics, PlayPoint,
+    PlayData, PlayDynamics, PlayPoint,
 };
 use super::play_dynamics::{
     expanded_about, respond, BallContact, ContactDamping, HertzBalls, Interpolation, JointPlay, PlayResponse,
@@ -360,6 +360,15 @@ pub enum Effect {
         /// Load scale over which the joint moves across its clearance, N.
         load_scale: f64,
     },
+    /// The contact compliance of a joint with play (index into the model's play sites): its
+    /// balls without clearance under Hertz's law, in the reduced dynamic play model, as a
+    /// fraction of its bearing design's compliance (dimensionless; 1 = the design's). Only
+    /// with [`LibraryOptions::play_contact_hertz`]: what the play's column (with the play
+    /// less without) leaves out.
+    ContactCompliance {
+        /// Play-site index.
+        site: usize,
+    },
     /// Offset of an output sensor (index of the output), in its unit.
     OutputOffset {
         /// Output index.
@@ -635,6 +644,24 @@ pub fn library(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Vec<C
             }
         }
     }
+    // Under Hertz's law the plays' columns leave out the joints' compliance at zero play (a
+    // ball that fits its bore, compressed by the joint's load): its own candidate per joint,
+    // the reduced model's response without play.
+    let hertz_dynamic = opts.play_contact_hertz
+        && (opts.dynamic_play_reference(PlayDirection::Radial).is_some()
+            || opts.dynamic_play_reference(PlayDirection::Axial).is_some());
+    if model.outputs() > 0 && hertz_dynamic {
+        for (site, joint) in model.play_sites().iter().enumerate() {
+            out.push(Candidate {
+                name: format!("contact compliance of joint {joint} (Hertz balls without clearance, reduced dynamic model)"),
+                effect: Effect::ContactCompliance { site },
+                joint: None,
+                parameters: vec!["s [1]".into()],
+                grid_parameters: 0,
+                bounds: vec![(0.0, 10.0)],
+            });
+        }
+    }
     for k in 0..model.outputs() {
         out.push(Candidate {
             name: format!("{} sensor offset", model.output_name(k)),
@@ -783,7 +810,14 @@ pub fn columns(
         reference_for(PlayDirection::Radial),
         reference_for(PlayDirection::Axial),
     ];
-    let play_reference = play_references.iter().find_map(|x| *x);
+    // (A joint's contact compliance needs the play derivatives too, at no play.)
+    let play_reference = play_references.iter().find_map(|x| *x).or_else(|| {
+        (has_torques
+            && cands
+                .iter()
+                .any(|c| matches!(c.effect, Effect::ContactCompliance { .. })))
+        .then_some(0.0)
+    });
     let mut sens: Vec<Option<OutputSensitivities>> = vec![];
     let mut dynamics: Vec<Option<TransmissionDynamics>> = vec![];
     let mut play_dyn: Vec<Option<Vec<PlayDynamics>>> = vec![];
@@ -1085,6 +1119,18 @@ pub fn columns(
         }
         c
     };
+    // Output k at sample i moved by a reduced-model response `r` of play site `p`: its play
+    // coordinates through the output's sensitivities, its extra wind-up through the arms' lag.
+    let dynamic_tracker = |k: usize, p: &PlayData, r: &PlayResponse, i: usize| -> f64 {
+        (0..3).map(|c| p.dy_dshift[c][k] * r.offset[c]).sum::<f64>()
+            + p.dy_dtilt[k] * r.offset[3]
+            + output_row[k].map_or(0.0, |ro| {
+                compliant_drives
+                    .iter()
+                    .filter_map(|&b| Some(r.windup.get(b)? * lag_of(b)[ro * n + i]))
+                    .sum::<f64>()
+            })
+    };
     let cols = cands
         .iter()
         .map(|c| match (c.effect, c.joint) {
@@ -1160,15 +1206,7 @@ pub fn columns(
                     if let Some((h, Some(r))) =
                         dynamic_effect.map(|(h, e)| (h, e.get(i).and_then(|x| x.as_ref())))
                     {
-                        let v = ((0..3).map(|c| p.dy_dshift[c][k] * r.offset[c]).sum::<f64>()
-                            + p.dy_dtilt[k] * r.offset[3]
-                            + output_row[k].map_or(0.0, |ro| {
-                                compliant_drives
-                                    .iter()
-                                    .filter_map(|&b| Some(r.windup.get(b)? * lag_of(b)[ro * n + i]))
-                                    .sum::<f64>()
-                            }))
-                            / h;
+                        let v = dynamic_tracker(k, p, r, i) / h;
                         return if v.is_finite() { v } else { 0.0 };
                     }
                     let sh = p.play.shift(&p.z_i, &p.z_j, &p.force, &p.moment, load_scale);
@@ -1197,6 +1235,38 @@ pub fn columns(
                             if let Some(r) = torque_row(a) {
                                 col[r * n + i] = if v.is_finite() { v / h } else { 0.0 };
                             }
+                        }
+                    }
+                }
+                vec![col]
+            }
+            (Effect::ContactCompliance { site }, _) => {
+                // The reduced model's run without play: drive torques and, where the plays'
+                // tracker rows are dynamic, its play coordinates and extra wind-up.
+                let Some(cell) = tight.get(site) else {
+                    return vec![vec![0.0; nc * n]];
+                };
+                let without = cell.get_or_init(|| run(site, &JointPlay::default()));
+                let mut col = if opts.dynamic_play_tracker {
+                    outputs_only(&|k, s, i| {
+                        let (Some(p), Some(Some(r))) = (s.play.get(site), without.get(i)) else {
+                            return 0.0;
+                        };
+                        let v = dynamic_tracker(k, p, r, i);
+                        if v.is_finite() {
+                            v
+                        } else {
+                            0.0
+                        }
+                    })
+                } else {
+                    vec![0.0; nc * n]
+                };
+                for (i, x) in without.iter().enumerate() {
+                    let Some(x) = x else { continue };
+                    for (a, v) in x.torque.iter().enumerate() {
+                        if let Some(r) = torque_row(a) {
+                            col[r * n + i] = if v.is_finite() { *v } else { 0.0 };
                         }
                     }
                 }
@@ -1325,7 +1395,8 @@ fn passes_of(cands: &[Candidate], declared: &[DeclaredCandidate], drive_lags: &[
                 | Effect::Coulomb { .. }
                 | Effect::Stribeck { .. }
                 | Effect::AsymmetricFriction { .. }
-                | Effect::Play { .. },
+                | Effect::Play { .. }
+                | Effect::ContactCompliance { .. },
                 _,
             ) => through_drives = true,
             _ => {}
@@ -1940,6 +2011,46 @@ mod tests {
             assert!(
                 (got - squeeze).abs() < 0.02 * squeeze,
                 "Hertz, t = {} s: the balls add {got:e} m, Hertz gives {squeeze:e}",
+                t[i]
+            );
+        }
+        // What the play's column leaves out is the joint's own candidate under Hertz's law
+        // (none on the linear law): its contact compliance, the conformal balls' compression
+        // at no play — T_e times it in the torque and, on the tracker, the shift less the
+        // arm's extra lag.
+        assert!(!cands
+            .iter()
+            .any(|c| c.name.starts_with("contact compliance of joint")));
+        let with_tracker = LibraryOptions {
+            dynamic_play_tracker: true,
+            ..opts.clone()
+        };
+        let cands_h = library(&Carried, &with_tracker);
+        let own: Vec<&Candidate> = cands_h
+            .iter()
+            .filter(|c| c.name.starts_with("contact compliance of joint F"))
+            .collect();
+        assert_eq!(own.len(), 1);
+        assert_eq!(own[0].effect, Effect::ContactCompliance { site: 0 });
+        let cols_h = columns(
+            &own.into_iter().cloned().collect::<Vec<_>>(),
+            &d,
+            &Carried,
+            &with_tracker,
+        )
+        .cols;
+        let tight = squeeze_at(0.0);
+        for (i, sign) in [(200, -1.0), (500, 1.0)] {
+            let got = sign * torque(&cols_h, 0)[i] / TAU_PER_M;
+            assert!(
+                (got - tight).abs() < 0.02 * tight,
+                "contact compliance, t = {} s: torque column gives {got:e} m, Hertz {tight:e}",
+                t[i]
+            );
+            let got = sign * tracker(&cols_h, 0)[i] / (1.0 - 1e-4 * TAU_PER_M);
+            assert!(
+                (got - tight).abs() < 0.02 * tight,
+                "contact compliance, t = {} s: tracker column gives {got:e} m, Hertz {tight:e}",
                 t[i]
             );
         }

@@ -532,11 +532,13 @@ fn same_family(a: &Candidate, b: &Candidate) -> bool {
         OutputOffset { .. } => 11,
         OutputDelay { .. } => 12,
         Play { .. } => 13,
+        ContactCompliance { .. } => 14,
         Declared { .. } => 7,
     };
     // Load scales of one joint's play are refinements; other joints are rivals.
     let site = |e: Effect| match e {
-        Play { site, direction, .. } => Some((site, direction)),
+        Play { site, direction, .. } => Some((site, Some(direction))),
+        ContactCompliance { site } => Some((site, None)),
         _ => None,
     };
     a.joint == b.joint
