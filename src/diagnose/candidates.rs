@@ -121,7 +121,9 @@ pub struct LibraryOptions {
     /// ([`HertzBalls::of`](super::play_dynamics::HertzBalls::of): a ball in a bore of that
     /// clearance, a ball on the bore's end face) instead of [`BALL_CONTACT`]'s one linear
     /// stiffness; the radial columns are then the response with the play less the response
-    /// without (the balls' own compliance does not scale with the play). Off by default: the
+    /// without (the balls' own compliance does not scale with the play), and each joint's
+    /// compliance at zero play is a candidate of its own ([`Effect::ContactCompliance`], the
+    /// response without play). Off by default: the
     /// model's joint then follows the truth's (example `play_dynamics`), but in the suite's
     /// clearance-F case the diagnosis did worse (held out 3.35× against 3.01×, README).
     pub play_contact_hertz: bool,
@@ -168,13 +170,17 @@ pub struct LibraryOptions {
 /// The first text of `opts.exclude` that matches no candidate of `model`'s full library, if
 /// any (a misspelt exclusion would otherwise silently exclude nothing).
 pub fn excluded_unknown(model: &dyn InverseDynamicsModel, opts: &LibraryOptions) -> Option<String> {
-    let all = library(
-        model,
-        &LibraryOptions {
-            exclude: vec![],
-            ..opts.clone()
-        },
-    );
+    let mut o = LibraryOptions {
+        exclude: vec![],
+        ..opts.clone()
+    };
+    let mut all = library(model, &o);
+    // With the second pass's candidates too (the reduced dynamic model's, at a reference
+    // play the first pass sets).
+    if o.dynamic_play_clearance.is_none() {
+        o.dynamic_play_clearance = Some(1e-6);
+        all.extend(library(model, &o));
+    }
     opts.exclude
         .iter()
         .find(|x| !all.iter().any(|c| excludes(x, &c.name)))
@@ -362,9 +368,11 @@ pub enum Effect {
     },
     /// The contact compliance of a joint with play (index into the model's play sites): its
     /// balls without clearance under Hertz's law, in the reduced dynamic play model, as a
-    /// fraction of its bearing design's compliance (dimensionless; 1 = the design's). Only
-    /// with [`LibraryOptions::play_contact_hertz`]: what the play's column (with the play
-    /// less without) leaves out.
+    /// multiple of the response its bearing design gives (dimensionless; 1 = the design's
+    /// compression under the joint's loads — Hertz's compression grows as the load to the
+    /// 2/3, so this is not a scale of the contact constant). Only with
+    /// [`LibraryOptions::play_contact_hertz`]: what the plays' columns (with the play less
+    /// without) leave out.
     ContactCompliance {
         /// Play-site index.
         site: usize,
@@ -855,7 +863,8 @@ pub fn columns(
     // compliance that a ball fitting its bore does not have (measured, README). Under Hertz's
     // law the radial response too is taken less the response without play: the balls' axial
     // contact on the bores' end faces is soft at any play, and that compliance must not scale
-    // with the play (it is the joint-compliance candidate's).
+    // with the play (it is the joints' contact-compliance candidates': `ContactCompliance`,
+    // and the legs' joint compliances).
     let contact = BallContact {
         axial_stiffness: opts.play_axial_stiffness.unwrap_or(BALL_CONTACT.axial_stiffness),
         ..BALL_CONTACT.with_damping(
@@ -1241,27 +1250,23 @@ pub fn columns(
                 vec![col]
             }
             (Effect::ContactCompliance { site }, _) => {
-                // The reduced model's run without play: drive torques and, where the plays'
-                // tracker rows are dynamic, its play coordinates and extra wind-up.
+                // The reduced model's run without play: drive torques, and on the outputs its
+                // play coordinates and extra wind-up (whatever the plays' tracker rows).
                 let Some(cell) = tight.get(site) else {
                     return vec![vec![0.0; nc * n]];
                 };
                 let without = cell.get_or_init(|| run(site, &JointPlay::default()));
-                let mut col = if opts.dynamic_play_tracker {
-                    outputs_only(&|k, s, i| {
-                        let (Some(p), Some(Some(r))) = (s.play.get(site), without.get(i)) else {
-                            return 0.0;
-                        };
-                        let v = dynamic_tracker(k, p, r, i);
-                        if v.is_finite() {
-                            v
-                        } else {
-                            0.0
-                        }
-                    })
-                } else {
-                    vec![0.0; nc * n]
-                };
+                let mut col = outputs_only(&|k, s, i| {
+                    let (Some(p), Some(Some(r))) = (s.play.get(site), without.get(i)) else {
+                        return 0.0;
+                    };
+                    let v = dynamic_tracker(k, p, r, i);
+                    if v.is_finite() {
+                        v
+                    } else {
+                        0.0
+                    }
+                });
                 for (i, x) in without.iter().enumerate() {
                     let Some(x) = x else { continue };
                     for (a, v) in x.torque.iter().enumerate() {
@@ -1479,12 +1484,13 @@ fn recording_for(a: &Candidate, b: &Candidate) -> String {
     use Effect::*;
     let joint = |c: &Candidate| match (c.joint, c.effect) {
         (Some(j), _) => format!("joint {}", j + 1),
-        // A play or clearance names its place: "radial clearance in joint F (…)".
-        (None, Play { .. } | Clearance { .. }) => c
+        // A play or clearance names its place: "radial clearance in joint F (…)", "contact
+        // compliance of joint F (…)".
+        (None, Play { .. } | Clearance { .. } | ContactCompliance { .. }) => c
             .name
             .split(" (")
             .next()
-            .and_then(|head| head.rsplit_once(" in "))
+            .and_then(|head| head.rsplit_once(" in ").or_else(|| head.rsplit_once(" of ")))
             .map_or("the joints".into(), |(_, place)| place.to_string()),
         (None, _) => "the joints".into(),
     };
@@ -1496,6 +1502,14 @@ fn recording_for(a: &Candidate, b: &Candidate) -> String {
     };
     let play = |e: Effect| matches!(e, Backlash { .. } | Clearance { .. } | Play { .. });
     match (a.effect, b.effect) {
+        (ContactCompliance { .. }, Play { .. } | Clearance { .. }) | (Play { .. } | Clearance { .. }, ContactCompliance { .. }) => format!(
+            "a run that raises the load on {} slowly from small to large without reversing it, then reverses it (the contact's compression grows with the load, the play is taken up at the reversal)",
+            joint(if matches!(a.effect, ContactCompliance { .. }) { a } else { b })
+        ),
+        (ContactCompliance { .. }, Parameter { .. }) | (Parameter { .. }, ContactCompliance { .. }) => format!(
+            "a run that loads {} from small to large forces at one pose (a Hertz contact stiffens with its load, a linear compliance does not)",
+            joint(if matches!(a.effect, ContactCompliance { .. }) { a } else { b })
+        ),
         (x, y) if (friction(x) && play(y)) || (play(x) && friction(y)) => format!(
             "a slow motion that reverses the velocity of {} while the loads keep their sign, then one that reverses the loads at constant velocity (friction flips with the velocity, play with the load)",
             joint(if a.joint.is_some() { a } else { b })
@@ -1568,6 +1582,16 @@ mod tests {
         };
         let text = separating_experiment(&play("F", 2), &play("R", 5), 3);
         assert!(text.contains("in joint F and in joint R"), "{text}");
+        // A joint's contact compliance against its own play: one place, loaded without and
+        // then with a reversal.
+        let own = test_candidate(
+            "contact compliance of joint F (Hertz balls without clearance, reduced dynamic model)",
+            Effect::ContactCompliance { site: 2 },
+            true,
+        );
+        let text = separating_experiment(&own, &play("F", 2), 3);
+        assert!(text.contains("the load on joint F slowly"), "{text}");
+        assert!(!text.contains("the joints"), "{text}");
     }
 
     /// Torque on the drive per metre of the joint's shift along z, N·m/m.
@@ -2018,7 +2042,11 @@ mod tests {
         // (none on the linear law): its contact compliance, the conformal balls' compression
         // at no play — T_e times it in the torque and, on the tracker, the shift less the
         // arm's extra lag.
-        assert!(!cands
+        let linear = LibraryOptions {
+            play_contact_hertz: false,
+            ..opts.clone()
+        };
+        assert!(!library(&Carried, &linear)
             .iter()
             .any(|c| c.name.starts_with("contact compliance of joint")));
         let with_tracker = LibraryOptions {

@@ -236,7 +236,7 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
                 ""
             },
             if d.dynamic_play_hertz {
-                "on Hertz's law per direction, with the constants of the joint's own bearings".to_string()
+                "on Hertz's law per direction, with the constants of the joint's own bearings (the plays' columns their response with the play less without; each joint's compliance at zero play a candidate of its own)".to_string()
             } else {
                 linear
             },
