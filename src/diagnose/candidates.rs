@@ -818,14 +818,13 @@ pub fn columns(
         reference_for(PlayDirection::Radial),
         reference_for(PlayDirection::Axial),
     ];
-    // (A joint's contact compliance needs the play derivatives too, at no play.)
-    let play_reference = play_references.iter().find_map(|x| *x).or_else(|| {
-        (has_torques
+    // Whether the play derivatives are needed: for a play's torque rows, or a joint's contact
+    // compliance (the response at no play).
+    let play_needed = play_references.iter().any(Option::is_some)
+        || (has_torques
             && cands
                 .iter()
-                .any(|c| matches!(c.effect, Effect::ContactCompliance { .. })))
-        .then_some(0.0)
-    });
+                .any(|c| matches!(c.effect, Effect::ContactCompliance { .. })));
     let mut sens: Vec<Option<OutputSensitivities>> = vec![];
     let mut dynamics: Vec<Option<TransmissionDynamics>> = vec![];
     let mut play_dyn: Vec<Option<Vec<PlayDynamics>>> = vec![];
@@ -848,8 +847,8 @@ pub fn columns(
                 model.output_sensitivities(&theta0, &q, &qd, &qdd, &y)
             });
             let td = model.transmission_dynamics(&theta0);
-            play_dyn.push(match (&td, play_reference) {
-                (Some(_), Some(_)) => model.play_dynamics(&theta0, &q, &qd, &qdd),
+            play_dyn.push(match &td {
+                Some(_) if play_needed => model.play_dynamics(&theta0, &q, &qd, &qdd),
                 _ => None,
             });
             dynamics.push(td);
@@ -1140,6 +1139,17 @@ pub fn columns(
                     .sum::<f64>()
             })
     };
+    // A reduced-model response's drive torques, over `per`, into a column's torque rows.
+    let torque_rows = |col: &mut [f64], response: &[Option<PlayResponse>], per: f64| {
+        for (i, x) in response.iter().enumerate() {
+            let Some(x) = x else { continue };
+            for (a, v) in x.torque.iter().enumerate() {
+                if let Some(r) = torque_row(a) {
+                    col[r * n + i] = if v.is_finite() { v / per } else { 0.0 };
+                }
+            }
+        }
+    };
     let cols = cands
         .iter()
         .map(|c| match (c.effect, c.joint) {
@@ -1238,14 +1248,7 @@ pub fn columns(
                 });
                 // The drive torques: the reduced dynamic model's secant at the reference play.
                 if let Some((h, effect)) = response_of(site, direction) {
-                    for (i, x) in effect.iter().enumerate() {
-                        let Some(x) = x else { continue };
-                        for (a, v) in x.torque.iter().enumerate() {
-                            if let Some(r) = torque_row(a) {
-                                col[r * n + i] = if v.is_finite() { v / h } else { 0.0 };
-                            }
-                        }
-                    }
+                    torque_rows(&mut col, effect, h);
                 }
                 vec![col]
             }
@@ -1267,14 +1270,7 @@ pub fn columns(
                         0.0
                     }
                 });
-                for (i, x) in without.iter().enumerate() {
-                    let Some(x) = x else { continue };
-                    for (a, v) in x.torque.iter().enumerate() {
-                        if let Some(r) = torque_row(a) {
-                            col[r * n + i] = if v.is_finite() { *v } else { 0.0 };
-                        }
-                    }
-                }
+                torque_rows(&mut col, without, 1.0);
                 vec![col]
             }
             (Effect::OutputDelay { output }, _) => {
