@@ -282,9 +282,9 @@ fn with_velocity_columns(
         let (sl, sw) = (&states[blk.loaded.index()], &states[blk.wrt.index()]);
         // ∂(force on the ball side)/∂(v, ω') of the wrt body, 3 × 6.
         let mut df = nalgebra::SMatrix::<f64, 3, 6>::zeros();
+        let s_w = sw.a.transpose() * (rates.point - sw.r);
         for t in &rates.terms {
             let u = t.direction;
-            let s_w = sw.a.transpose() * (rates.point - sw.r);
             let w_row = s_w.cross(&(sw.a.transpose() * u));
             for r in 0..3 {
                 for c in 0..3 {

@@ -268,7 +268,8 @@ impl Primitive {
     /// Hessians ∇²Φ_e (14 × 14 over (r_i, p_i, r_j, p_j)) of each equation, into `out`.
     pub(crate) fn hessians(&self, pi: &Pose, pj: &Pose, t: f64, out: &mut [Hess14]) {
         for h in out.iter_mut() {
-            h.fill(0.0);
+            // On the contiguous slice: a memset (nalgebra's `fill` walks the matrix's iterator).
+            h.as_mut_slice().fill(0.0);
         }
         match self {
             Primitive::Point { si, sj } => {

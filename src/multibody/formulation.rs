@@ -106,6 +106,8 @@ pub struct MultibodyDae {
 struct LoadSlots {
     /// Per loaded body, (body differentiated by, table) of each pair.
     pairs: Vec<Vec<(usize, usize)>>,
+    /// Per pair, the value position of each entry of its 6 × 13 block, column-major (the
+    /// order of `LoadDerivative::d`'s storage): entry (r, c) at 6·c + r.
     tables: Vec<[usize; 78]>,
 }
 
@@ -438,7 +440,7 @@ impl MultibodyDae {
                                 lay.w(bc.0) + c - 7
                             };
                             match slots.get(lay.w(br.0) + r, gc) {
-                                Some(k) => tab[13 * r + c] = k,
+                                Some(k) => tab[6 * c + r] = k,
                                 None => complete = false,
                             }
                         }
@@ -568,8 +570,17 @@ impl MultibodyDae {
                 let k = k0 + e;
                 let row = self.ev.rows[k];
                 let (lam, mu) = (y[lay.lambda() + k], y[lay.mu() + k]);
-                h_mu += hs[e] * mu;
-                h_lam += hs[e] * lam;
+                // h_μ += μ·∇²Φ_e and h_λ += λ·∇²Φ_e in one pass over the slices (nalgebra's
+                // `h += H·μ` makes a 14 × 14 temporary per product).
+                for ((m, l), &h) in h_mu
+                    .as_mut_slice()
+                    .iter_mut()
+                    .zip(h_lam.as_mut_slice().iter_mut())
+                    .zip(hs[e].as_slice())
+                {
+                    *m += h * mu;
+                    *l += h * lam;
+                }
                 dp_lam[0] += row.d_pi * lam;
                 dp_lam[1] += row.d_pj * lam;
                 let mut g = [0.0; 14];
@@ -690,11 +701,10 @@ impl MultibodyDae {
                 for blk in blocks {
                     let (br, bc) = (blk.loaded.0, blk.wrt.0);
                     if let Some(tab) = self.load_slots.get(br, bc) {
-                        // The block's place in the values, found once (`load_slots`).
-                        for c in 0..columns {
-                            for r in 0..6 {
-                                sc.values[tab[13 * r + c]] -= blk.d[(r, c)];
-                            }
+                        // The block's place in the values, found once (`load_slots`), in
+                        // the block's own column-major order.
+                        for (&k, &d) in tab[..6 * columns].iter().zip(blk.d.as_slice()) {
+                            sc.values[k] -= d;
                         }
                         continue;
                     }

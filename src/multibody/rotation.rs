@@ -21,14 +21,25 @@ pub fn rotation(p: &Vector4<f64>) -> Matrix3<f64> {
 }
 
 /// B(p, s') = ∂(A(p)·s')/∂p, a 3 × 4 matrix linear in p.
+///
+/// Columns 1–3 are 2·((eᵀs')·I + e·s'ᵀ − s'·eᵀ − e0·s̃'), written entry by entry (no 3 × 3
+/// temporaries: the Jacobians call this a few hundred times per evaluation) in the order of
+/// operations of the matrix expression, so the numbers are the same to the last bit.
+#[inline]
 pub fn d_rot(p: &Vector4<f64>, s: &Vector3<f64>) -> Matrix3x4<f64> {
     let e0 = p[0];
     let e = Vector3::new(p[1], p[2], p[3]);
     let c0 = 2.0 * (e0 * s + e.cross(s));
-    let ce = 2.0 * (Matrix3::identity() * s.dot(&e) + e * s.transpose() - s * e.transpose() - e0 * skew(s));
+    let sd = s.dot(&e);
+    let k = skew(s);
     let mut b = Matrix3x4::zeros();
     b.set_column(0, &c0);
-    b.fixed_view_mut::<3, 3>(0, 1).copy_from(&ce);
+    for j in 0..3 {
+        for i in 0..3 {
+            let id = if i == j { sd } else { 0.0 };
+            b[(i, j + 1)] = 2.0 * (((id + e[i] * s[j]) - s[i] * e[j]) - e0 * k[(i, j)]);
+        }
+    }
     b
 }
 

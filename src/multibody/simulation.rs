@@ -51,7 +51,7 @@
 //! [`MultibodyDae`]), so the sparse LU works on velocities and multipliers only (218 → 114
 //! unknowns on the 63-DOF MR2120): measured on one of its matrices, 128 µs per plain sparse
 //! LU; in `lash bench mr2120` at rtol 1e-4 / 1e-5, 1.12 / 7.1 s → 0.99 / 3.0 s for the whole
-//! run. Side by side (`farm-bench`, 5 alternated pairs of `lash mr2120 trajectory --clearance
+//! run. Side by side (5 alternated whole-process pairs of `lash mr2120 trajectory --clearance
 //! L1`, both rules together against the half-after-every-failure ceiling on the plain LU):
 //! 0.70× the wall time.
 

@@ -340,6 +340,10 @@ pub struct RefactorLu {
     plans: Vec<Plan>,
     /// Reciprocal of each row's largest |entry| in the last factorisation.
     row_scale: Vec<f64>,
+    /// The value positions of each row (row r: `row_pos[row_ptr[r]..row_ptr[r + 1]]`), so
+    /// a row's largest entry is a gather, not a scatter of maxima into `row_scale`.
+    row_ptr: Vec<usize>,
+    row_pos: Vec<u32>,
     /// The values scaled by rows.
     scaled: Vec<f64>,
     threshold: f64,
@@ -360,12 +364,28 @@ impl RefactorLu {
                 entries: pattern.nnz(),
             });
         }
+        let n = pattern.ncols();
+        let mut row_ptr = vec![0usize; n + 1];
+        for &r in pattern.row_idx() {
+            row_ptr[r + 1] += 1;
+        }
+        for r in 0..n {
+            row_ptr[r + 1] += row_ptr[r];
+        }
+        let mut next = row_ptr.clone();
+        let mut row_pos = vec![0u32; pattern.nnz()];
+        for (k, &r) in pattern.row_idx().iter().enumerate() {
+            row_pos[next[r]] = k as u32;
+            next[r] += 1;
+        }
         Ok(Self {
             pattern: pattern.clone(),
             order: amd_order(pattern)?,
             fallback: None,
             plans: Vec::new(),
-            row_scale: vec![1.0; pattern.ncols()],
+            row_scale: vec![1.0; n],
+            row_ptr,
+            row_pos,
             scaled: vec![0.0; pattern.nnz()],
             threshold: REUSE_PIVOT_THRESHOLD,
             factors: Factors::None,
@@ -406,12 +426,11 @@ impl RefactorLu {
         let n = self.dim();
         // Row scaling (each row's largest entry 1, as KLU scales by default): the pivot
         // tests compare entries of different rows, whose units differ.
-        self.row_scale.iter_mut().for_each(|v| *v = 0.0);
-        for (&r, v) in self.pattern.row_idx().iter().zip(values) {
-            self.row_scale[r] = self.row_scale[r].max(v.abs());
-        }
-        for v in self.row_scale.iter_mut() {
-            *v = if *v > 0.0 { 1.0 / *v } else { 1.0 };
+        for (v, w) in self.row_scale.iter_mut().zip(self.row_ptr.windows(2)) {
+            let largest = self.row_pos[w[0]..w[1]]
+                .iter()
+                .fold(0.0f64, |m, &k| m.max(values[k as usize].abs()));
+            *v = if largest > 0.0 { 1.0 / largest } else { 1.0 };
         }
         for ((s, &r), v) in self.scaled.iter_mut().zip(self.pattern.row_idx()).zip(values) {
             *s = v * self.row_scale[r];

@@ -30,8 +30,8 @@
 //! memory, 14 % less time per step at N = 1 000 (6.4–6.7 ms against 7.6 ms) and 12 % at
 //! N = 10 000 (107 ms against 122 ms); on the idle machine 6.3–7.4 ms against 7.3–7.7 ms and
 //! 112–114 ms against 116–118 ms (about 4 % at N = 10 000); the MR2120 L1 run (114 kept
-//! unknowns, all in cache) 1.5 % faster (`farm-bench -n 9` on the command, 0.985×;
-//! the same steps and factorisations).
+//! unknowns, all in cache) 1.5 % faster (9 alternated whole-process pairs on the issue's
+//! command, 0.985×; the same steps and factorisations).
 
 use super::{CscPattern, LinearSolveError, RefactorLu, SlotIndex, SparseLu};
 

@@ -246,9 +246,17 @@ impl<P: DaeSystem> BdfSolver<P> {
             }
             let cj = self.cj;
             self.anderson.advance(&mut self.ee, &self.delta, &self.ewt_newton);
-            for i in 0..self.n {
-                self.yy[i] = self.ypred[i] + self.ee[i];
-                self.yp[i] = self.yppred[i] + cj * self.ee[i];
+            for ((((y, p), &yh), &ph), &e) in self
+                .yy
+                .iter_mut()
+                .zip(self.yp.iter_mut())
+                .zip(&self.ypred)
+                .zip(&self.yppred)
+                .zip(&self.ee)
+                .take(self.n)
+            {
+                *y = yh + e;
+                *p = ph + cj * e;
             }
             let delnrm = Self::wrms(&self.delta, &self.ewt_newton);
             if !delnrm.is_finite() {
