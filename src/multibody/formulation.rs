@@ -698,7 +698,7 @@ impl MultibodyDae {
                         )));
                     }
                 }
-                for blk in blocks {
+                for blk in &blocks {
                     let (br, bc) = (blk.loaded.0, blk.wrt.0);
                     if let Some(tab) = self.load_slots.get(br, bc) {
                         // The block's place in the values, found once (`load_slots`), in

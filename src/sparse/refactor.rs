@@ -269,7 +269,7 @@ impl Plan {
             let (ls, le) = (self.l_ptr[j], self.l_ptr[j + 1]);
             let below = self.l_row[ls..le]
                 .iter()
-                .fold(0.0f64, |m, &i| m.max(x[i as usize].abs()));
+                .fold(0.0f64, |m, &i| larger(m, x[i as usize].abs()));
             if !(pivot.abs() > 0.0 && pivot.abs() >= threshold * below && pivot.is_finite()) {
                 for &i in &self.l_row[ls..le] {
                     x[i as usize] = 0.0;
@@ -323,6 +323,17 @@ impl Plan {
         for (&yk, &c) in y.iter().zip(&self.pcol) {
             b[c] = yk;
         }
+    }
+}
+
+/// `m.max(a)` for a running maximum `m` that is never NaN, as one comparison (`f64::max`'s
+/// NaN handling costs a few instructions more per entry): a NaN `a` leaves `m`, as there.
+#[inline]
+fn larger(m: f64, a: f64) -> f64 {
+    if a > m {
+        a
+    } else {
+        m
     }
 }
 
@@ -483,7 +494,7 @@ impl RefactorLu {
         for (v, w) in self.row_scale.iter_mut().zip(self.row_ptr.windows(2)) {
             let largest = self.row_pos[w[0]..w[1]]
                 .iter()
-                .fold(0.0f64, |m, &k| m.max(values[k as usize].abs()));
+                .fold(0.0f64, |m, &k| larger(m, values[k as usize].abs()));
             *v = if largest > 0.0 { 1.0 / largest } else { 1.0 };
         }
         for ((s, &r), v) in self.scaled.iter_mut().zip(self.pattern.row_idx()).zip(values) {
