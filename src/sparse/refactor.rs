@@ -23,7 +23,7 @@
 //! pivoting factorisation finds singular goes to faer's LU ([`SparseLu`], built on first
 //! use), which reports it.
 
-use super::lu::check_values;
+use super::lu::{check_values, non_finite_bit};
 use super::{CscPattern, LinearSolveError, SparseLu};
 
 /// Smallest ratio of a reused pivot to the largest entry below it in its column of L before
@@ -487,15 +487,25 @@ impl RefactorLu {
     /// [`new`](Self::new).
     pub fn factor(&mut self, values: &[f64]) -> Result<(), LinearSolveError> {
         self.factors = Factors::None;
-        check_values(&self.pattern, values)?;
+        if values.len() != self.pattern.nnz() {
+            return check_values(&self.pattern, values);
+        }
         let n = self.dim();
         // Row scaling (each row's largest entry 1, as KLU scales by default): the pivot
-        // tests compare entries of different rows, whose units differ.
+        // tests compare entries of different rows, whose units differ. The same pass looks
+        // for NaN and infinities (every entry is in one row).
+        let mut non_finite = 0u64;
         for (v, w) in self.row_scale.iter_mut().zip(self.row_ptr.windows(2)) {
-            let largest = self.row_pos[w[0]..w[1]]
-                .iter()
-                .fold(0.0f64, |m, &k| larger(m, values[k as usize].abs()));
+            let largest = self.row_pos[w[0]..w[1]].iter().fold(0.0f64, |m, &k| {
+                let x = values[k as usize];
+                non_finite |= non_finite_bit(x);
+                larger(m, x.abs())
+            });
             *v = if largest > 0.0 { 1.0 / largest } else { 1.0 };
+        }
+        if non_finite != 0 {
+            // Names the first non-finite entry.
+            return check_values(&self.pattern, values);
         }
         for ((s, &r), v) in self.scaled.iter_mut().zip(self.pattern.row_idx()).zip(values) {
             *s = v * self.row_scale[r];
@@ -690,5 +700,18 @@ mod tests {
             lu.factor(&[1.0]),
             Err(LinearSolveError::DimensionMismatch { .. })
         ));
+        // A NaN or an infinity is named by its row and column, and leaves no factors.
+        let (_, v) = csc(&saddle(2.0), |_, _| false);
+        lu.factor(&v).unwrap();
+        for (bad, (r, c)) in [(f64::NAN, (3, 5)), (f64::INFINITY, (1, 4))] {
+            let mut w = v.clone();
+            w[p.find(r, c).unwrap()] = bad;
+            match lu.factor(&w) {
+                Err(LinearSolveError::NonFiniteEntry { row, col, .. }) => assert_eq!((row, col), (r, c)),
+                other => panic!("{bad} at ({r}, {c}): {other:?}"),
+            }
+            let mut b = vec![1.0; 6];
+            assert!(lu.solve_in_place(&mut b).is_err());
+        }
     }
 }

@@ -139,6 +139,9 @@ pub struct BlockSchurLu {
     /// `numbers`), in increasing order of the first, so the values are read as one forward
     /// stream.
     gather: Vec<(u32, u32)>,
+    /// Positions in the values of the entries between two groups, which the factors leave
+    /// out (the module documentation), so that a NaN there is still reported.
+    left_out: Vec<u32>,
     /// The reduced matrix's values (the first `s_nnz`: A_RR, then − U·W), then each group's
     /// numbers ([`Group::num`]).
     numbers: Vec<f64>,
@@ -218,6 +221,7 @@ impl BlockSchurLu {
         );
         let mut entries: Vec<Entries> = vec![(vec![], vec![], vec![]); groups.len()];
         let mut rr_entries = Vec::new();
+        let mut left_out = Vec::new();
         // First pass: classify the entries; A_RE rows and A_ER columns by full index.
         for c in 0..n {
             for k in pattern.col_range(c) {
@@ -230,7 +234,7 @@ impl BlockSchurLu {
                     (usize::MAX, gc) => entries[gc].1.push((k, r, local[c])),
                     (gr, usize::MAX) => entries[gr].2.push((k, local[r], c)),
                     // Coupling between two blocks: left out (see the module docs).
-                    _ => {}
+                    _ => left_out.push(narrow(k)?),
                 }
             }
         }
@@ -309,6 +313,7 @@ impl BlockSchurLu {
             work: vec![0.0; kept.len()],
             kept,
             gather,
+            left_out,
             numbers: vec![0.0; num],
             addresses,
             s_nnz,
@@ -334,7 +339,9 @@ impl BlockSchurLu {
     pub fn factor(&mut self, values: &[f64]) -> Result<(), LinearSolveError> {
         self.factored = false;
         self.using_full = false;
-        super::lu::check_values(&self.pattern, values)?;
+        if values.len() != self.pattern.nnz() {
+            return super::lu::check_values(&self.pattern, values);
+        }
         // Zeros where the pattern has no entry (the inversion overwrites the blocks, so they
         // are cleared every time; A_EE⁻¹, W and y are written whole, so they are not).
         self.numbers[..self.s_nnz].iter_mut().for_each(|v| *v = 0.0);
@@ -344,8 +351,21 @@ impl BlockSchurLu {
                 .iter_mut()
                 .for_each(|v| *v = 0.0);
         }
+        // The values are checked for NaN and infinities in the same pass (a second pass over
+        // them costs as much as the gather at large N, where they no longer fit in cache);
+        // the entries the elimination leaves out are checked too, from their own list.
+        let mut non_finite = 0u64;
         for &(k, d) in &self.gather {
-            self.numbers[d as usize] = values[k as usize];
+            let v = values[k as usize];
+            non_finite |= super::lu::non_finite_bit(v);
+            self.numbers[d as usize] = v;
+        }
+        for &k in &self.left_out {
+            non_finite |= super::lu::non_finite_bit(values[k as usize]);
+        }
+        if non_finite != 0 {
+            // Names the first non-finite entry.
+            super::lu::check_values(&self.pattern, values)?;
         }
         let (s_values, rest) = self.numbers.split_at_mut(self.s_nnz);
         let mut singular = false;
@@ -591,6 +611,32 @@ mod tests {
         let mut x = b;
         s.solve_in_place(&mut x).unwrap();
         assert!(residual(&dense0, &x, &b) < 1e-12, "{x:?}");
+    }
+
+    #[test]
+    fn a_nan_anywhere_is_reported_with_its_row_and_column_even_where_the_factors_leave_it_out() {
+        let (p, vals, _) = matrix(0.3);
+        let mut s = BlockSchurLu::new(&p, &[vec![0, 1], vec![2]]).unwrap();
+        // (4, 1): a kept row against a group's column (gathered into U); (0, 2): the coupling
+        // between the two groups, which the factors leave out; (5, 5): the reduced matrix.
+        for (r, c) in [(4, 1), (0, 2), (5, 5)] {
+            let mut bad = vals.clone();
+            bad[p.find(r, c).unwrap()] = f64::NAN;
+            match s.factor(&bad) {
+                Err(LinearSolveError::NonFiniteEntry { row, col, .. }) => assert_eq!((row, col), (r, c)),
+                other => panic!("({r}, {c}): {other:?}"),
+            }
+            let mut x = [1.0; 6];
+            assert!(
+                s.solve_in_place(&mut x).is_err(),
+                "no factors after a refused matrix"
+            );
+        }
+        assert!(matches!(
+            s.factor(&vals[1..]),
+            Err(LinearSolveError::DimensionMismatch { .. })
+        ));
+        s.factor(&vals).unwrap();
     }
 
     /// Random systems: n unknowns, some in groups of 1–4, the others kept; random entries,
