@@ -767,6 +767,11 @@ pub fn compression_rms(responses: &[Option<PlayResponse>], stiffness: f64) -> Op
     (count > 0 && stiffness > 0.0).then(|| (ss / count as f64).sqrt())
 }
 
+/// Per play site, the reduced dynamic play model's run without play along one recording
+/// ([`columns_with`]): it does not depend on the play's size, so a search over sizes
+/// computes it once.
+pub type TightRuns = Vec<std::sync::OnceLock<Vec<Option<PlayResponse>>>>;
+
 /// Regressor columns of every candidate on one recording, with the nominal model's value of
 /// every channel and the play candidates' compressions ([`Columns`]).
 pub fn columns(
@@ -774,6 +779,21 @@ pub fn columns(
     d: &MotionData,
     model: &dyn InverseDynamicsModel,
     opts: &LibraryOptions,
+) -> Columns {
+    columns_with(cands, d, model, opts, None)
+}
+
+/// [`columns`], taking the reduced play model's runs without play from `tight` (one per play
+/// site of `model`, filled on first use) where given: a cache for calls on the same recording,
+/// model and options but for the reference plays (`LibraryOptions::dynamic_play_clearance`,
+/// `dynamic_axial_play`), which those runs do not depend on. A cache of another length is
+/// not used.
+pub fn columns_with(
+    cands: &[Candidate],
+    d: &MotionData,
+    model: &dyn InverseDynamicsModel,
+    opts: &LibraryOptions,
+    tight: Option<&[std::sync::OnceLock<Vec<Option<PlayResponse>>>]>,
 ) -> Columns {
     let chans = d.channels();
     let nc = chans.len();
@@ -919,8 +939,14 @@ pub fn columns(
     // and the transmissions' extra wind-up.
     type EffectSeries = Vec<Option<PlayResponse>>;
     let sites = model.play_sites().len();
-    let tight: Vec<std::cell::OnceCell<Vec<Option<PlayResponse>>>> =
-        (0..sites).map(|_| Default::default()).collect();
+    let own: TightRuns;
+    let tight: &[std::sync::OnceLock<Vec<Option<PlayResponse>>>] = match tight {
+        Some(t) if t.len() == sites => t,
+        _ => {
+            own = (0..sites).map(|_| Default::default()).collect();
+            &own
+        }
+    };
     let play_effect: Vec<[std::cell::OnceCell<EffectSeries>; 2]> =
         (0..sites).map(|_| Default::default()).collect();
     let response_of = |site: usize, direction: PlayDirection| -> Option<(f64, &EffectSeries)> {
@@ -1797,6 +1823,64 @@ mod tests {
             (off - expected).abs() < 1e-9 * expected,
             "{off} against {expected}"
         );
+    }
+
+    /// The size search's refits share the reduced model's runs without play across trial
+    /// sizes (they do not depend on it): under Hertz's law, where the play's columns are its
+    /// response less that run, a refit after others gives to the last bit what a first refit
+    /// at that size gives, and the runs are in the cache after the first.
+    #[test]
+    fn the_size_search_computes_the_run_without_play_once_and_gets_the_same_refits() {
+        use crate::diagnose::play_size::HeldPlay;
+        let h0 = 5e-6;
+        let library = LibraryOptions {
+            play_load_scales: vec![5.0],
+            dynamic_play_clearance: Some(h0),
+            play_contact_hertz: true,
+            ..LibraryOptions::default()
+        };
+        let name = "radial clearance in joint F (reduced dynamic model)";
+        assert!(super::library(&Carried, &library).iter().any(|c| c.name == name));
+        let recordings: Vec<MotionData> = (0..2)
+            .map(|r| {
+                let mut d = carried_swing(401 + 100 * r);
+                d.name = format!("carried-{r}");
+                // Something to fit: the nominal torque and output, offset.
+                d.tau[0] = d.q[0].iter().map(|q| 0.5 + 2.0 * q).collect();
+                d
+            })
+            .collect();
+        let o = crate::diagnose::DiagnoseOptions {
+            library,
+            ..crate::diagnose::DiagnoseOptions::default()
+        };
+        let (weights, floors) = ([0.01, 1e-6], [0.002, 2e-7]);
+        let held = || {
+            HeldPlay::new(
+                &Carried,
+                &recordings,
+                &o,
+                &[name.to_string()],
+                name,
+                &weights,
+                &floors,
+            )
+            .expect("assembled")
+            .expect("the play is a candidate")
+        };
+        let first = held();
+        assert!(
+            first.tight_runs_cached() == 0,
+            "nothing run before the first refit"
+        );
+        let a0 = first.cv(h0).expect("assembled").expect("one column");
+        let cached = first.tight_runs_cached();
+        assert_eq!(cached, recordings.len(), "one run without play per recording");
+        let a1 = first.cv(1.1 * h0).expect("assembled").expect("one column");
+        assert_eq!(first.tight_runs_cached(), cached);
+        let b1 = held().cv(1.1 * h0).expect("assembled").expect("one column");
+        assert!(a0.is_finite() && a1.is_finite() && a0 != a1, "{a0} {a1}");
+        assert_eq!(a1.to_bits(), b1.to_bits(), "{a1} against a fresh refit's {b1}");
     }
 
     thread_local! {

@@ -7,12 +7,13 @@
 //! whose refit cross-validates best is the one the model explains the data with.
 //! A variable projection: one nonlinear parameter searched, the linear ones solved.
 
+use super::candidates::TightRuns;
 use super::candidates::{library, Candidate};
 use super::data::MotionData;
 use super::error::DiagnoseError;
 use super::model::InverseDynamicsModel;
 use super::options::DiagnoseOptions;
-use super::residuals::{prepare, Prepared};
+use super::residuals::{prepare_with, Prepared};
 
 /// The multiplicative steps of the play-size search ([`search_play_size`]), largest first:
 /// each is tried either way from the best size so far while that improves, then the next.
@@ -104,6 +105,9 @@ pub(super) struct HeldPlay<'a> {
     refitted: Vec<usize>,
     weights: Vec<f64>,
     floors: Vec<f64>,
+    /// Per fit recording, the reduced play model's runs without play (the same at every
+    /// trial size: computed by the first assembly that needs them).
+    tight: Vec<TightRuns>,
 }
 
 impl<'a> HeldPlay<'a> {
@@ -141,7 +145,12 @@ impl<'a> HeldPlay<'a> {
         let Some(play) = library(model, &o.library).into_iter().find(|c| c.name == play) else {
             return Ok(None);
         };
-        let others = prepare(model, fit, &vec![1.0; weights.len()], &cands, &o)?;
+        let sites = model.play_sites().len();
+        let tight: Vec<TightRuns> = fit
+            .iter()
+            .map(|_| (0..sites).map(|_| Default::default()).collect())
+            .collect();
+        let others = prepare_with(model, fit, &vec![1.0; weights.len()], &cands, &o, Some(&tight))?;
         let refitted = (0..cands.len())
             .filter(|&k| cands[k].name != play.name && selected.contains(&cands[k].name))
             .collect();
@@ -154,7 +163,14 @@ impl<'a> HeldPlay<'a> {
             refitted,
             weights: weights.to_vec(),
             floors: floors.to_vec(),
+            tight,
         }))
+    }
+
+    /// Runs without play in the cache, over the recordings and play sites (for tests).
+    #[cfg(test)]
+    pub(super) fn tight_runs_cached(&self) -> usize {
+        self.tight.iter().flatten().filter(|c| c.get().is_some()).count()
     }
 
     /// [`search_play_size`] from `h0` on [`cv`](Self::cv) (`known`: its value at `h0`, if
@@ -177,12 +193,13 @@ impl<'a> HeldPlay<'a> {
     pub(super) fn cv(&self, h: f64) -> Result<Option<f64>, DiagnoseError> {
         let mut o = self.opts.clone();
         o.library.dynamic_play_clearance = Some(h);
-        let one = prepare(
+        let one = prepare_with(
             self.model,
             self.fit,
             &vec![1.0; self.weights.len()],
             std::slice::from_ref(&self.play),
             &o,
+            Some(&self.tight),
         )?;
         let [col] = one.cols_of[0][..] else {
             return Ok(None);

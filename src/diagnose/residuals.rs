@@ -7,7 +7,7 @@
 //! re-linearisation (`DiagnoseOptions::shift`) is undone in the residual, so estimates stay
 //! totals relative to the nominal model.
 
-use super::candidates::{columns, Candidate};
+use super::candidates::{columns_with, Candidate, TightRuns};
 use super::data::MotionData;
 use super::error::DiagnoseError;
 use super::model::{on_copies, InverseDynamicsModel};
@@ -93,11 +93,29 @@ pub(super) fn prepare(
     cands: &[Candidate],
     opts: &DiagnoseOptions,
 ) -> Result<Prepared, DiagnoseError> {
+    prepare_with(model, data, sigma, cands, opts, None)
+}
+
+/// [`prepare`], the reduced play model's runs without play taken from `tight` (one
+/// [`TightRuns`] per recording, in the order of `data`) where given
+/// ([`columns_with`](super::candidates::columns_with)).
+pub(super) fn prepare_with(
+    model: &dyn InverseDynamicsModel,
+    data: &[MotionData],
+    sigma: &[f64],
+    cands: &[Candidate],
+    opts: &DiagnoseOptions,
+    tight: Option<&[TightRuns]>,
+) -> Result<Prepared, DiagnoseError> {
     let mut cols_of = vec![];
     let mut blocks = vec![];
     let mut left_out = vec![];
     // Every recording's columns (side by side on copies of the model where it makes them).
-    let all = on_copies(data, model, &|d, m| columns(cands, d, m, &opts.library));
+    let recordings: Vec<usize> = (0..data.len()).collect();
+    let all = on_copies(&recordings, model, &|&r, m| {
+        let cache = tight.and_then(|t| t.get(r)).map(Vec::as_slice);
+        columns_with(cands, &data[r], m, &opts.library, cache)
+    });
     // The play candidates' compressions over all recordings (RMS, weighted by samples).
     let mut compression_ss: Vec<Option<(f64, usize)>> = vec![None; cands.len()];
     for (d, cs) in data.iter().zip(&all) {
