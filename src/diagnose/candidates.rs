@@ -786,8 +786,10 @@ pub fn columns(
 /// [`columns`], taking the reduced play model's runs without play from `tight` (one per play
 /// site of `model`, filled on first use) where given: a cache for calls on the same recording,
 /// model and options but for the reference plays (`LibraryOptions::dynamic_play_clearance`,
-/// `dynamic_axial_play`), which those runs do not depend on. A cache of another length is
-/// not used.
+/// `dynamic_axial_play`) and the candidates asked for (`LibraryOptions::only`, `cands`), which
+/// those runs do not depend on (they read the candidates only for whether the play's
+/// derivatives are needed at all, and are read only where they are). A cache of another
+/// length is not used.
 pub fn columns_with(
     cands: &[Candidate],
     d: &MotionData,
@@ -1881,6 +1883,25 @@ mod tests {
         let b1 = held().cv(1.1 * h0).expect("assembled").expect("one column");
         assert!(a0.is_finite() && a1.is_finite() && a0 != a1, "{a0} {a1}");
         assert_eq!(a1.to_bits(), b1.to_bits(), "{a1} against a fresh refit's {b1}");
+        // With the joint's contact compliance selected beside the play, the assembly of the
+        // other columns (the compliance's column is that run) fills the cache, and the
+        // refits that follow read it.
+        let compliance =
+            "contact compliance of joint F (Hertz balls without clearance, reduced dynamic model)";
+        assert!(super::library(&Carried, &o.library)
+            .iter()
+            .any(|c| c.name == compliance));
+        let selected = [name.to_string(), compliance.to_string()];
+        let with_compliance = HeldPlay::new(&Carried, &recordings, &o, &selected, name, &weights, &floors)
+            .expect("assembled")
+            .expect("the play is a candidate");
+        assert_eq!(with_compliance.tight_runs_cached(), recordings.len());
+        let c1 = with_compliance
+            .cv(1.1 * h0)
+            .expect("assembled")
+            .expect("one column");
+        assert_eq!(with_compliance.tight_runs_cached(), recordings.len());
+        assert!(c1.is_finite(), "{c1}");
     }
 
     thread_local! {

@@ -100,7 +100,7 @@ pub struct MultibodyDae {
 
 /// The value positions of the force elements' load-derivative blocks, found once: for a
 /// (loaded body, body differentiated by) pair, momentum row r (6) and state column c (13:
-/// positions, velocities) sit at `table[13·r + c]`. Indexed per loaded body (the Jacobian
+/// positions, velocities) sit at `table[6·c + r]` (column-major, as `LoadDerivative::d`). Indexed per loaded body (the Jacobian
 /// looks up every block of every element on each evaluation; a body has a few partners).
 #[derive(Debug, Clone, Default)]
 struct LoadSlots {

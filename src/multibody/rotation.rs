@@ -24,7 +24,8 @@ pub fn rotation(p: &Vector4<f64>) -> Matrix3<f64> {
 ///
 /// Columns 1–3 are 2·((eᵀs')·I + e·s'ᵀ − s'·eᵀ − e0·s̃'), written entry by entry (no 3 × 3
 /// temporaries: the Jacobians call this a few hundred times per evaluation) in the order of
-/// operations of the matrix expression, so the numbers are the same to the last bit.
+/// operations of the matrix expression, so the numbers are the same (up to the sign of an
+/// exact zero, which the expression's 0·(eᵀs') could make negative).
 #[inline]
 pub fn d_rot(p: &Vector4<f64>, s: &Vector3<f64>) -> Matrix3x4<f64> {
     let e0 = p[0];

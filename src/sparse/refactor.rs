@@ -422,6 +422,12 @@ impl RefactorLu {
     /// Prepares the factorisation of matrices on `pattern` (square), reusing pivots with
     /// [`REUSE_PIVOT_THRESHOLD`].
     pub fn new(pattern: &CscPattern) -> Result<Self, LinearSolveError> {
+        if pattern.nrows() != pattern.ncols() {
+            return Err(LinearSolveError::NotSquare {
+                nrows: pattern.nrows(),
+                ncols: pattern.ncols(),
+            });
+        }
         // Rows and value positions are kept as u32 (half the memory traffic of usize).
         if u32::try_from(pattern.nnz()).is_err() || u32::try_from(pattern.ncols()).is_err() {
             return Err(LinearSolveError::TooLarge {
@@ -699,6 +705,12 @@ mod tests {
         assert!(matches!(
             lu.factor(&[1.0]),
             Err(LinearSolveError::DimensionMismatch { .. })
+        ));
+        // A pattern that is not square is refused.
+        let tall = CscPattern::from_entries(3, 2, vec![(0, 0), (1, 1), (2, 1)]).unwrap();
+        assert!(matches!(
+            RefactorLu::new(&tall),
+            Err(LinearSolveError::NotSquare { nrows: 3, ncols: 2 })
         ));
         // A NaN or an infinity is named by its row and column, and leaves no factors.
         let (_, v) = csc(&saddle(2.0), |_, _| false);
