@@ -1749,13 +1749,36 @@ mod tests {
         }
     }
 
+    /// Weights and noise floors (torque, output) of the held-play tests.
+    const HELD_WEIGHTS: [f64; 2] = [0.01, 1e-6];
+    const HELD_FLOORS: [f64; 2] = [0.002, 2e-7];
+
+    /// The size search's refit on `Carried` for the play `name` among `selected`.
+    fn held_play<'a>(
+        recordings: &'a [MotionData],
+        o: &crate::diagnose::DiagnoseOptions,
+        selected: &[String],
+        name: &str,
+    ) -> crate::diagnose::play_size::HeldPlay<'a> {
+        crate::diagnose::play_size::HeldPlay::new(
+            &Carried,
+            recordings,
+            o,
+            selected,
+            name,
+            &HELD_WEIGHTS,
+            &HELD_FLOORS,
+        )
+        .expect("assembled")
+        .expect("the play is a candidate")
+    }
+
     /// The play-size search's refit ([`HeldPlay`](crate::diagnose::play_size::HeldPlay))
     /// holds the play's effect at the reduced model's at each trial size: on recordings
     /// whose channels are the nominal model's plus that effect at 5 µm, nothing remains at
     /// 5 µm, and at 5.5 µm exactly the difference of the model's two responses remains.
     #[test]
     fn a_play_held_at_its_size_leaves_nothing_and_at_another_the_difference_of_the_responses() {
-        use crate::diagnose::play_size::HeldPlay;
         let h0 = 5e-6;
         let opts = |h: f64| LibraryOptions {
             play_load_scales: vec![5.0],
@@ -1790,18 +1813,8 @@ mod tests {
             library: opts(h0),
             ..crate::diagnose::DiagnoseOptions::default()
         };
-        let (weights, floors) = ([0.01, 1e-6], [0.002, 2e-7]);
-        let held = HeldPlay::new(
-            &Carried,
-            &recordings,
-            &o,
-            &[name.to_string()],
-            name,
-            &weights,
-            &floors,
-        )
-        .expect("assembled")
-        .expect("the play is a candidate");
+        let floors = HELD_FLOORS;
+        let held = held_play(&recordings, &o, &[name.to_string()], name);
         let at_size = held.cv(h0).expect("assembled").expect("one column");
         let off = held.cv(1.1 * h0).expect("assembled").expect("one column");
         // What remains at 5.5 µm, in noise floors, from the responses directly.
@@ -1833,7 +1846,6 @@ mod tests {
     /// at that size gives, and the runs are in the cache after the first.
     #[test]
     fn the_size_search_computes_the_run_without_play_once_and_gets_the_same_refits() {
-        use crate::diagnose::play_size::HeldPlay;
         let h0 = 5e-6;
         let library = LibraryOptions {
             play_load_scales: vec![5.0],
@@ -1856,20 +1868,7 @@ mod tests {
             library,
             ..crate::diagnose::DiagnoseOptions::default()
         };
-        let (weights, floors) = ([0.01, 1e-6], [0.002, 2e-7]);
-        let held = || {
-            HeldPlay::new(
-                &Carried,
-                &recordings,
-                &o,
-                &[name.to_string()],
-                name,
-                &weights,
-                &floors,
-            )
-            .expect("assembled")
-            .expect("the play is a candidate")
-        };
+        let held = || held_play(&recordings, &o, &[name.to_string()], name);
         let first = held();
         assert!(
             first.tight_runs_cached() == 0,
@@ -1892,9 +1891,7 @@ mod tests {
             .iter()
             .any(|c| c.name == compliance));
         let selected = [name.to_string(), compliance.to_string()];
-        let with_compliance = HeldPlay::new(&Carried, &recordings, &o, &selected, name, &weights, &floors)
-            .expect("assembled")
-            .expect("the play is a candidate");
+        let with_compliance = held_play(&recordings, &o, &selected, name);
         assert_eq!(with_compliance.tight_runs_cached(), recordings.len());
         let c1 = with_compliance
             .cv(1.1 * h0)
