@@ -767,10 +767,13 @@ pub fn compression_rms(responses: &[Option<PlayResponse>], stiffness: f64) -> Op
     (count > 0 && stiffness > 0.0).then(|| (ss / count as f64).sqrt())
 }
 
-/// Per play site, the reduced dynamic play model's run without play along one recording
-/// ([`columns_with`]): it does not depend on the play's size, so a search over sizes
-/// computes it once.
-pub type TightRuns = Vec<std::sync::OnceLock<Vec<Option<PlayResponse>>>>;
+/// The reduced dynamic play model's run without play at one play site along one recording
+/// ([`columns_with`]), made on first use: it does not depend on the play's size, so a search
+/// over sizes computes it once.
+pub type TightRun = std::sync::OnceLock<Vec<Option<PlayResponse>>>;
+
+/// One [`TightRun`] per play site.
+pub type TightRuns = Vec<TightRun>;
 
 /// Regressor columns of every candidate on one recording, with the nominal model's value of
 /// every channel and the play candidates' compressions ([`Columns`]).
@@ -795,7 +798,7 @@ pub fn columns_with(
     d: &MotionData,
     model: &dyn InverseDynamicsModel,
     opts: &LibraryOptions,
-    tight: Option<&[std::sync::OnceLock<Vec<Option<PlayResponse>>>]>,
+    tight: Option<&[TightRun]>,
 ) -> Columns {
     let chans = d.channels();
     let nc = chans.len();
@@ -942,12 +945,18 @@ pub fn columns_with(
     type EffectSeries = Vec<Option<PlayResponse>>;
     let sites = model.play_sites().len();
     let own: TightRuns;
-    let tight: &[std::sync::OnceLock<Vec<Option<PlayResponse>>>] = match tight {
+    let tight: &[TightRun] = match tight {
         Some(t) if t.len() == sites => t,
         _ => {
             own = (0..sites).map(|_| Default::default()).collect();
             &own
         }
+    };
+    // The run without play at a site (None: no such site).
+    let without_play = |site: usize| {
+        tight
+            .get(site)
+            .map(|cell| cell.get_or_init(|| run(site, &JointPlay::default())))
     };
     let play_effect: Vec<[std::cell::OnceCell<EffectSeries>; 2]> =
         (0..sites).map(|_| Default::default()).collect();
@@ -966,7 +975,9 @@ pub fn columns_with(
             if direction == PlayDirection::Radial && !opts.play_contact_hertz {
                 return with;
             }
-            let without = tight[site].get_or_init(|| run(site, &JointPlay::default()));
+            let Some(without) = without_play(site) else {
+                return with;
+            };
             let less = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
             with.iter()
                 .zip(without)
@@ -1283,10 +1294,9 @@ pub fn columns_with(
             (Effect::ContactCompliance { site }, _) => {
                 // The reduced model's run without play: drive torques, and on the outputs its
                 // play coordinates and extra wind-up (whatever the plays' tracker rows).
-                let Some(cell) = tight.get(site) else {
+                let Some(without) = without_play(site) else {
                     return vec![vec![0.0; nc * n]];
                 };
-                let without = cell.get_or_init(|| run(site, &JointPlay::default()));
                 let mut col = outputs_only(&|k, s, i| {
                     let (Some(p), Some(Some(r))) = (s.play.get(site), without.get(i)) else {
                         return 0.0;
