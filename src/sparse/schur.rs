@@ -17,10 +17,22 @@
 //! kinematic and normalisation rows with its positions and normalisation multiplier, coupled
 //! to other bodies only through stabilisation multipliers μ that are zero on the solution.
 //!
-//! When a block is singular (for example in a consistent-initialisation matrix, where a
-//! group's rows hold derivatives that are not invertible on their own), the whole matrix is
-//! factorised with a plain [`SparseLu`] instead, built on first use; its results are then
-//! exact for the given values, cross-group entries included.
+//! When a block fails the inversion's singularity test (a pivot below m·ε times the block's
+//! largest entry), the elimination is redone with every block equilibrated — rows and
+//! columns scaled by powers of two so each one's largest entry is in [1, 2), exact — since a
+//! body's Newton block is usually only badly scaled: gyroscopic terms of 1e13–1e18 beside its
+//! normalisation gradient 2·p (the chain of `lash bench scaling` at N = 10, the MR2120 L1
+//! run's 34th factorisation of 4 379). Only a block singular after that too (for example in a
+//! consistent-initialisation matrix, where a group's rows hold derivatives that are not
+//! invertible on their own) sends the whole matrix to a plain [`SparseLu`], built on first
+//! use; its results are then exact for the given values, cross-group entries included.
+//! Measured (`lash bench scaling`, session 51, one run each, a diagnosis on the other core):
+//! the chain fell back once or twice per run, and each fallback built the whole matrix's LU
+//! and kept it — resident memory at N = 10 000 1 572 MB before, **1 157 MB** with the
+//! equilibration (N = 1 000: 161 → 122 MB), the same steps and factorisations, time per step
+//! 254 → 249 ms (N = 1 000: 17.1 → 15.9 ms). The L1 run keeps its steps and factorisations at
+//! rtol 1e-4 (3 981, 4 379), its motion changed at round-off from that factorisation on, and
+//! its time (7 alternated whole-process pairs on issue #16's command: 1.004×).
 //!
 //! At large N the elimination is bound by memory latency, not by arithmetic: everything a
 //! factorisation and a solve read lies in two arenas (numbers and u32 addresses), group after
@@ -154,7 +166,7 @@ pub struct BlockSchurLu {
     work: Vec<f64>,
     /// Scratch for one block's right-hand side (g).
     scratch: Vec<f64>,
-    /// Plain LU of the whole matrix, for values with a singular block.
+    /// Plain LU of the whole matrix, for values with a block singular even equilibrated.
     full: Option<SparseLu>,
     /// The last factorisation is the plain one.
     using_full: bool,
@@ -330,7 +342,8 @@ impl BlockSchurLu {
         self.kept.len()
     }
 
-    /// Whether the last factorisation fell back to the plain LU (a singular block).
+    /// Whether the last factorisation fell back to the plain LU (a block singular even
+    /// equilibrated).
     pub fn used_plain_lu(&self) -> bool {
         self.using_full
     }
@@ -342,6 +355,30 @@ impl BlockSchurLu {
         if values.len() != self.pattern.nnz() {
             return super::lu::check_values(&self.pattern, values);
         }
+        // A block found singular is more often badly scaled than singular (a body's
+        // gyroscopic terms, ~1e13–1e18 in the chain's Newton matrices, beside its
+        // normalisation gradient 2·p): the elimination is redone with every block
+        // equilibrated before the plain LU of the whole matrix is tried. Blocks that invert
+        // as they are keep the unscaled elimination (its numbers unchanged).
+        if !self.eliminate(values, false)? && !self.eliminate(values, true)? {
+            return self.factor_plain(values);
+        }
+        match self.s_lu.factor(&self.numbers[..self.s_nnz]) {
+            Ok(()) => {
+                self.factored = true;
+                Ok(())
+            }
+            Err(LinearSolveError::Singular { column }) => Err(LinearSolveError::Singular {
+                column: column.map(|c| self.kept[c]),
+            }),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Gathers `values` and eliminates the blocks into the Schur complement's numbers, each
+    /// block's inverse computed as it is or `equilibrated` ([`invert_equilibrated`]); false
+    /// if a block is singular (the numbers are then incomplete).
+    fn eliminate(&mut self, values: &[f64], equilibrated: bool) -> Result<bool, LinearSolveError> {
         // Zeros where the pattern has no entry (the inversion overwrites the blocks, so they
         // are cleared every time; A_EE⁻¹, W and y are written whole, so they are not).
         self.numbers[..self.s_nnz].iter_mut().for_each(|v| *v = 0.0);
@@ -368,14 +405,17 @@ impl BlockSchurLu {
             super::lu::check_values(&self.pattern, values)?;
         }
         let (s_values, rest) = self.numbers.split_at_mut(self.s_nnz);
-        let mut singular = false;
         for g in &self.groups {
             let m = g.m;
             let x = Numbers::split(g, &mut rest[g.num - self.s_nnz..]);
             let a = Addresses::split(g, &self.addresses);
-            if !invert_in_place(x.block, x.inv, m) {
-                singular = true;
-                break;
+            let inverted = if equilibrated {
+                invert_equilibrated(x.block, x.inv, m)
+            } else {
+                invert_in_place(x.block, x.inv, m)
+            };
+            if !inverted {
+                return Ok(false);
             }
             // W = A_EE⁻¹·V, column by column.
             for (wj, vj) in x.w.chunks_exact_mut(m).zip(x.v.chunks_exact(m)) {
@@ -390,19 +430,7 @@ impl BlockSchurLu {
                 }
             }
         }
-        if singular {
-            return self.factor_plain(values);
-        }
-        match self.s_lu.factor(&self.numbers[..self.s_nnz]) {
-            Ok(()) => {
-                self.factored = true;
-                Ok(())
-            }
-            Err(LinearSolveError::Singular { column }) => Err(LinearSolveError::Singular {
-                column: column.map(|c| self.kept[c]),
-            }),
-            Err(e) => Err(e),
-        }
+        Ok(true)
     }
 
     fn factor_plain(&mut self, values: &[f64]) -> Result<(), LinearSolveError> {
@@ -500,6 +528,55 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// m·ε·max|a|: the block is singular to working precision. The multibody blocks (m = 8: a
 /// body's positions and normalisation multiplier) get the elimination compiled for that
 /// size.
+/// [`invert_in_place`] of R·A·C, R and C diagonal powers of two that bring each row's
+/// largest magnitude and then each column's into [1, 2) (the scaling is exact), and
+/// A⁻¹ = C·(R·A·C)⁻¹·R: a block whose entries span many decades passes the singularity test
+/// when it is singular only in its scaling. False for a zero row or column or a singular
+/// scaled block. `a` is overwritten.
+fn invert_equilibrated(a: &mut [f64], inv: &mut [f64], m: usize) -> bool {
+    debug_assert!(m <= MAX_GROUP);
+    let (mut r, mut c) = ([0.0f64; MAX_GROUP], [0.0f64; MAX_GROUP]);
+    // 2^−e for the exponent e of `largest` (largest · 2^−e in [1, 2)); None for 0 or a
+    // non-finite or subnormal number.
+    let power = |largest: f64| -> Option<f64> {
+        if !largest.is_normal() {
+            return None;
+        }
+        let e = largest.log2().floor() as i32;
+        let p = 2.0f64.powi(-e);
+        // log2's rounding can miss the binade by one.
+        Some(match largest * p {
+            v if v >= 2.0 => p * 0.5,
+            v if v < 1.0 => p * 2.0,
+            _ => p,
+        })
+    };
+    for (i, row) in a.chunks_exact_mut(m).enumerate() {
+        let Some(p) = power(row.iter().fold(0.0f64, |s, v| s.max(v.abs()))) else {
+            return false;
+        };
+        r[i] = p;
+        row.iter_mut().for_each(|v| *v *= p);
+    }
+    for (j, cj) in c.iter_mut().enumerate().take(m) {
+        let largest = (0..m).fold(0.0f64, |s, i| s.max(a[i * m + j].abs()));
+        let Some(p) = power(largest) else {
+            return false;
+        };
+        *cj = p;
+        (0..m).for_each(|i| a[i * m + j] *= p);
+    }
+    if !invert_in_place(a, inv, m) {
+        return false;
+    }
+    for (i, row) in inv.chunks_exact_mut(m).enumerate() {
+        for (v, rj) in row.iter_mut().zip(&r[..m]) {
+            *v *= c[i] * rj;
+        }
+    }
+    true
+}
+
 fn invert_in_place(a: &mut [f64], inv: &mut [f64], m: usize) -> bool {
     match m {
         // The same code inlined with m a constant, so the compiler unrolls its loops.
@@ -611,6 +688,59 @@ mod tests {
         let mut x = b;
         s.solve_in_place(&mut x).unwrap();
         assert!(residual(&dense0, &x, &b) < 1e-12, "{x:?}");
+    }
+
+    /// A body's block from the chain of `bench scaling` (N = 10, its 16th factorisation):
+    /// the gyroscopic terms (6.3e13) beside the normalisation gradient (2·p) fail the
+    /// unscaled elimination's singularity test, m·ε·max|a| = 0.11, though the block is
+    /// regular; equilibrated it is eliminated without the plain LU, and the solve's
+    /// componentwise backward error is at round-off.
+    #[test]
+    fn a_badly_scaled_block_is_equilibrated_instead_of_falling_back_to_the_plain_lu() {
+        let (g, c, k) = (
+            6.342_369_791_702_406e13,
+            3_200.479_471_631_937_5,
+            1.651_411_360_891_187_3e10,
+        );
+        let block = [
+            [c, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [0.0, c, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, c, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, c, 0.0, g, 0.0, 2.0],
+            [0.0, 0.0, 0.0, 0.0, c, 0.0, g, 0.0],
+            [0.0, 0.0, 0.0, -g, 0.0, c, 0.0, 2.0 * k],
+            [0.0, 0.0, 0.0, 0.0, -g, 0.0, c, 0.0],
+            [0.0, 0.0, 0.0, 1.0, 0.0, k, 0.0, 0.0],
+        ];
+        let mut flat: Vec<f64> = block.iter().flatten().copied().collect();
+        let mut inv = vec![0.0; 64];
+        assert!(
+            !invert_in_place(&mut flat, &mut inv, 8),
+            "the unscaled test passes it"
+        );
+        // The block and a ninth unknown coupled to its first row and column.
+        let mut dense: Vec<Vec<f64>> = block
+            .iter()
+            .enumerate()
+            .map(|(i, row)| {
+                let mut r = row.to_vec();
+                r.push(if i == 0 { 1.0 } else { 0.0 });
+                r
+            })
+            .collect();
+        dense.push(vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 5.0]);
+        let (p, vals) = csc(&dense, |_, _| false);
+        let mut s = BlockSchurLu::new(&p, &[(0..8).collect()]).unwrap();
+        s.factor(&vals).unwrap();
+        assert!(!s.used_plain_lu());
+        let b = [1.0, -2.0, 0.5, 3.0, 1.0, -1.0, 2.0, 0.25, 4.0];
+        let mut x = b;
+        s.solve_in_place(&mut x).unwrap();
+        for (i, (row, bi)) in dense.iter().zip(&b).enumerate() {
+            let r: f64 = row.iter().zip(&x).map(|(a, x)| a * x).sum::<f64>() - bi;
+            let size: f64 = row.iter().zip(&x).map(|(a, x)| (a * x).abs()).sum::<f64>() + bi.abs();
+            assert!(r.abs() <= 1e-13 * size, "row {i}: {r:e} of {size:e}");
+        }
     }
 
     #[test]
