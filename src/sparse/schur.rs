@@ -17,7 +17,7 @@
 //! kinematic and normalisation rows with its positions and normalisation multiplier, coupled
 //! to other bodies only through stabilisation multipliers μ that are zero on the solution.
 //!
-//! When a block fails the inversion's singularity test (a pivot below m·ε times the block's
+//! When a block fails the inversion's singularity test (a pivot at most m·ε times the block's
 //! largest entry), the elimination is redone with every block equilibrated — rows and
 //! columns scaled by powers of two so each one's largest entry is in [1, 2), exact — since a
 //! body's Newton block is usually only badly scaled: gyroscopic terms of 1e13–1e18 beside its
@@ -358,8 +358,9 @@ impl BlockSchurLu {
         // A block found singular is more often badly scaled than singular (a body's
         // gyroscopic terms, ~1e13–1e18 in the chain's Newton matrices, beside its
         // normalisation gradient 2·p): the elimination is redone with every block
-        // equilibrated before the plain LU of the whole matrix is tried. Blocks that invert
-        // as they are keep the unscaled elimination (its numbers unchanged).
+        // equilibrated before the plain LU of the whole matrix is tried. A matrix whose
+        // blocks all invert as they are keeps the unscaled elimination (its numbers
+        // unchanged); once one fails, every block of that matrix is redone equilibrated.
         if !self.eliminate(values, false)? && !self.eliminate(values, true)? {
             return self.factor_plain(values);
         }
@@ -523,60 +524,70 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
-/// Inverts the m × m row-major matrix `a` into `inv` by Gauss–Jordan elimination with
-/// partial pivoting (`a` is overwritten). Returns `false` when a pivot is below
-/// m·ε·max|a|: the block is singular to working precision. The multibody blocks (m = 8: a
-/// body's positions and normalisation multiplier) get the elimination compiled for that
-/// size.
+/// 2^k for k in −1074 … 1023, built from its bits (exact; subnormal below −1022).
+fn pow2(k: i32) -> f64 {
+    debug_assert!((-1074..=1023).contains(&k));
+    if k >= -1022 {
+        f64::from_bits(((k + 1023) as u64) << 52)
+    } else {
+        f64::from_bits(1u64 << (k + 1074))
+    }
+}
+
+/// The binary exponent e of a normal number x (|x| = 2^e · [1, 2)); None for 0, a
+/// subnormal, an infinity or NaN.
+fn exponent(x: f64) -> Option<i32> {
+    x.is_normal().then(|| ((x.to_bits() >> 52) & 0x7ff) as i32 - 1023)
+}
+
+/// x · 2^k for any k whose product is representable, in two exact halves (2^k alone may not be).
+fn scale2(x: f64, k: i32) -> f64 {
+    let h = k / 2;
+    x * pow2(h.clamp(-1074, 1023)) * pow2((k - h).clamp(-1074, 1023))
+}
+
 /// [`invert_in_place`] of R·A·C, R and C diagonal powers of two that bring each row's
-/// largest magnitude and then each column's into [1, 2) (the scaling is exact), and
-/// A⁻¹ = C·(R·A·C)⁻¹·R: a block whose entries span many decades passes the singularity test
-/// when it is singular only in its scaling. False for a zero row or column or a singular
-/// scaled block. `a` is overwritten.
+/// largest magnitude and then each column's into [1, 2), and A⁻¹ = C·(R·A·C)⁻¹·R: a block
+/// whose entries span many decades passes the singularity test when it is singular only in
+/// its scaling. The scaling is exact unless it takes an entry below the normal range (one
+/// 2^1022 times smaller than its row's largest). False for a zero row or column (or one
+/// whose largest entry is subnormal) or a singular scaled block. `a` is overwritten.
 fn invert_equilibrated(a: &mut [f64], inv: &mut [f64], m: usize) -> bool {
     debug_assert!(m <= MAX_GROUP);
-    let (mut r, mut c) = ([0.0f64; MAX_GROUP], [0.0f64; MAX_GROUP]);
-    // 2^−e for the exponent e of `largest` (largest · 2^−e in [1, 2)); None for 0 or a
-    // non-finite or subnormal number.
-    let power = |largest: f64| -> Option<f64> {
-        if !largest.is_normal() {
-            return None;
-        }
-        let e = largest.log2().floor() as i32;
-        let p = 2.0f64.powi(-e);
-        // log2's rounding can miss the binade by one.
-        Some(match largest * p {
-            v if v >= 2.0 => p * 0.5,
-            v if v < 1.0 => p * 2.0,
-            _ => p,
-        })
-    };
-    for (i, row) in a.chunks_exact_mut(m).enumerate() {
-        let Some(p) = power(row.iter().fold(0.0f64, |s, v| s.max(v.abs()))) else {
+    // The scales' exponents: row i multiplied by 2^row[i], column j by 2^col[j].
+    let (mut row, mut col) = ([0i32; MAX_GROUP], [0i32; MAX_GROUP]);
+    for (i, r) in a.chunks_exact_mut(m).enumerate() {
+        let Some(e) = exponent(r.iter().fold(0.0f64, |s, v| s.max(v.abs()))) else {
             return false;
         };
-        r[i] = p;
-        row.iter_mut().for_each(|v| *v *= p);
+        row[i] = -e;
+        let p = pow2(-e);
+        r.iter_mut().for_each(|v| *v *= p);
     }
-    for (j, cj) in c.iter_mut().enumerate().take(m) {
-        let largest = (0..m).fold(0.0f64, |s, i| s.max(a[i * m + j].abs()));
-        let Some(p) = power(largest) else {
+    for (j, cj) in col.iter_mut().enumerate().take(m) {
+        let Some(e) = exponent((0..m).fold(0.0f64, |s, i| s.max(a[i * m + j].abs()))) else {
             return false;
         };
-        *cj = p;
+        *cj = -e;
+        let p = pow2(-e);
         (0..m).for_each(|i| a[i * m + j] *= p);
     }
     if !invert_in_place(a, inv, m) {
         return false;
     }
-    for (i, row) in inv.chunks_exact_mut(m).enumerate() {
-        for (v, rj) in row.iter_mut().zip(&r[..m]) {
-            *v *= c[i] * rj;
+    for (i, r) in inv.chunks_exact_mut(m).enumerate() {
+        for (v, rj) in r.iter_mut().zip(&row[..m]) {
+            *v = scale2(*v, col[i] + rj);
         }
     }
     true
 }
 
+/// Inverts the m × m row-major matrix `a` into `inv` by Gauss–Jordan elimination with
+/// partial pivoting (`a` is overwritten). Returns `false` when a pivot is at most
+/// m·ε·max|a|: the block is singular to working precision. The multibody blocks (m = 8: a
+/// body's positions and normalisation multiplier) get the elimination compiled for that
+/// size.
 fn invert_in_place(a: &mut [f64], inv: &mut [f64], m: usize) -> bool {
     match m {
         // The same code inlined with m a constant, so the compiler unrolls its loops.
@@ -718,22 +729,26 @@ mod tests {
             !invert_in_place(&mut flat, &mut inv, 8),
             "the unscaled test passes it"
         );
-        // The block and a ninth unknown coupled to its first row and column.
-        let mut dense: Vec<Vec<f64>> = block
-            .iter()
-            .enumerate()
-            .map(|(i, row)| {
-                let mut r = row.to_vec();
-                r.push(if i == 0 { 1.0 } else { 0.0 });
-                r
-            })
-            .collect();
-        dense.push(vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 5.0]);
+        // A regular group {0, 1} first (so the failed pass has already updated the Schur
+        // complement when the block fails), the block as unknowns 2–9, and an eleventh
+        // unknown, kept, coupled to both groups.
+        let mut dense = vec![vec![0.0; 11]; 11];
+        dense[0][0] = 4.0;
+        dense[0][1] = 1.0;
+        dense[1][0] = 1.0;
+        dense[1][1] = 3.0;
+        for (i, row) in block.iter().enumerate() {
+            dense[2 + i][2..10].copy_from_slice(row);
+        }
+        for (i, j) in [(0, 10), (10, 0), (2, 10), (10, 2)] {
+            dense[i][j] = 1.0;
+        }
+        dense[10][10] = 5.0;
         let (p, vals) = csc(&dense, |_, _| false);
-        let mut s = BlockSchurLu::new(&p, &[(0..8).collect()]).unwrap();
+        let mut s = BlockSchurLu::new(&p, &[vec![0, 1], (2..10).collect()]).unwrap();
         s.factor(&vals).unwrap();
         assert!(!s.used_plain_lu());
-        let b = [1.0, -2.0, 0.5, 3.0, 1.0, -1.0, 2.0, 0.25, 4.0];
+        let b = [0.5, -1.0, 1.0, -2.0, 0.5, 3.0, 1.0, -1.0, 2.0, 0.25, 4.0];
         let mut x = b;
         s.solve_in_place(&mut x).unwrap();
         for (i, (row, bi)) in dense.iter().zip(&b).enumerate() {
@@ -741,6 +756,28 @@ mod tests {
             let size: f64 = row.iter().zip(&x).map(|(a, x)| (a * x).abs()).sum::<f64>() + bi.abs();
             assert!(r.abs() <= 1e-13 * size, "row {i}: {r:e} of {size:e}");
         }
+    }
+
+    /// The power-of-two helpers: exact over the whole exponent range, subnormals included,
+    /// and a product whose factor 2^k alone would overflow.
+    #[test]
+    fn powers_of_two_are_exact_across_the_exponent_range() {
+        for k in [-1074, -1050, -1023, -1022, -1, 0, 1, 52, 1023] {
+            assert_eq!(pow2(k), 2.0f64.powf(k as f64), "2^{k}");
+        }
+        assert_eq!(exponent(1.0), Some(0));
+        assert_eq!(exponent(-3.0), Some(1));
+        assert_eq!(exponent(6.3e13), Some(45));
+        assert_eq!(exponent(f64::MAX), Some(1023));
+        assert_eq!(exponent(f64::MIN_POSITIVE), Some(-1022));
+        assert_eq!(exponent(0.0), None);
+        assert_eq!(exponent(f64::MIN_POSITIVE / 4.0), None);
+        assert_eq!(exponent(f64::NAN), None);
+        assert_eq!(
+            scale2(1.5e-300, 1500),
+            1.5e-300 * 2.0f64.powi(750) * 2.0f64.powi(750)
+        );
+        assert_eq!(scale2(3.0, -2), 0.75);
     }
 
     #[test]
