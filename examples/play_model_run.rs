@@ -17,12 +17,13 @@
 //! ```
 
 use lash::contact::play::UniversalPlay;
-use lash::contact::Material;
+use lash::contact::BearingDesign;
 use lash::diagnose::model::PlayDynamics;
 use lash::diagnose::play_dynamics::{
     respond, BallContact, HertzBalls, Interpolation, JointPlay, PlaySample, BALL_CONTACT,
 };
 use lash::diagnose::transmission::TransmissionDynamics;
+use lash::mechanisms::mr2120::clearance::DEFAULT_DAMPING;
 use nalgebra::{DMatrix, Vector3};
 use std::time::Instant;
 
@@ -32,20 +33,17 @@ const CLEARANCE: f64 = 6e-6;
 const DT: f64 = 2e-3;
 const SAMPLES: usize = 2500;
 
-/// The joint at time `t`: the load's amplitude along n (z) swinging at 20 Hz with a slow
-/// turn in the x–y plane; every drive coupled to the shift along n and the tilt.
-fn joint(t: f64) -> PlayDynamics {
+/// The joint at time `t` with the bearings of `design`: the load's amplitude along n (z)
+/// swinging at 20 Hz with a slow turn in the x–y plane; every drive coupled to the shift
+/// along n and the tilt; 1 kg on each shift coordinate, 1e-4 kg·m² on the tilt.
+fn joint(t: f64, design: &BearingDesign) -> PlayDynamics {
     let swing = 200.0 * (2.0 * std::f64::consts::PI * 20.0 * t).cos();
     let turn = 0.3 * t;
     let drives = 3;
     PlayDynamics {
         z_i: Vector3::x(),
         z_j: Vector3::y(),
-        play: UniversalPlay {
-            ball_spacing: 0.024,
-            ball_radius: 0.004,
-            material: Material::steel(),
-        },
+        play: UniversalPlay::from_design(design),
         cross_mass: 0.05,
         reaction: [40.0 * turn.cos(), 40.0 * turn.sin(), swing, 0.5 * swing * 1e-2],
         torque_by_offset: [
@@ -56,12 +54,11 @@ fn joint(t: f64) -> PlayDynamics {
         ],
         torque_by_offset_acceleration: [vec![0.0; 3], vec![0.0; 3], vec![0.01; 3], vec![0.0; 3]],
         reaction_by_offset: [[0.0; 4]; 4],
-        reaction_by_offset_acceleration: [
-            [1.0, 0.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0, 0.0],
-            [0.0, 0.0, 1.0, 0.0],
-            [0.0, 0.0, 0.0, 1e-4],
-        ],
+        reaction_by_offset_acceleration: std::array::from_fn(|c| {
+            let mut r = [0.0; 4];
+            r[c] = if c == 3 { 1e-4 } else { 1.0 };
+            r
+        }),
         reaction_by_drive: vec![[0.0, 0.0, 30.0, 0.0]; drives],
         reaction_by_drive_acceleration: vec![[0.0; 4]; drives],
         torque_by_offset_rate: vec![],
@@ -81,7 +78,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         windup: vec![0.0; 3],
         load_stiffness: None,
     };
-    let joints: Vec<PlayDynamics> = (0..SAMPLES).map(|i| joint(DT * i as f64)).collect();
+    // The MR2120 trunnion bearing (4 mm steel balls 24 mm apart) with the clearance.
+    let design = BearingDesign::mr2120(CLEARANCE, 0.0, DEFAULT_DAMPING);
+    let joints: Vec<PlayDynamics> = (0..SAMPLES).map(|i| joint(DT * i as f64, &design)).collect();
     let samples: Vec<Option<PlaySample>> = joints
         .iter()
         .enumerate()
@@ -95,7 +94,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .collect();
     let play = JointPlay::radial(CLEARANCE);
-    let hertz = HertzBalls::of(&joints[0].play, CLEARANCE)?;
+    let hertz = HertzBalls::from_design(&design)?;
     let contact = BallContact {
         hertz: Some(hertz),
         damping: 20.0,
