@@ -355,12 +355,8 @@ impl BlockSchurLu {
         if values.len() != self.pattern.nnz() {
             return super::lu::check_values(&self.pattern, values);
         }
-        // A block found singular is more often badly scaled than singular (a body's
-        // gyroscopic terms, ~1e13–1e18 in the chain's Newton matrices, beside its
-        // normalisation gradient 2·p): the elimination is redone with every block
-        // equilibrated before the plain LU of the whole matrix is tried. A matrix whose
-        // blocks all invert as they are keeps the unscaled elimination (its numbers
-        // unchanged); once one fails, every block of that matrix is redone equilibrated.
+        // A block that fails the singularity test: every block redone equilibrated, then the
+        // plain LU (module docs).
         if !self.eliminate(values, false)? && !self.eliminate(values, true)? {
             return self.factor_plain(values);
         }
@@ -540,10 +536,11 @@ fn exponent(x: f64) -> Option<i32> {
     x.is_normal().then(|| ((x.to_bits() >> 52) & 0x7ff) as i32 - 1023)
 }
 
-/// x · 2^k for any k whose product is representable, in two exact halves (2^k alone may not be).
+/// x · 2^k for k in −2046 … 2044 (the sum of two exponents of normal numbers, negated), in
+/// two exact halves: 2^k alone may not be representable.
 fn scale2(x: f64, k: i32) -> f64 {
     let h = k / 2;
-    x * pow2(h.clamp(-1074, 1023)) * pow2((k - h).clamp(-1074, 1023))
+    x * pow2(h) * pow2(k - h)
 }
 
 /// [`invert_in_place`] of R·A·C, R and C diagonal powers of two that bring each row's
