@@ -122,8 +122,8 @@
 //! play effect, the rattle included (README, "The rattle reproduced at the truth's play");
 //! in the diagnosis the bearing cases did not improve (the play's size is estimated through
 //! a column scaled from a reference play, and the rattle is steep in the size). The substep a
-//! tenth of the period of the fastest
-//! mode with every ball in contact (the cross's own, ≈ 0.1 ms for 50 g on 1e8 N/m) and short
+//! fifth of the period of the fastest mode with every ball in contact
+//! ([`SUBSTEPS_PER_PERIOD`]; the cross's own period, ≈ 0.1 ms for 50 g on 1e8 N/m) and short
 //! enough to resolve the dampings; where a stiff contact damping (γ·F under a large load)
 //! would ask for more than four times as many substeps, the dampings (the system's and the
 //! contacts', linearised in the rates) are taken implicitly instead, (M + dt·(C + C_c))·Δv =
@@ -781,7 +781,20 @@ struct Substeps {
 /// Cost of an implicit substep (a small LU) in explicit ones, for [`substeps`]' choice.
 const IMPLICIT_COST: usize = 4;
 
-/// Substeps for one sample interval of `h` s: a tenth of the period of the fastest mode
+/// Substeps per period of the reduced model's fastest mode (every ball in contact).
+///
+/// Semi-implicit Euler is stable for dt·ω < 2; five per period is dt·ω = 1.26. Measured with
+/// the example `play_dynamics` (session 52, suite truth, recording 5 unless named; what the
+/// model leaves of the play's effect per drive and window, torque-noise units, and the
+/// tracker's): joint F with 6 µm, Hertz balls, 20 N·s/m + 500 s/m × F, blended forces,
+/// re-linearised once — 5 (fifth), 10 and 20 substeps per period give the same numbers to
+/// 0.01 (drive A 2.77–3.10 s: 3.62 / 3.63 / 3.63), 3.3 per period too; joint D with 10 µm of
+/// axial play and joint F on recording 3 (held forces, 200 N·s/m + 1 000 s/m × F): 5 and 10
+/// agree to 0.01 on every channel and window. The reduced model's time halves from 10 to 5
+/// (14.5 → 8.4 s for joint F's two runs; 3.1 → 1.6 s for the example `play_model_run`).
+pub const SUBSTEPS_PER_PERIOD: f64 = 5.0;
+
+/// Substeps for one sample interval of `h` s: [`SUBSTEPS_PER_PERIOD`] per period of the fastest mode
 /// with every ball in contact (the largest eigenvalue of M⁻¹·(K + K_c), K_c = k·Σ JᵀJ, k the
 /// contact's stiffness — Hertz's under four times the joint's `load`, at least 400 N), and
 /// where the velocity products feed a mode (−C not negative semidefinite) dt·λ_max(M⁻¹·(−C))
@@ -804,7 +817,8 @@ fn substeps(sys: &System, ks: &[Contact; 8], contact: &BallContact, load: f64, h
     let c = sym(&sys.damping);
     let growing = largest(-c.clone());
     let damped = largest(&jtj * c_contact + c);
-    let dt = (0.2 * std::f64::consts::PI / omega.max(1e-300)).min(0.5 / growing.max(1e-300));
+    let dt =
+        (2.0 * std::f64::consts::PI / SUBSTEPS_PER_PERIOD / omega.max(1e-300)).min(0.5 / growing.max(1e-300));
     let count = |dt: f64| ((h / dt).ceil() as usize).clamp(1, 100_000);
     let (implicit, explicit) = (count(dt), count(dt.min(0.5 / damped.max(1e-300))));
     Some(if explicit > IMPLICIT_COST * implicit {
