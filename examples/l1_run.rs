@@ -44,10 +44,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let s = sim.stats();
         let p = s.time;
         println!(
-            "rtol {rtol:.3e}, 0..{t_end} s: {:.3} s, steps {}, lu {}, newton {}, etf {} nf {}; residuals {:.3} s, Jacobians {:.3} s, factorisations {:.3} s, solves {:.3} s",
+            "rtol {rtol:.3e}, 0..{t_end} s: {:.3} s, steps {}, lu {} ({} equilibrated, {} plain), newton {}, etf {} nf {}; residuals {:.3} s, Jacobians {:.3} s, factorisations {:.3} s, solves {:.3} s",
             start.elapsed().as_secs_f64(),
             s.steps,
             s.lu_factorisations,
+            s.lu_equilibrated,
+            s.lu_plain_fallbacks,
             s.newton_iters,
             s.error_test_failures,
             s.newton_failures,

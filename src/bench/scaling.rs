@@ -25,6 +25,12 @@ pub struct ScalingRow {
     pub steps: usize,
     /// LU factorisations.
     pub factorisations: usize,
+    /// Of those, factorisations whose block elimination was redone equilibrated
+    /// ([`Statistics::lu_equilibrated`](crate::dae::Statistics::lu_equilibrated)).
+    pub lu_equilibrated: usize,
+    /// Of those, factorisations that fell back to the plain sparse LU of the whole matrix
+    /// ([`Statistics::lu_plain_fallbacks`](crate::dae::Statistics::lu_plain_fallbacks)).
+    pub lu_plain_fallbacks: usize,
     /// Residual evaluations.
     pub residual_evals: usize,
     /// Wall time per step, s.
@@ -146,6 +152,8 @@ pub fn bench_scaling(lengths: &[usize], t_end: f64, mut progress: impl FnMut(usi
             wall_s: f64::NAN,
             steps: 0,
             factorisations: 0,
+            lu_equilibrated: 0,
+            lu_plain_fallbacks: 0,
             residual_evals: 0,
             per_step_s: f64::NAN,
             lu_per_step: f64::NAN,
@@ -166,6 +174,8 @@ pub fn bench_scaling(lengths: &[usize], t_end: f64, mut progress: impl FnMut(usi
                 let st = *sim.stats();
                 row.steps = st.steps;
                 row.factorisations = st.lu_factorisations;
+                row.lu_equilibrated = st.lu_equilibrated;
+                row.lu_plain_fallbacks = st.lu_plain_fallbacks;
                 row.residual_evals = st.residual_evals;
                 row.per_step_s = row.wall_s / st.steps.max(1) as f64;
                 row.lu_per_step = st.lu_factorisations as f64 / st.steps.max(1) as f64;
@@ -214,6 +224,8 @@ mod tests {
             wall_s: per_step_s * 100.0,
             steps: 100,
             factorisations: 100,
+            lu_equilibrated: 0,
+            lu_plain_fallbacks: 0,
             residual_evals: 300,
             per_step_s,
             lu_per_step: 1.0,

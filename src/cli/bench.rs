@@ -295,12 +295,21 @@ fn scaling(links: &str, t_end: f64, out: &Path, as_json: bool) -> Result<Output,
         s.t_end
     );
     println!(
-        "{:>7} {:>8} {:>9} {:>9} {:>9} {:>7} {:>7} {:>12} {:>10}",
-        "links", "bodies", "unknowns", "setup s", "wall s", "steps", "LU", "per step s", "RSS MB"
+        "{:>7} {:>8} {:>9} {:>9} {:>9} {:>7} {:>7} {:>12} {:>12} {:>10}",
+        "links",
+        "bodies",
+        "unknowns",
+        "setup s",
+        "wall s",
+        "steps",
+        "LU",
+        "LU eq/plain",
+        "per step s",
+        "RSS MB"
     );
     for r in &s.rows {
         println!(
-            "{:>7} {:>8} {:>9} {:>9.3} {:>9.3} {:>7} {:>7} {:>12.3e} {:>10.1}{}",
+            "{:>7} {:>8} {:>9} {:>9.3} {:>9.3} {:>7} {:>7} {:>12} {:>12.3e} {:>10.1}{}",
             r.links,
             r.bodies,
             r.unknowns,
@@ -308,6 +317,7 @@ fn scaling(links: &str, t_end: f64, out: &Path, as_json: bool) -> Result<Output,
             r.wall_s,
             r.steps,
             r.factorisations,
+            format!("{}/{}", r.lu_equilibrated, r.lu_plain_fallbacks),
             r.per_step_s,
             r.resident_bytes as f64 / 1e6,
             r.failure

@@ -13,7 +13,7 @@
 //! Another solver (an iterative one, another sparse LU) plugs in by implementing
 //! [`LinearSolver`] and adding a [`LinearSolverKind`] variant.
 
-use crate::sparse::{BlockSchurLu, CscPattern, LinearSolveError, SparseLu};
+use crate::sparse::{BlockSchurLu, CscPattern, FactorRoute, LinearSolveError, SparseLu};
 use nalgebra::{DMatrix, DVector, Dyn, LU};
 
 /// A direct linear solver for matrices with a fixed sparse pattern.
@@ -26,6 +26,12 @@ pub trait LinearSolver: std::fmt::Debug + Send {
     fn factor(&mut self, pattern: &CscPattern, values: &[f64]) -> Result<(), LinearSolveError>;
     /// Solves A·x = b in place (`b` becomes `x`) with the latest factors.
     fn solve_in_place(&mut self, b: &mut [f64]) -> Result<(), LinearSolveError>;
+    /// How the latest factorisation was reached: a solver with fallbacks says which one it
+    /// took (counted in [`Statistics`](super::Statistics)); the default is
+    /// [`FactorRoute::Direct`].
+    fn last_route(&self) -> FactorRoute {
+        FactorRoute::Direct
+    }
 }
 
 impl LinearSolver for SparseLu {
@@ -43,6 +49,9 @@ impl LinearSolver for BlockSchurLu {
     }
     fn solve_in_place(&mut self, b: &mut [f64]) -> Result<(), LinearSolveError> {
         BlockSchurLu::solve_in_place(self, b)
+    }
+    fn last_route(&self) -> FactorRoute {
+        self.route()
     }
 }
 

@@ -173,6 +173,12 @@ pub struct Statistics {
     pub jacobian_evals: usize,
     /// Numeric LU factorisations.
     pub lu_factorisations: usize,
+    /// Of those, factorisations whose block elimination had to be redone with every block
+    /// equilibrated ([`FactorRoute::Equilibrated`](crate::sparse::FactorRoute)).
+    pub lu_equilibrated: usize,
+    /// Of those, factorisations that fell back to the plain sparse LU of the whole matrix
+    /// ([`FactorRoute::PlainLu`](crate::sparse::FactorRoute)).
+    pub lu_plain_fallbacks: usize,
     /// Newton iterations.
     pub newton_iters: usize,
     /// Event-function evaluations.

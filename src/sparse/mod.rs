@@ -27,7 +27,7 @@ pub use dense::DenseLu;
 pub use lu::{LinearSolveError, SparseLu, SUPERNODAL_THRESHOLD};
 pub use pattern::{CscMatrix, CscPattern, PatternError, SlotIndex};
 pub use refactor::{RefactorLu, REUSE_PIVOT_THRESHOLD};
-pub use schur::{BlockSchurLu, MAX_GROUP};
+pub use schur::{BlockSchurLu, FactorRoute, MAX_GROUP};
 
 /// Helpers of the sparse tests: small dense matrices as patterns and values.
 #[cfg(test)]

@@ -170,7 +170,22 @@ pub struct BlockSchurLu {
     full: Option<SparseLu>,
     /// The last factorisation is the plain one.
     using_full: bool,
+    /// How the last successful factorisation was reached.
+    route: FactorRoute,
     factored: bool,
+}
+
+/// How a factorisation of [`BlockSchurLu`] was reached (module docs): the counters of
+/// [`Statistics`](crate::dae::Statistics) say how often a run needed each fallback.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum FactorRoute {
+    /// Every block eliminated as it is (or a solver without fallbacks).
+    #[default]
+    Direct,
+    /// A block failed the singularity test; every block eliminated equilibrated.
+    Equilibrated,
+    /// A block singular even equilibrated: the plain sparse LU of the whole matrix.
+    PlainLu,
 }
 
 impl BlockSchurLu {
@@ -333,6 +348,7 @@ impl BlockSchurLu {
             scratch: vec![0.0; scratch_len],
             full: None,
             using_full: false,
+            route: FactorRoute::Direct,
             factored: false,
         })
     }
@@ -348,6 +364,12 @@ impl BlockSchurLu {
         self.using_full
     }
 
+    /// How the last successful factorisation was reached ([`FactorRoute::Direct`] before
+    /// any).
+    pub fn route(&self) -> FactorRoute {
+        self.route
+    }
+
     /// Factorises the matrix with `values` on the pattern given to [`new`](Self::new).
     pub fn factor(&mut self, values: &[f64]) -> Result<(), LinearSolveError> {
         self.factored = false;
@@ -357,12 +379,19 @@ impl BlockSchurLu {
         }
         // A block that fails the singularity test: every block redone equilibrated, then the
         // plain LU (module docs).
-        if !self.eliminate(values, false)? && !self.eliminate(values, true)? {
-            return self.factor_plain(values);
-        }
+        let route = if self.eliminate(values, false)? {
+            FactorRoute::Direct
+        } else if self.eliminate(values, true)? {
+            FactorRoute::Equilibrated
+        } else {
+            self.factor_plain(values)?;
+            self.route = FactorRoute::PlainLu;
+            return Ok(());
+        };
         match self.s_lu.factor(&self.numbers[..self.s_nnz]) {
             Ok(()) => {
                 self.factored = true;
+                self.route = route;
                 Ok(())
             }
             Err(LinearSolveError::Singular { column }) => Err(LinearSolveError::Singular {
@@ -666,6 +695,7 @@ mod tests {
         assert_eq!(s.reduced_dim(), 3);
         s.factor(&vals).unwrap();
         assert!(!s.used_plain_lu());
+        assert_eq!(s.route(), FactorRoute::Direct);
         let b = [1.0, -2.0, 0.5, 3.0, 1.0, -1.0];
         let mut x = b;
         s.solve_in_place(&mut x).unwrap();
@@ -693,6 +723,7 @@ mod tests {
         dense0[2][2] = 0.0;
         s.factor(&singular).unwrap();
         assert!(s.used_plain_lu());
+        assert_eq!(s.route(), FactorRoute::PlainLu);
         let mut x = b;
         s.solve_in_place(&mut x).unwrap();
         assert!(residual(&dense0, &x, &b) < 1e-12, "{x:?}");
@@ -745,6 +776,7 @@ mod tests {
         let mut s = BlockSchurLu::new(&p, &[vec![0, 1], (2..10).collect()]).unwrap();
         s.factor(&vals).unwrap();
         assert!(!s.used_plain_lu());
+        assert_eq!(s.route(), FactorRoute::Equilibrated);
         let b = [0.5, -1.0, 1.0, -2.0, 0.5, 3.0, 1.0, -1.0, 2.0, 0.25, 4.0];
         let mut x = b;
         s.solve_in_place(&mut x).unwrap();

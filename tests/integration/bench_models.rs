@@ -223,6 +223,22 @@ fn exported_mr2120_model_is_complete_and_its_drive_law_matches() {
 }
 
 #[test]
+fn the_integrator_counts_the_block_eliminations_redone_equilibrated() {
+    // The chain of `bench scaling` at N = 10 over its 10 ms: a body's block fails the
+    // unscaled elimination's singularity test (gyroscopic terms ~6e13 beside the
+    // normalisation gradient 2·p; the block recorded in `sparse::schur`'s tests comes from
+    // this run) and is eliminated equilibrated instead of falling back to the plain LU.
+    let m = clearance_chain(10, &chain_design()).unwrap();
+    let opts = lash::bench::scaling::chain_options();
+    let mut sim = lash::multibody::Simulation::new(std::sync::Arc::new(m), 0.0, opts).unwrap();
+    sim.run(&[0.01], |_| {}).unwrap();
+    let st = *sim.stats();
+    assert!(st.lu_equilibrated >= 1, "{st:?}");
+    assert_eq!(st.lu_plain_fallbacks, 0, "{st:?}");
+    assert!(st.lu_equilibrated < st.lu_factorisations, "{st:?}");
+}
+
+#[test]
 fn eliminating_each_bodys_positions_before_the_lu_gives_the_same_motion_as_the_plain_lu() {
     use lash::dae::LinearSolverKind;
     // The multibody default factorises after eliminating each body's positions and

@@ -164,6 +164,11 @@ impl IterationMatrix {
         r
     }
 
+    /// How the solver reached its latest factorisation.
+    pub(crate) fn last_route(&self) -> crate::sparse::FactorRoute {
+        self.solver.last_route()
+    }
+
     /// The linear solver holds factors of the current values.
     pub(crate) fn is_factored(&self) -> bool {
         self.factored
@@ -275,6 +280,11 @@ impl<P: DaeSystem> BdfSolver<P> {
         match res {
             Ok(()) => {
                 self.stats.lu_factorisations += 1;
+                match self.mat.last_route() {
+                    crate::sparse::FactorRoute::Direct => {}
+                    crate::sparse::FactorRoute::Equilibrated => self.stats.lu_equilibrated += 1,
+                    crate::sparse::FactorRoute::PlainLu => self.stats.lu_plain_fallbacks += 1,
+                }
                 if let MatrixKind::Iteration { .. } = kind {
                     self.force_setup = false;
                     self.steps_since_jac = 0;
