@@ -199,7 +199,7 @@ fn main() {
                 // Case indices past the suite's, so no blind case shares a suite case's noise.
                 .map(|&(i, c)| {
                     let opts = &opts;
-                    scope.spawn(move || run_case(c, opts, 100 + i))
+                    scope.spawn(move || run_case(c, opts, 100 + i, &mut |_, _| {}))
                 })
                 .collect();
             handles.into_iter().map(|h| h.join()).collect()

@@ -292,7 +292,9 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         .map(|x| items(x).map(String::from).collect())
         .unwrap_or_default();
     let mut progress = Progress::new("diagnose", 1.0);
-    let d = diagnose_recordings(model, &fit, &held, &windows, &opts, |_, f| progress.update(f));
+    let d = diagnose_recordings(model, &fit, &held, &windows, &opts, |s, f| {
+        progress.update_stage("diagnose", s, f)
+    });
     progress.finish();
     let d = d.map_err(CliError::input)?;
     let report = a.report.unwrap_or_else(|| REPORT.into());
@@ -367,7 +369,9 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
         opts.diagnose.backlash_places = vec![p];
     }
     let mut progress = Progress::new("diagnose --suite", 1.0);
-    let board = run_suite(&opts, Some(dir), |_, f| progress.update(f));
+    let board = run_suite(&opts, Some(dir), |s, f| {
+        progress.update_stage("diagnose --suite", s, f)
+    });
     progress.finish();
     let board = board.map_err(|e| match e {
         SuiteError::NoSuchCase { .. } => CliError::Input(format!("--only: {e}")),

@@ -52,6 +52,12 @@ impl Progress {
         self.bar.set_position((done.max(0.0) * RESOLUTION) as u64);
     }
 
+    /// Progress so far with what is being done now: the bar's label becomes `label: stage`.
+    pub fn update_stage(&mut self, label: &str, stage: &str, done: f64) {
+        self.bar.set_message(format!("{label}: {stage}"));
+        self.update(done);
+    }
+
     /// Ends the bar, leaving it on its line if it was shown.
     pub fn finish(&self) {
         if self.shown {

@@ -386,7 +386,7 @@ fn a_suite_case_without_fit_recordings_is_an_error() {
         holdout_recordings: 0,
         ..SuiteOptions::lumped_reduced()
     };
-    let e = run_case(&cases()[0], &opts, 0).unwrap_err();
+    let e = run_case(&cases()[0], &opts, 0, &mut |_, _| {}).unwrap_err();
     assert!(
         matches!(&e, SuiteError::Diagnose { source, .. } if **source == DiagnoseError::NoFitRecordings),
         "{e:?}"

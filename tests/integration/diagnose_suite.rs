@@ -7,7 +7,9 @@ use lash::diagnose::suite::SuiteOptions;
 fn run(name: &str) -> lash::diagnose::suite::CaseResult {
     let all = cases();
     let i = all.iter().position(|c| c.name == name).unwrap();
-    run_case(&all[i], &SuiteOptions::lumped_reduced(), i).unwrap().0
+    run_case(&all[i], &SuiteOptions::lumped_reduced(), i, &mut |_, _| {})
+        .unwrap()
+        .0
 }
 
 #[test]
@@ -189,7 +191,7 @@ fn a_suite_run_keeps_its_recordings_for_a_blind_diagnosis_when_asked() {
         keep_recordings: Some(dir.to_path_buf()),
         ..SuiteOptions::lumped_reduced()
     };
-    let kept = run_case(&all[i], &opts, i).unwrap().0;
+    let kept = run_case(&all[i], &opts, i, &mut |_, _| {}).unwrap().0;
     // Keeping the recordings changes nothing of the diagnosis.
     assert!(kept.no_mismatch && kept.pass, "{kept:?}");
     let n = opts.fit_recordings + opts.holdout_recordings;
@@ -224,7 +226,22 @@ fn another_seed_draws_other_paths_and_noise_and_the_scoreboard_names_it() {
             seed,
             ..SuiteOptions::lumped_reduced()
         };
-        let board = run_suite(&opts, None, |_, _| {}).unwrap();
+        let mut reported: Vec<(String, f64)> = vec![];
+        let board = run_suite(&opts, None, |s, f| reported.push((s.to_string(), f))).unwrap();
+        // Progress within the one case: its truths and the diagnosis's stages, in order,
+        // from 0 to 1 and never back.
+        let fractions: Vec<f64> = reported.iter().map(|r| r.1).collect();
+        assert_eq!(fractions.first(), Some(&0.0), "{reported:?}");
+        assert_eq!(fractions.last(), Some(&1.0), "{reported:?}");
+        assert!(fractions.windows(2).all(|w| w[0] <= w[1]), "{reported:?}");
+        for stage in [
+            "null: truth simulation",
+            "null: candidate regressors",
+            "null: held-out check",
+        ] {
+            let within = reported.iter().any(|r| r.0 == stage && r.1 > 0.0 && r.1 < 1.0);
+            assert!(within, "{stage}: {reported:?}");
+        }
         let first = std::fs::read_to_string(dir.join("null").join("recording-01.csv")).unwrap();
         (board, first)
     };

@@ -324,11 +324,13 @@ pub fn excitation(seed: u64, r: usize) -> Excitation {
     Excitation::random(seed.wrapping_mul(1000).wrapping_add(r as u64), z_low, shake)
 }
 
-/// Runs one case.
+/// Runs one case; `progress` receives its stages and fraction done (the truths' simulations
+/// up to [`TRUTH_SHARE`](super::TRUTH_SHARE), then the diagnosis's stages).
 pub fn run_case(
     case: &Case,
     opts: &SuiteOptions,
     case_index: usize,
+    progress: &mut dyn FnMut(&str, f64),
 ) -> Result<(CaseResult, Diagnosis), SuiteError> {
     let nominal = nominal_model();
     let model = Mr2120Model { nominal };
@@ -355,6 +357,10 @@ pub fn run_case(
         source,
     };
     for r in 0..n_rec {
+        progress(
+            "truth simulation",
+            super::TRUTH_SHARE * r as f64 / n_rec.max(1) as f64,
+        );
         let ex = excitation(seed, r);
         let rec = record(&nominal, &case.effects, &ex, &ropts, seed.wrapping_add(r as u64)).map_err(err)?;
         super::keep(opts, &case.name, r, &rec)?;
@@ -394,5 +400,5 @@ pub fn run_case(
         truth: &case.truth,
         rival: case.rival.as_deref(),
     };
-    diagnose_and_score(&model, &fit, &held, &spec, concealment, opts)
+    diagnose_and_score(&model, &fit, &held, &spec, concealment, opts, progress)
 }

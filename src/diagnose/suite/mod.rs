@@ -526,7 +526,12 @@ pub(crate) struct CaseSpec<'a> {
     pub rival: Option<&'a str>,
 }
 
-/// Diagnoses a case's recordings blind (default options) and scores the diagnosis.
+/// Share of a case's progress given to simulating its truths; the diagnosis has the rest.
+pub const TRUTH_SHARE: f64 = 0.2;
+
+/// Diagnoses a case's recordings blind (default options) and scores the diagnosis;
+/// `progress` receives the diagnosis's stages as fractions of the whole case (from
+/// [`TRUTH_SHARE`] to 1).
 pub(crate) fn diagnose_and_score(
     model: &dyn super::model::InverseDynamicsModel,
     fit: &[MotionData],
@@ -534,13 +539,15 @@ pub(crate) fn diagnose_and_score(
     spec: &CaseSpec,
     concealment: Concealment,
     opts: &SuiteOptions,
+    progress: &mut dyn FnMut(&str, f64),
 ) -> Result<(CaseResult, Diagnosis), SuiteError> {
     let noise = &opts.record.noise;
-    let d = super::diagnose(model, fit, held, &opts.diagnose, |_, _| {}).map_err(|source| {
-        SuiteError::Diagnose {
-            case: spec.name.into(),
-            source: Box::new(source),
-        }
+    let d = super::diagnose(model, fit, held, &opts.diagnose, |s, f| {
+        progress(s, TRUTH_SHARE + (1.0 - TRUTH_SHARE) * f)
+    })
+    .map_err(|source| SuiteError::Diagnose {
+        case: spec.name.into(),
+        source: Box::new(source),
     })?;
     let res = score(
         spec.name,
@@ -704,8 +711,10 @@ pub fn case_names(truth: TruthSource) -> Vec<String> {
     }
 }
 
-/// Runs the suite; `progress` receives (case name, fraction done): the first case at 0, then
-/// each case as it finishes. With `reports`, each
+/// Runs the suite; `progress` receives a label ("case: stage", or the case's name when it
+/// finishes) and the fraction of the whole suite done, never decreasing: 0 first, then
+/// each running case's stages (its truths' simulations, then the diagnosis's stages) as they
+/// are reached, and 1 at the end. With `reports`, each
 /// case's diagnosis report (Markdown, JSON, plots) goes to `reports/<case>/` and the
 /// scoreboard to `reports/scoreboard.json` ([`Scoreboard::write`]). A name in
 /// [`SuiteOptions::only`] that no case's name contains is an error
@@ -716,6 +725,16 @@ pub fn run_suite(
     mut progress: impl FnMut(&str, f64),
 ) -> Result<Scoreboard, SuiteError> {
     run_suite_dyn(opts, reports, &mut progress)
+}
+
+/// What a worker of [`run_suite`] tells the thread that reports: a stage of a case (its slot,
+/// the stage's name and the case's fraction done), or a case's end.
+enum Message {
+    Stage(usize, String, f64),
+    Done(
+        usize,
+        Box<std::thread::Result<Result<(CaseResult, Diagnosis), SuiteError>>>,
+    ),
 }
 
 /// [`run_suite`] compiled once (the progress callback behind a reference).
@@ -747,9 +766,9 @@ fn run_suite_dyn(
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .clamp(1, chosen.len().max(1));
-    let run = |i: usize| match opts.truth {
-        TruthSource::Multibody => multibody::run_case(&multibody::cases()[i], opts, i),
-        TruthSource::Lumped => lumped::run_case(&lumped::cases()[i], opts, i),
+    let run = |i: usize, p: &mut dyn FnMut(&str, f64)| match opts.truth {
+        TruthSource::Multibody => multibody::run_case(&multibody::cases()[i], opts, i, p),
+        TruthSource::Lumped => lumped::run_case(&lumped::cases()[i], opts, i, p),
     };
     let next = std::sync::atomic::AtomicUsize::new(0);
     let mut slots: Vec<Option<Result<(CaseResult, Diagnosis), SuiteError>>> =
@@ -764,7 +783,12 @@ fn run_suite_dyn(
                 let slot = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(&(i, _)) = chosen.get(slot) else { break };
                 let start = std::time::Instant::now();
-                let mut out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(i)));
+                let stages = tx.clone();
+                let mut report = |s: &str, f: f64| {
+                    // The receiver outlives the workers; a failed send only loses a stage.
+                    let _ = stages.send(Message::Stage(slot, s.to_string(), f));
+                };
+                let mut out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(i, &mut report)));
                 if let Ok(Ok((r, _))) = &mut out {
                     r.seconds = start.elapsed().as_secs_f64();
                 }
@@ -772,16 +796,30 @@ fn run_suite_dyn(
                     // A failed case ends the run: no worker starts another.
                     next.store(chosen.len(), std::sync::atomic::Ordering::Relaxed);
                 }
-                if tx.send((slot, out)).is_err() {
+                if tx.send(Message::Done(slot, Box::new(out))).is_err() {
                     break;
                 }
             });
         }
         drop(tx);
-        for (done, (slot, out)) in rx.iter().enumerate() {
-            let out = out.unwrap_or_else(|p| std::panic::resume_unwind(p));
-            progress(chosen[slot].1, (done + 1) as f64 / chosen.len() as f64);
-            slots[slot] = Some(out);
+        // Each case's fraction done; the suite's is their mean, reported never decreasing.
+        let mut fractions = vec![0.0f64; chosen.len()];
+        let mut reported = 0.0f64;
+        for message in rx.iter() {
+            let label = match message {
+                Message::Stage(slot, stage, f) => {
+                    fractions[slot] = fractions[slot].max(f.clamp(0.0, 1.0));
+                    format!("{}: {stage}", chosen[slot].1)
+                }
+                Message::Done(slot, out) => {
+                    let out = (*out).unwrap_or_else(|p| std::panic::resume_unwind(p));
+                    fractions[slot] = 1.0;
+                    slots[slot] = Some(out);
+                    chosen[slot].1.clone()
+                }
+            };
+            reported = reported.max(fractions.iter().sum::<f64>() / chosen.len() as f64);
+            progress(&label, reported);
         }
     });
     let mut outcomes = vec![];

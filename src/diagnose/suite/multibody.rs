@@ -399,11 +399,13 @@ fn contribution(with: &Recorded, without: &Recorded, opts: &RecordOptions, torqu
         .collect()
 }
 
-/// Runs one case.
+/// Runs one case; `progress` receives its stages and fraction done (the truths' simulations
+/// up to [`TRUTH_SHARE`](super::TRUTH_SHARE), then the diagnosis's stages).
 pub fn run_case(
     case: &Case,
     opts: &SuiteOptions,
     case_index: usize,
+    progress: &mut dyn FnMut(&str, f64),
 ) -> Result<(CaseResult, Diagnosis), SuiteError> {
     let model = mr2120_model(
         &crate::mechanisms::mr2120::Geometry::default(),
@@ -429,7 +431,12 @@ pub fn run_case(
     let (mut fit, mut held) = (vec![], vec![]);
     let (mut below, mut total, mut peak) = (0usize, 0usize, 0.0f64);
     let (mut below_tau, mut below_pose) = (0usize, 0usize);
-    for r in 0..opts.fit_recordings + opts.holdout_recordings {
+    let n_rec = opts.fit_recordings + opts.holdout_recordings;
+    for r in 0..n_rec {
+        progress(
+            "truth simulation",
+            super::TRUTH_SHARE * r as f64 / n_rec.max(1) as f64,
+        );
         let path = super::lumped::excitation(opts.seed, r);
         let key = (
             opts.seed,
@@ -493,7 +500,7 @@ pub fn run_case(
         truth: &case.truth,
         rival: case.rival.as_deref(),
     };
-    diagnose_and_score(&model, &fit, &held, &spec, concealment, opts)
+    diagnose_and_score(&model, &fit, &held, &spec, concealment, opts, progress)
 }
 
 #[cfg(test)]
