@@ -129,7 +129,7 @@
 //! contacts', linearised in the rates) are taken implicitly instead, (M + dt·(C + C_c))·Δv =
 //! dt·f(x, v), then x += v·dt — the drives' block eliminated once per sample interval, so a
 //! substep factorises only the play and cross block's 10 × 10 Schur complement
-//! (`PlaySchur`; the example `play_model_run` 0.836× the CPU time of the dense LU of all
+//! (`PlaySchur`; the example `play_model_run` 0.798× the CPU time of the dense LU of all
 //! the unknowns, 7 alternated whole-process pairs, and the example `play_dynamics` prints
 //! the same numbers). (Measured with the example on recording 5, implicit
 //! throughout against explicit throughout: the same responses to 0.01 noise units.) A
@@ -782,12 +782,16 @@ struct Substeps {
     implicit: bool,
 }
 
-/// Cost of an implicit substep (a small LU) in explicit ones, for [`substeps`]' choice.
+/// Cost of an implicit substep (a small LU) in explicit ones, for [`substeps`]' choice (set
+/// when the implicit substep factorised all the unknowns; not re-measured since it factorises
+/// only the play block's Schur complement, which is cheaper).
 const IMPLICIT_COST: usize = 4;
 
 /// Substeps per period of the reduced model's fastest mode (every ball in contact).
 ///
-/// Semi-implicit Euler is stable for dt·ω < 2; five per period is dt·ω = 1.26. Measured with
+/// Semi-implicit Euler is stable for dt·ω < 2; five per period is dt·ω = 1.26, a margin of
+/// 1.6 (ten per period had 3.2) over the fastest mode estimated with Hertz's stiffness at four
+/// times the joint's load: a load peak above that estimate reaches the limit sooner. Measured with
 /// the example `play_dynamics` (session 52, suite truth, recording 5 unless named; what the
 /// model leaves of the play's effect per drive and window, torque-noise units, and the
 /// tracker's): joint F with 6 µm, Hertz balls, 20 N·s/m + 500 s/m × F, blended forces,
@@ -990,7 +994,8 @@ fn advance(
     }
     let base = &sys.mass + &sys.damping * dt;
     let base_inv = base.clone().try_inverse()?;
-    let schur = PlaySchur::new(&base, nj)?;
+    // Built at the first substep in contact (an interval without contact never needs it).
+    let mut schur: Option<PlaySchur> = None;
     // In place, as above: dt·(g − K·x − C·v + loads), then Δv.
     let (mut rhs, mut dv) = (DVector::zeros(x.len()), DVector::zeros(x.len()));
     for j in 0..steps.n {
@@ -1000,7 +1005,10 @@ fn advance(
         if cc.iter().flatten().all(|&c| c == 0.0) {
             dv.gemv(1.0, &base_inv, &rhs, 0.0);
         } else {
-            schur.solve(&cc, dt, &rhs, &mut dv)?;
+            if schur.is_none() {
+                schur = Some(PlaySchur::new(&base, nj)?);
+            }
+            schur.as_mut()?.solve(&cc, dt, &rhs, &mut dv)?;
         }
         *v += &dv;
         x.axpy(dt, v, 1.0);
@@ -1012,16 +1020,19 @@ fn advance(
 /// the contacts' damping C_c on the play and cross coordinates only (the last [`NP`]): the
 /// drives' block B₁₁ is eliminated once per interval, and each substep in contact factorises
 /// only the play block's Schur complement S = B₂₂ − B₂₁·B₁₁⁻¹·B₁₂ + dt·C_c, a fixed-size
-/// [`NP`] × [`NP`] LU on the stack instead of a dense LU of all the unknowns.
+/// [`NP`] × [`NP`] LU on the stack instead of a dense LU of all the unknowns. With
+/// z = B₁₁⁻¹·r₁: S·y = r₂ − B₂₁·z, then x₁ = z − B₁₁⁻¹·B₁₂·y.
 struct PlaySchur {
     /// B₁₁⁻¹ (drives × drives).
     b11_inv: DMatrix<f64>,
-    /// B₂₁·B₁₁⁻¹ (play × drives).
-    p: DMatrix<f64>,
+    /// B₂₁ (play × drives).
+    b21: DMatrix<f64>,
     /// B₁₁⁻¹·B₁₂ (drives × play).
     q: DMatrix<f64>,
     /// B₂₂ − B₂₁·B₁₁⁻¹·B₁₂.
     s0: SMatrix<f64, NP, NP>,
+    /// z = B₁₁⁻¹·r₁ (drives).
+    z: DVector<f64>,
 }
 
 impl PlaySchur {
@@ -1029,27 +1040,41 @@ impl PlaySchur {
     fn new(b: &DMatrix<f64>, nj: usize) -> Option<Self> {
         let b11_inv = b.view((0, 0), (nj, nj)).clone_owned().try_inverse()?;
         let b12 = b.view((0, nj), (nj, NP));
-        let b21 = b.view((nj, 0), (NP, nj));
-        let p = b21 * &b11_inv;
+        let b21 = b.view((nj, 0), (NP, nj)).clone_owned();
         let q = &b11_inv * b12;
         let s0 = SMatrix::<f64, NP, NP>::from_fn(|r, c| {
-            b[(nj + r, nj + c)] - (0..nj).map(|k| p[(r, k)] * b12[(k, c)]).sum::<f64>()
+            b[(nj + r, nj + c)] - (0..nj).map(|k| b21[(r, k)] * q[(k, c)]).sum::<f64>()
         });
-        Some(Self { b11_inv, p, q, s0 })
+        Some(Self {
+            b11_inv,
+            b21,
+            q,
+            s0,
+            z: DVector::zeros(nj),
+        })
     }
 
     /// Solves (B + dt·C_c)·Δv = `rhs` into `dv`, C_c = `cc` on the play block; None if the
     /// Schur complement is singular.
-    fn solve(&self, cc: &[[f64; NP]; NP], dt: f64, rhs: &DVector<f64>, dv: &mut DVector<f64>) -> Option<()> {
+    fn solve(
+        &mut self,
+        cc: &[[f64; NP]; NP],
+        dt: f64,
+        rhs: &DVector<f64>,
+        dv: &mut DVector<f64>,
+    ) -> Option<()> {
         let nj = self.b11_inv.nrows();
         let (r1, r2) = (rhs.rows(0, nj), rhs.rows(nj, NP));
+        self.z.gemv(1.0, &self.b11_inv, &r1, 0.0);
         let s = SMatrix::<f64, NP, NP>::from_fn(|r, c| self.s0[(r, c)] + dt * cc[r][c]);
-        let mut y = SVector::<f64, NP>::from_fn(|r, _| r2[r]) - &self.p * r1;
+        let mut y = SVector::<f64, NP>::from_fn(|r, _| r2[r]);
+        y.gemv(-1.0, &self.b21, &self.z, 1.0);
         if !s.lu().solve_mut(&mut y) {
             return None;
         }
-        let x1 = &self.b11_inv * r1 - &self.q * y;
-        dv.rows_mut(0, nj).copy_from(&x1);
+        let mut x1 = dv.rows_mut(0, nj);
+        x1.copy_from(&self.z);
+        x1.gemv(-1.0, &self.q, &y, 1.0);
         dv.rows_mut(nj, NP).copy_from(&y);
         Some(())
     }
@@ -1185,6 +1210,51 @@ pub(crate) mod fixtures {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The implicit substep's elimination of the drives solves the same system as a dense LU
+    /// of all the unknowns, with three drives and with none, for a contact damping on a few
+    /// play coordinates (a symmetric positive definite B, not symmetric coupling blocks).
+    #[test]
+    fn the_play_blocks_schur_complement_solves_the_whole_implicit_system() {
+        for nj in [3usize, 0] {
+            let n = nj + NP;
+            let b = DMatrix::from_fn(n, n, |r, c| {
+                let off = 0.3 * ((r * 7 + c * 3) as f64).sin();
+                if r == c {
+                    4.0 + r as f64
+                } else {
+                    off
+                }
+            });
+            let mut cc = [[0.0; NP]; NP];
+            for (k, u) in [[1.0, 0.5, 0.0, -0.2], [0.0, 1.0, 2.0, 0.3]].iter().enumerate() {
+                for r in 0..4 {
+                    for c in 0..4 {
+                        cc[r + 2 * k][c + 2 * k] += 300.0 * u[r] * u[c];
+                    }
+                }
+            }
+            let dt = 1e-4;
+            let rhs = DVector::from_fn(n, |r, _| (r as f64 * 1.3).cos());
+            let mut dv = DVector::zeros(n);
+            let mut schur = PlaySchur::new(&b, nj).expect("regular drive block");
+            schur.solve(&cc, dt, &rhs, &mut dv).expect("regular complement");
+            let mut a = b.clone();
+            for r in 0..NP {
+                for c in 0..NP {
+                    a[(nj + r, nj + c)] += dt * cc[r][c];
+                }
+            }
+            let dense = a.clone().lu().solve(&rhs).expect("regular");
+            let err = (&dv - &dense).amax() / dense.amax();
+            assert!(err < 1e-13, "nj = {nj}: relative difference {err:e}");
+            // And it is a solution: A·Δv = rhs to round-off.
+            assert!(
+                (&a * &dv - &rhs).amax() < 1e-12 * rhs.amax() * a.amax(),
+                "nj = {nj}"
+            );
+        }
+    }
 
     /// `n` samples 2 ms apart, the joint at sample i `play(i)`.
     fn every_2_ms<'a>(

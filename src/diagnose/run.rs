@@ -593,7 +593,8 @@ fn play_dynamics_check(
     let Some((candidate, h)) = relinearize::dynamic_play_clearance(model, d, cands) else {
         return Ok(None);
     };
-    progress("play dynamics", 0.9);
+    // After the continued passes' stages (at most 0.95).
+    progress("play dynamics", 0.96);
     let mut o3 = opts.clone();
     o3.relinearize = false;
     o3.library.only = d.selected.clone();
@@ -829,7 +830,8 @@ fn diagnose_once(
         &unresolved_play,
     );
     let friction = super::equivalents::joint_friction(model, &set, &prep.cands, &estimates);
-    progress("done", 1.0);
+    // (Not "done": a pass ends inside the whole diagnosis, which says "done" itself.)
+    progress("pass finished", 1.0);
     Ok(Diagnosis {
         friction,
         model: model.name(),

@@ -175,8 +175,8 @@ pub struct BlockSchurLu {
     factored: bool,
 }
 
-/// How a factorisation of [`BlockSchurLu`] was reached (module docs): the counters of
-/// [`Statistics`](crate::dae::Statistics) say how often a run needed each fallback.
+/// How a factorisation of [`BlockSchurLu`] was reached (module docs), for callers that count
+/// how often a run needed each fallback.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum FactorRoute {
     /// Every block eliminated as it is (or a solver without fallbacks).
