@@ -1005,10 +1005,11 @@ fn advance(
         if cc.iter().flatten().all(|&c| c == 0.0) {
             dv.gemv(1.0, &base_inv, &rhs, 0.0);
         } else {
-            if schur.is_none() {
-                schur = Some(PlaySchur::new(&base, nj)?);
-            }
-            schur.as_mut()?.solve(&cc, dt, &rhs, &mut dv)?;
+            let s = match &mut schur {
+                Some(s) => s,
+                None => schur.insert(PlaySchur::new(&base, nj)?),
+            };
+            s.solve(&cc, dt, &rhs, &mut dv)?;
         }
         *v += &dv;
         x.axpy(dt, v, 1.0);

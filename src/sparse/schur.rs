@@ -168,9 +168,8 @@ pub struct BlockSchurLu {
     scratch: Vec<f64>,
     /// Plain LU of the whole matrix, for values with a block singular even equilibrated.
     full: Option<SparseLu>,
-    /// The last factorisation is the plain one.
-    using_full: bool,
-    /// How the last successful factorisation was reached.
+    /// How the last factorisation was reached (the plain LU's factors are the ones to solve
+    /// with when it is [`FactorRoute::PlainLu`]).
     route: FactorRoute,
     factored: bool,
 }
@@ -347,7 +346,6 @@ impl BlockSchurLu {
             s_lu,
             scratch: vec![0.0; scratch_len],
             full: None,
-            using_full: false,
             route: FactorRoute::Direct,
             factored: false,
         })
@@ -361,11 +359,11 @@ impl BlockSchurLu {
     /// Whether the last factorisation fell back to the plain LU (a block singular even
     /// equilibrated).
     pub fn used_plain_lu(&self) -> bool {
-        self.using_full
+        self.route == FactorRoute::PlainLu
     }
 
-    /// How the last successful factorisation was reached ([`FactorRoute::Direct`] before
-    /// any).
+    /// How the last factorisation was reached ([`FactorRoute::Direct`] before any and after
+    /// a failed one).
     pub fn route(&self) -> FactorRoute {
         self.route
     }
@@ -373,7 +371,7 @@ impl BlockSchurLu {
     /// Factorises the matrix with `values` on the pattern given to [`new`](Self::new).
     pub fn factor(&mut self, values: &[f64]) -> Result<(), LinearSolveError> {
         self.factored = false;
-        self.using_full = false;
+        self.route = FactorRoute::Direct;
         if values.len() != self.pattern.nnz() {
             return super::lu::check_values(&self.pattern, values);
         }
@@ -384,9 +382,7 @@ impl BlockSchurLu {
         } else if self.eliminate(values, true)? {
             FactorRoute::Equilibrated
         } else {
-            self.factor_plain(values)?;
-            self.route = FactorRoute::PlainLu;
-            return Ok(());
+            return self.factor_plain(values);
         };
         match self.s_lu.factor(&self.numbers[..self.s_nnz]) {
             Ok(()) => {
@@ -465,7 +461,7 @@ impl BlockSchurLu {
         }
         let full = self.full.as_mut().expect("built above");
         full.factor(values)?;
-        self.using_full = true;
+        self.route = FactorRoute::PlainLu;
         self.factored = true;
         Ok(())
     }
@@ -481,7 +477,7 @@ impl BlockSchurLu {
                 got: b.len(),
             });
         }
-        if self.using_full {
+        if self.route == FactorRoute::PlainLu {
             return self.full.as_mut().expect("factored").solve_in_place(b);
         }
         for (k, &i) in self.kept.iter().enumerate() {

@@ -783,10 +783,9 @@ fn run_suite_dyn(
                 let slot = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(&(i, _)) = chosen.get(slot) else { break };
                 let start = std::time::Instant::now();
-                let stages = tx.clone();
                 let mut report = |s: &str, f: f64| {
                     // The receiver outlives the workers; a failed send only loses a stage.
-                    let _ = stages.send(Message::Stage(slot, s.to_string(), f));
+                    let _ = tx.send(Message::Stage(slot, s.to_string(), f));
                 };
                 let mut out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(i, &mut report)));
                 if let Ok(Ok((r, _))) = &mut out {
