@@ -10,7 +10,8 @@
 //! platform centre): the truth's effect against the reduced model's (its play coordinates
 //! and extra wind-up through the nominal model's output sensitivities; with the play less
 //! without in parentheses) and the quasi-static shift at load scales of 1, 5 and 20 N.
-//! Prints the RMS per channel and time window in noise units and writes plots; then, against
+//! Prints the RMS per channel and time window in noise units and writes plots and
+//! `drives.csv` (every sample's torque effect, truth and model, N·m); then, against
 //! a third truth with no bearing in the joint (the ideal joint the diagnosis's nominal model
 //! has), the balls' own compliance at zero clearance (tight − ideal) and what the reduced
 //! model's run without play leaves of it — the joint's contact-compliance candidate under
@@ -282,6 +283,25 @@ fn main() -> Result<(), Box<dyn Error>> {
         h * 1e6,
         h_a * 1e6
     );
+    // Every sample's effect and the model's, for a closer look than the RMS (N·m).
+    {
+        let mut csv = String::from("t_s,truth_a_nm,truth_b_nm,truth_c_nm,model_a_nm,model_b_nm,model_c_nm\n");
+        for i in 0..n {
+            let r = reduced[i].as_ref();
+            csv.push_str(&format!("{}", t[i]));
+            for k in 0..3 {
+                csv.push_str(&format!(",{:e}", loose.tau[k][i] - tight.tau[k][i]));
+            }
+            for k in 0..3 {
+                csv.push_str(&format!(
+                    ",{}",
+                    r.map_or(String::new(), |r| format!("{:e}", r[k]))
+                ));
+            }
+            csv.push('\n');
+        }
+        std::fs::write(out.join("drives.csv"), csv)?;
+    }
     for (k, drive) in ["A", "B", "C"].iter().enumerate() {
         let effect = |i: usize| loose.tau[k][i] - tight.tau[k][i];
         let model_at = |i: usize| reduced[i].as_ref().map(|r| r[k]);

@@ -38,8 +38,8 @@ fn pair_derivatives<const N: usize>(
     ss: &DState<N>,
     x: &V3<N>,
     f: &V3<N>,
-) -> Vec<LoadDerivative> {
-    let mut out = vec![];
+    out: &mut Vec<LoadDerivative>,
+) {
     let per_body = DState::<N>::PER_BODY;
     for (side, st, sign) in [(ball, bs, 1.0), (socket, ss, -1.0)] {
         let Attach::Body(h) = side else { continue };
@@ -58,7 +58,6 @@ fn pair_derivatives<const N: usize>(
             out.push(LoadDerivative { loaded: h, wrt: w, d });
         }
     }
-    out
 }
 
 /// The two sides' states carrying derivatives (ball: variables 0..13, socket: 13..26; at
@@ -182,8 +181,8 @@ fn pair_blocks(
     jx: &J14,
     f: &Vector3<f64>,
     jf: &J14,
-) -> Vec<LoadDerivative> {
-    let mut out = Vec::with_capacity(4);
+    out: &mut Vec<LoadDerivative>,
+) {
     for (k, (attach, side)) in sides.iter().enumerate() {
         let Attach::Body(h) = *attach else { continue };
         let sign = if k == 0 { 1.0 } else { -1.0 };
@@ -205,7 +204,6 @@ fn pair_blocks(
             out.push(LoadDerivative { loaded: h, wrt: w, d });
         }
     }
-    out
 }
 
 /// A contact between a ball body and a socket body whose load derivatives come from dual
@@ -214,25 +212,32 @@ trait PairContact {
     /// Ball side, socket side, and whether the contact is frictionless (exact derivatives
     /// are given only then; with friction the formulation differences the loads).
     fn sides(&self) -> (Attach, Attach, bool);
-    /// The load derivatives with respect to N of the pair's state variables, and the
-    /// contact terms' rates (for the velocity columns, [`with_velocity_columns`]).
-    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Rates);
+    /// The load derivatives with respect to N of the pair's state variables, appended to
+    /// `out`, and the contact terms' rates (for the velocity columns,
+    /// [`with_velocity_columns`]).
+    fn derivatives<const N: usize>(&self, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> Rates;
 }
 
 /// [`ForceElement::load_jacobian`] of a pair contact: positions by dual numbers, velocities in
 /// closed form.
-fn full_jacobian<C: PairContact>(c: &C, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
+fn full_jacobian<C: PairContact>(c: &C, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> bool {
     let (ball, socket, frictionless) = c.sides();
     if !frictionless {
-        return None;
+        return false;
     }
-    let (blocks, rates) = c.derivatives::<POSITIONS>(states);
-    Some(with_velocity_columns(blocks, &rates, states, ball, socket))
+    let first = out.len();
+    let rates = c.derivatives::<POSITIONS>(states, out);
+    with_velocity_columns(&mut out[first..], &rates, states, ball, socket);
+    true
 }
 
 /// [`ForceElement::load_jacobian_at_rest`] of a pair contact: positions only.
-fn rest_jacobian<C: PairContact>(c: &C, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-    c.sides().2.then(|| c.derivatives::<POSITIONS>(states).0)
+fn rest_jacobian<C: PairContact>(c: &C, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> bool {
+    if !c.sides().2 {
+        return false;
+    }
+    c.derivatives::<POSITIONS>(states, out);
+    true
 }
 
 /// A normal contact term −u·F(δ, δ̇) whose rate δ̇ = u·v_rel is the relative velocity of
@@ -244,11 +249,19 @@ struct RateTerm {
     force_rate: f64,
 }
 
-/// The contact terms of one element and the point (base frame) where they all act.
-#[derive(Debug, Clone, Default)]
+/// The contact terms of one element (radial and axial at most, kept in fixed places so the
+/// Jacobian allocates nothing) and the point (base frame) where they all act.
+#[derive(Debug, Clone, Copy, Default)]
 struct Rates {
     point: Vector3<f64>,
-    terms: Vec<RateTerm>,
+    terms: [Option<RateTerm>; 2],
+}
+
+impl Rates {
+    /// The terms present.
+    fn terms(&self) -> impl Iterator<Item = &RateTerm> {
+        self.terms.iter().flatten()
+    }
 }
 
 /// `blocks` (derivatives with respect to positions: velocity columns zero) with their
@@ -257,12 +270,12 @@ struct Rates {
 /// the same with the socket's s', A and the opposite sign; each loaded body's torque is
 /// s'×(Aᵀ·∂f).
 fn with_velocity_columns(
-    mut blocks: Vec<LoadDerivative>,
+    blocks: &mut [LoadDerivative],
     rates: &Rates,
     states: &[BodyState],
     ball: Attach,
     socket: Attach,
-) -> Vec<LoadDerivative> {
+) {
     let side_sign = |a: Attach| -> Option<f64> {
         if a == ball {
             Some(1.0)
@@ -272,7 +285,7 @@ fn with_velocity_columns(
             None
         }
     };
-    for blk in &mut blocks {
+    for blk in blocks {
         let (Some(sign_loaded), Some(sign_wrt)) = (
             side_sign(Attach::Body(blk.loaded)),
             side_sign(Attach::Body(blk.wrt)),
@@ -283,7 +296,7 @@ fn with_velocity_columns(
         // ∂(force on the ball side)/∂(v, ω') of the wrt body, 3 × 6.
         let mut df = nalgebra::SMatrix::<f64, 3, 6>::zeros();
         let s_w = sw.a.transpose() * (rates.point - sw.r);
-        for t in &rates.terms {
+        for t in rates.terms() {
             let u = t.direction;
             let w_row = s_w.cross(&(sw.a.transpose() * u));
             for r in 0..3 {
@@ -303,7 +316,6 @@ fn with_velocity_columns(
             }
         }
     }
-    blocks
 }
 
 /// Relative velocity of the ball-side material point at `x` with respect to the socket-side
@@ -445,24 +457,28 @@ impl ForceElement for ClearanceBearing {
         }
     }
 
-    fn load_jacobian(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
+    fn load_jacobian(&self, _t: f64, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> bool {
         if self.friction.is_some() {
-            return None;
+            return false;
         }
-        let (blocks, rates) = self.position_derivatives(states);
-        Some(with_velocity_columns(
-            blocks,
+        let first = out.len();
+        let rates = self.position_derivatives(states, out);
+        with_velocity_columns(
+            &mut out[first..],
             &rates,
             states,
             self.ball_body,
             self.socket_body,
-        ))
+        );
+        true
     }
 
-    fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        self.friction
-            .is_none()
-            .then(|| self.position_derivatives(states).0)
+    fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> bool {
+        if self.friction.is_some() {
+            return false;
+        }
+        self.position_derivatives(states, out);
+        true
     }
 }
 
@@ -471,7 +487,8 @@ impl ClearanceBearing {
     /// rates, in closed form (the same function as [`PairContact::derivatives`] with
     /// [`POSITIONS`] dual numbers, which a test compares it with; on the MR2120 L1 run the
     /// whole model's Jacobian takes 42 µs with it against 48 µs with the dual numbers).
-    fn position_derivatives(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Rates) {
+    /// The blocks are appended to `out`.
+    fn position_derivatives(&self, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> Rates {
         // Ball centre c, socket axis a, and d = c − socket centre (`geometry`); the
         // Jacobians only when a contact is closed (an open bearing has no load).
         let g = self.geometry(states);
@@ -483,7 +500,7 @@ impl ClearanceBearing {
         let delta_a = axial - self.axial_stop;
         let radial_on = delta_r > 0.0 && rho > 0.0;
         if !radial_on && delta_a <= 0.0 {
-            return (vec![], Rates::default());
+            return Rates::default();
         }
         let eye = Matrix3::identity();
         let mut jc = J14::zeros();
@@ -503,7 +520,7 @@ impl ClearanceBearing {
         let (v_rel, jv) = (vb - vs, jvb - jvs);
         let mut f = Vector3::zeros();
         let mut jf = J14::zeros();
-        let mut terms = vec![];
+        let mut terms = [None; 2];
         if radial_on {
             let n = radial / rho;
             let jrho = n.transpose() * jradial;
@@ -513,7 +530,7 @@ impl ClearanceBearing {
             let (fr, jfr, term) = normal_term(&self.radial_law, (delta_r, jrho), (rate, jrate), (&n, &jn));
             f += fr;
             jf += jfr;
-            terms.push(term);
+            terms[0] = Some(term);
         }
         if delta_a > 0.0 {
             let rate = v_rel.dot(&a);
@@ -521,13 +538,20 @@ impl ClearanceBearing {
             let (fa, jfa, term) = normal_term(&self.axial_law, (delta_a, jaxial), (rate, jrate), (&a, &ja));
             f += fa;
             jf += jfa;
-            terms.push(term);
+            terms[1] = Some(term);
         }
         if f == Vector3::zeros() && jf.iter().all(|v| *v == 0.0) {
-            return (vec![], Rates::default());
+            return Rates::default();
         }
-        let blocks = pair_blocks([(self.ball_body, &b), (self.socket_body, &s)], &c, &jc, &f, &jf);
-        (blocks, Rates { point: c, terms })
+        pair_blocks(
+            [(self.ball_body, &b), (self.socket_body, &s)],
+            &c,
+            &jc,
+            &f,
+            &jf,
+            out,
+        );
+        Rates { point: c, terms }
     }
 }
 
@@ -537,7 +561,7 @@ impl PairContact for ClearanceBearing {
     fn sides(&self) -> (Attach, Attach, bool) {
         (self.ball_body, self.socket_body, self.friction.is_none())
     }
-    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Rates) {
+    fn derivatives<const N: usize>(&self, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> Rates {
         let (b, s) = dual_states::<N>(states, self.ball_body, self.socket_body);
         let c = ad::add(&b.r, &b.rot_c(&self.ball_centre));
         let a = s.rot_c(&self.socket_axis);
@@ -547,31 +571,28 @@ impl PairContact for ClearanceBearing {
         let rho = ad::dot(&radial, &radial).sqrt();
         let v_rel = ad::sub(&point_velocity(&b, &c), &point_velocity(&s, &c));
         let mut f: V3<N> = [D::c(0.0); 3];
-        let mut rates = vec![];
+        let mut rates = [None; 2];
         let delta_r = rho - D::c(self.radial_clearance);
         if delta_r.v > 0.0 && rho.v > 0.0 {
             let n = ad::scale(&radial, rho.recip());
             let (fr, term) = normal_force(&self.radial_law, delta_r, ad::dot(&v_rel, &n), &n);
             f = ad::add(&f, &fr);
-            rates.push(term);
+            rates[0] = Some(term);
         }
         let delta_a = axial - D::c(self.axial_stop);
         if delta_a.v > 0.0 {
             let (fa, term) = normal_force(&self.axial_law, delta_a, ad::dot(&v_rel, &a), &a);
             f = ad::add(&f, &fa);
-            rates.push(term);
+            rates[1] = Some(term);
         }
         if f.iter().all(|x| x.v == 0.0 && x.g.iter().all(|g| *g == 0.0)) {
-            return (vec![], Rates::default());
+            return Rates::default();
         }
-        let rates = Rates {
+        pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f, out);
+        Rates {
             point: Vector3::new(c[0].v, c[1].v, c[2].v),
             terms: rates,
-        };
-        (
-            pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f),
-            rates,
-        )
+        }
     }
 }
 
@@ -621,12 +642,12 @@ impl ForceElement for BallInSocket {
         }
     }
 
-    fn load_jacobian(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        full_jacobian(self, states)
+    fn load_jacobian(&self, _t: f64, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> bool {
+        full_jacobian(self, states, out)
     }
 
-    fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        rest_jacobian(self, states)
+    fn load_jacobian_at_rest(&self, _t: f64, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> bool {
+        rest_jacobian(self, states, out)
     }
 }
 
@@ -634,26 +655,23 @@ impl PairContact for BallInSocket {
     fn sides(&self) -> (Attach, Attach, bool) {
         (self.ball_body, self.socket_body, self.friction.is_none())
     }
-    fn derivatives<const N: usize>(&self, states: &[BodyState]) -> (Vec<LoadDerivative>, Rates) {
+    fn derivatives<const N: usize>(&self, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> Rates {
         let (b, s) = dual_states::<N>(states, self.ball_body, self.socket_body);
         let c = ad::add(&b.r, &b.rot_c(&self.ball_centre));
         let d = ad::sub(&c, &ad::add(&s.r, &s.rot_c(&self.socket_centre)));
         let r = ad::dot(&d, &d).sqrt();
         let delta = r - D::c(self.clearance);
         if !(delta.v > 0.0 && r.v > 0.0) {
-            return (vec![], Rates::default());
+            return Rates::default();
         }
         let n = ad::scale(&d, r.recip());
         let v_rel = ad::sub(&point_velocity(&b, &c), &point_velocity(&s, &c));
         let (f, term) = normal_force(&self.law, delta, ad::dot(&v_rel, &n), &n);
-        let rates = Rates {
+        pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f, out);
+        Rates {
             point: Vector3::new(c[0].v, c[1].v, c[2].v),
-            terms: vec![term],
-        };
-        (
-            pair_derivatives(self.ball_body, self.socket_body, &b, &s, &c, &f),
-            rates,
-        )
+            terms: [Some(term), None],
+        }
     }
 }
 
@@ -719,13 +737,14 @@ mod tests {
             (make(socket, 1.0, 1e-5), "axial"),
             (make(Attach::Ground, 1e-5, 1e-5), "socket on the ground"),
         ] {
-            let (closed, rc) = bearing.position_derivatives(&states);
-            let (dual, rd) = bearing.derivatives::<POSITIONS>(&states);
+            let (mut closed, mut dual) = (vec![], vec![]);
+            let rc = bearing.position_derivatives(&states, &mut closed);
+            let rd = bearing.derivatives::<POSITIONS>(&states, &mut dual);
             assert!(!closed.is_empty(), "{what}: in contact");
             assert_eq!(closed.len(), dual.len(), "{what}");
             assert!((rc.point - rd.point).norm() < 1e-15, "{what}");
-            assert_eq!(rc.terms.len(), rd.terms.len(), "{what}");
-            for (a, b) in rc.terms.iter().zip(&rd.terms) {
+            assert_eq!(rc.terms().count(), rd.terms().count(), "{what}");
+            for (a, b) in rc.terms().zip(rd.terms()) {
                 assert!((a.direction - b.direction).norm() < 1e-12, "{what}");
                 assert!(
                     (a.force_rate - b.force_rate).abs() <= 1e-12 * b.force_rate.abs(),
@@ -745,7 +764,9 @@ mod tests {
         }
         // Out of contact: no blocks.
         let apart = make(socket, 1.0, 1.0);
-        assert!(apart.position_derivatives(&states).0.is_empty());
+        let mut none = vec![];
+        apart.position_derivatives(&states, &mut none);
+        assert!(none.is_empty());
     }
 
     /// The derivatives at rest are the position columns of the full ones (radial and axial
@@ -786,8 +807,9 @@ mod tests {
         ];
         let (pen_r, pen_a) = bearing.penetrations(&states);
         assert!(pen_r > 0.0 && pen_a > 0.0, "{pen_r} {pen_a}");
-        let full = bearing.load_jacobian(0.0, &states).unwrap();
-        let rest = bearing.load_jacobian_at_rest(0.0, &states).unwrap();
+        let (mut full, mut rest) = (vec![], vec![]);
+        assert!(bearing.load_jacobian(0.0, &states, &mut full));
+        assert!(bearing.load_jacobian_at_rest(0.0, &states, &mut rest));
         assert_eq!(full.len(), 4);
         assert_eq!(full.len(), rest.len());
         for (f, r) in full.iter().zip(&rest) {

@@ -72,18 +72,21 @@ pub trait ForceElement: std::any::Any + Debug + Send + Sync {
     /// Adds this element's loads at time `t` (s). `states[b]` and `loads[b]` are indexed by
     /// body index.
     fn apply(&self, t: f64, states: &[BodyState], loads: &mut [BodyLoad]);
-    /// Exact derivatives of this element's loads at time `t`, if it provides them; `None`
-    /// (the default) lets the formulation difference [`apply`](Self::apply) instead.
-    fn load_jacobian(&self, _t: f64, _states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        None
+    /// Exact derivatives of this element's loads at time `t`, if it provides them: appends
+    /// its blocks to `out` (a buffer the formulation empties and reuses, so that the step
+    /// loop allocates nothing) and returns `true`. `false` (the default; `out` left as it
+    /// is) lets the formulation difference [`apply`](Self::apply) instead. An element whose
+    /// loads vanish (a contact that is open) returns `true` with no blocks.
+    fn load_jacobian(&self, _t: f64, _states: &[BodyState], _out: &mut Vec<LoadDerivative>) -> bool {
+        false
     }
 
     /// [`load_jacobian`](Self::load_jacobian) for a system at rest (static equilibria): only
     /// the derivatives with respect to positions (the first 7 columns of each block) are
     /// read; an element may leave the velocity columns zero and skip their work. Default:
     /// `load_jacobian`.
-    fn load_jacobian_at_rest(&self, t: f64, states: &[BodyState]) -> Option<Vec<LoadDerivative>> {
-        self.load_jacobian(t, states)
+    fn load_jacobian_at_rest(&self, t: f64, states: &[BodyState], out: &mut Vec<LoadDerivative>) -> bool {
+        self.load_jacobian(t, states, out)
     }
 }
 

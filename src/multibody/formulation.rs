@@ -89,6 +89,17 @@ pub struct MultibodyDae {
     slots: Option<SlotIndex>,
     /// Where each force element's load-derivative blocks go in the values ([`LoadSlots`]).
     load_slots: LoadSlots,
+    /// Each force element's bodies ([`ForceElement::bodies`](super::ForceElement::bodies)),
+    /// asked once: the Jacobian reads them on every evaluation.
+    force_bodies: Vec<Vec<super::BodyHandle>>,
+    /// The buffer the force elements' load-derivative blocks are written into, reused so the
+    /// Jacobian allocates nothing.
+    load_blocks: Vec<super::forces::LoadDerivative>,
+    /// The buffer of a constraint block's Hessians, reused likewise.
+    hessians: Vec<Hess14>,
+    /// The states and the two load buffers of the force elements' central differences
+    /// (made at the first element without exact derivatives, reused likewise).
+    fd_scratch: Option<FdScratch>,
     /// Tunables.
     pub options: FormulationOptions,
     /// Jacobians at rest only (static equilibria): the Jacobian fills just the momentum
@@ -118,6 +129,9 @@ impl LoadSlots {
         self.tables.get(k)
     }
 }
+
+/// Scratch states and the loads at +h and −h of the force elements' central differences.
+type FdScratch = (Vec<BodyState>, Vec<BodyLoad>, Vec<BodyLoad>);
 
 /// ∂(L(p)·d)/∂p for a fixed 4-vector d: [d_v | −d_0·I + d̃_v] (3 × 4).
 fn l_times_d_derivative(d: &Vector4<f64>) -> Matrix3x4<f64> {
@@ -159,9 +173,14 @@ impl MultibodyDae {
             pattern: None,
             slots: None,
             load_slots: LoadSlots::default(),
+            force_bodies: Vec::new(),
+            load_blocks: Vec::new(),
+            hessians: Vec::new(),
+            fd_scratch: None,
             options,
             at_rest: false,
         };
+        s.force_bodies = s.model.forces().map(|(_, f)| f.bodies()).collect();
         s.pattern = Some(s.build_pattern());
         s.slots = s.pattern.as_ref().map(SlotIndex::new);
         s.load_slots = s.load_block_slots();
@@ -490,6 +509,10 @@ impl MultibodyDae {
         self.ev.set_state(&y[..7 * nb], &y[7 * nb..13 * nb]);
         self.ev.eval_constraints(t);
         values.iter_mut().for_each(|v| *v = 0.0);
+        // The force elements' blocks and the constraints' Hessians go into reused buffers
+        // (put back at the end).
+        let mut blocks = std::mem::take(&mut self.load_blocks);
+        let mut hs = std::mem::take(&mut self.hessians);
         let Some(slots) = self.slots.as_ref() else {
             return Err(EvalError::Fatal("the Jacobian pattern was not built".into()));
         };
@@ -540,7 +563,6 @@ impl MultibodyDae {
         // Per constraint block: gradients, Hessians.
         let ground = Pose::ground();
         let mut k0 = 0;
-        let mut hs: Vec<Hess14> = Vec::new();
         for blk in &self.ev.blocks {
             let n = blk.prim.len();
             let (si, sj) = (Evaluator::side(blk.i), Evaluator::side(blk.j));
@@ -673,19 +695,22 @@ impl MultibodyDae {
         }
         // Force elements: their exact load Jacobians, else central differences of their
         // loads over their bodies' states (one scratch copy of the states and two load
-        // buffers, made on first use and reused throughout).
+        // buffers, made on first use and kept between evaluations).
         let model = self.model.clone();
-        let mut scratch: Option<(Vec<BodyState>, Vec<BodyLoad>, Vec<BodyLoad>)> = None;
-        for (_, f) in model.forces() {
+        let mut scratch = self.fd_scratch.take();
+        // The scratch states are this evaluation's (copied at the first element differenced).
+        let mut scratch_current = false;
+        for (e, (_, f)) in model.forces().enumerate() {
+            blocks.clear();
             let exact = if rest {
-                f.load_jacobian_at_rest(t, &self.ev.states)
+                f.load_jacobian_at_rest(t, &self.ev.states, &mut blocks)
             } else {
-                f.load_jacobian(t, &self.ev.states)
+                f.load_jacobian(t, &self.ev.states, &mut blocks)
             };
             // Columns differentiated: positions and velocities, or positions only at rest.
             let columns = if rest { 7 } else { 13 };
-            if let Some(blocks) = exact {
-                let declared = f.bodies();
+            let declared = &self.force_bodies[e];
+            if exact {
                 for blk in &blocks {
                     if let Some(h) = [blk.loaded, blk.wrt].into_iter().find(|h| !declared.contains(h)) {
                         let body = model
@@ -718,7 +743,7 @@ impl MultibodyDae {
                 }
                 continue;
             }
-            let bodies = f.bodies();
+            let bodies = declared;
             let (states, loads_p, loads_m) = scratch.get_or_insert_with(|| {
                 (
                     self.ev.states.clone(),
@@ -726,7 +751,11 @@ impl MultibodyDae {
                     vec![BodyLoad::default(); nb],
                 )
             });
-            for &bc in &bodies {
+            if !scratch_current {
+                states.copy_from_slice(&self.ev.states);
+                scratch_current = true;
+            }
+            for &bc in bodies {
                 let saved = states[bc.0];
                 for c in 0..columns {
                     // Increments far below contact penetrations (~1e-8..1e-6 m): a larger one
@@ -739,7 +768,7 @@ impl MultibodyDae {
                                 y[lay.w(bc.0) + c - 7].abs()
                             });
                     for (sign, loads) in [(1.0, &mut *loads_p), (-1.0, &mut *loads_m)] {
-                        for &b in &bodies {
+                        for &b in bodies {
                             loads[b.0] = BodyLoad::default();
                         }
                         let st = &mut states[bc.0];
@@ -761,7 +790,7 @@ impl MultibodyDae {
                     } else {
                         lay.w(bc.0) + c - 7
                     };
-                    for &br in &bodies {
+                    for &br in bodies {
                         let df = (loads_p[br.0].force - loads_m[br.0].force) / (2.0 * h);
                         let dn = (loads_p[br.0].torque - loads_m[br.0].torque) / (2.0 * h);
                         for r in 0..3 {
@@ -772,7 +801,11 @@ impl MultibodyDae {
                 }
             }
         }
-        match sc.outside {
+        let outside = sc.outside;
+        self.load_blocks = blocks;
+        self.hessians = hs;
+        self.fd_scratch = scratch;
+        match outside {
             Some((r, c)) => Err(EvalError::Fatal(format!(
                 "Jacobian entry ({}, {}) outside the declared pattern",
                 self.name_of(r),

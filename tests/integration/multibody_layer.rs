@@ -328,12 +328,14 @@ impl lash::multibody::ForceElement for UndeclaredCoupling {
         &self,
         _t: f64,
         _states: &[lash::multibody::BodyState],
-    ) -> Option<Vec<lash::multibody::LoadDerivative>> {
-        Some(vec![lash::multibody::LoadDerivative {
+        out: &mut Vec<lash::multibody::LoadDerivative>,
+    ) -> bool {
+        out.push(lash::multibody::LoadDerivative {
             loaded: self.declared,
             wrt: self.other,
             d: nalgebra::SMatrix::<f64, 6, 13>::from_element(1.0),
-        }])
+        });
+        true
     }
 }
 
