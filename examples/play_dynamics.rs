@@ -11,7 +11,8 @@
 //! and extra wind-up through the nominal model's output sensitivities; with the play less
 //! without in parentheses) and the quasi-static shift at load scales of 1, 5 and 20 N.
 //! Prints the RMS per channel and time window in noise units and writes plots and
-//! `drives.csv` (every sample's torque effect, truth and model, N·m); then, against
+//! `drives.csv` (every sample's torque effect, truth and model, N·m, and the joint's play
+//! coordinates with clearance, truth and model, m and rad); then, against
 //! a third truth with no bearing in the joint (the ideal joint the diagnosis's nominal model
 //! has), the balls' own compliance at zero clearance (tight − ideal) and what the reduced
 //! model's run without play leaves of it — the joint's contact-compliance candidate under
@@ -283,9 +284,14 @@ fn main() -> Result<(), Box<dyn Error>> {
         h * 1e6,
         h_a * 1e6
     );
-    // Every sample's effect and the model's, for a closer look than the RMS (N·m).
+    // Every sample's effect and the model's, and the joint's play coordinates, for a closer
+    // look than the RMS.
     {
-        let mut csv = String::from("t_s,truth_a_nm,truth_b_nm,truth_c_nm,model_a_nm,model_b_nm,model_c_nm\n");
+        let mut csv = String::from(
+            "t_s,truth_a_nm,truth_b_nm,truth_c_nm,model_a_nm,model_b_nm,model_c_nm,\
+             truth_shift_x_m,truth_shift_y_m,truth_shift_z_m,truth_tilt_rad,\
+             model_shift_x_m,model_shift_y_m,model_shift_z_m,model_tilt_rad\n",
+        );
         for i in 0..n {
             let r = reduced[i].as_ref();
             csv.push_str(&format!("{}", t[i]));
@@ -297,6 +303,13 @@ fn main() -> Result<(), Box<dyn Error>> {
                     ",{}",
                     r.map_or(String::new(), |r| format!("{:e}", r[k]))
                 ));
+            }
+            for e in loose.joint_play[joint][i] {
+                csv.push_str(&format!(",{e:e}"));
+            }
+            for a in 0..4 {
+                let e = loose_model[i].as_ref().map(|m| m.offset[a]);
+                csv.push_str(&format!(",{}", e.map_or(String::new(), |e| format!("{e:e}"))));
             }
             csv.push('\n');
         }

@@ -63,7 +63,8 @@ impl BodyLoad {
 /// A force element: computes loads on the bodies it acts on from their states.
 ///
 /// `bodies` lists every body whose state the element reads or loads: it declares the
-/// coupling for the sparse Jacobian pattern.
+/// coupling for the sparse Jacobian pattern. It is read once, when the equations of motion
+/// are built ([`MultibodyDae`](super::MultibodyDae)), and must not change afterwards.
 pub trait ForceElement: std::any::Any + Debug + Send + Sync {
     /// Name, used in reports.
     fn name(&self) -> &str;
@@ -72,11 +73,14 @@ pub trait ForceElement: std::any::Any + Debug + Send + Sync {
     /// Adds this element's loads at time `t` (s). `states[b]` and `loads[b]` are indexed by
     /// body index.
     fn apply(&self, t: f64, states: &[BodyState], loads: &mut [BodyLoad]);
-    /// Exact derivatives of this element's loads at time `t`, if it provides them: appends
-    /// its blocks to `out` (a buffer the formulation empties and reuses, so that the step
-    /// loop allocates nothing) and returns `true`. `false` (the default; `out` left as it
-    /// is) lets the formulation difference [`apply`](Self::apply) instead. An element whose
-    /// loads vanish (a contact that is open) returns `true` with no blocks.
+    /// Exact derivatives of this element's loads at time `t`, if it provides them: **appends**
+    /// its blocks to `out` and returns `true`; an element whose loads vanish (a contact that
+    /// is open) returns `true` and appends nothing. Returning `false` (the default) lets the
+    /// formulation difference [`apply`](Self::apply) instead; the element then appends
+    /// nothing. An implementation only pushes: it neither clears `out` nor reads or changes
+    /// what is already there (the formulation reuses one buffer for every element, so that
+    /// the step loop allocates nothing). Every block's `loaded` and `wrt` must be among
+    /// [`bodies`](Self::bodies).
     fn load_jacobian(&self, _t: f64, _states: &[BodyState], _out: &mut Vec<LoadDerivative>) -> bool {
         false
     }

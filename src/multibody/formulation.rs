@@ -369,10 +369,9 @@ impl MultibodyDae {
                 link(b, a, Coupling::Positions);
             }
         }
-        for (_, f) in self.model.forces() {
-            let bs = f.bodies();
-            for a in &bs {
-                for b in &bs {
+        for bs in &self.force_bodies {
+            for a in bs {
+                for b in bs {
                     link(a.0, b.0, Coupling::Full);
                 }
             }
@@ -442,10 +441,9 @@ impl MultibodyDae {
         let Some(slots) = self.slots.as_ref() else {
             return out;
         };
-        for (_, f) in self.model.forces() {
-            let bs = f.bodies();
-            for br in &bs {
-                for bc in &bs {
+        for bs in &self.force_bodies {
+            for br in bs {
+                for bc in bs {
                     if out.get(br.0, bc.0).is_some() {
                         continue;
                     }
@@ -510,7 +508,7 @@ impl MultibodyDae {
         self.ev.eval_constraints(t);
         values.iter_mut().for_each(|v| *v = 0.0);
         // The force elements' blocks and the constraints' Hessians go into reused buffers
-        // (put back at the end).
+        // (put back at the end; an evaluation that fails drops them, the next makes them anew).
         let mut blocks = std::mem::take(&mut self.load_blocks);
         let mut hs = std::mem::take(&mut self.hessians);
         let Some(slots) = self.slots.as_ref() else {
@@ -700,7 +698,7 @@ impl MultibodyDae {
         let mut scratch = self.fd_scratch.take();
         // The scratch states are this evaluation's (copied at the first element differenced).
         let mut scratch_current = false;
-        for (e, (_, f)) in model.forces().enumerate() {
+        for ((_, f), declared) in model.forces().zip(&self.force_bodies) {
             blocks.clear();
             let exact = if rest {
                 f.load_jacobian_at_rest(t, &self.ev.states, &mut blocks)
@@ -709,7 +707,6 @@ impl MultibodyDae {
             };
             // Columns differentiated: positions and velocities, or positions only at rest.
             let columns = if rest { 7 } else { 13 };
-            let declared = &self.force_bodies[e];
             if exact {
                 for blk in &blocks {
                     if let Some(h) = [blk.loaded, blk.wrt].into_iter().find(|h| !declared.contains(h)) {
@@ -743,7 +740,6 @@ impl MultibodyDae {
                 }
                 continue;
             }
-            let bodies = declared;
             let (states, loads_p, loads_m) = scratch.get_or_insert_with(|| {
                 (
                     self.ev.states.clone(),
@@ -755,7 +751,7 @@ impl MultibodyDae {
                 states.copy_from_slice(&self.ev.states);
                 scratch_current = true;
             }
-            for &bc in bodies {
+            for &bc in declared {
                 let saved = states[bc.0];
                 for c in 0..columns {
                     // Increments far below contact penetrations (~1e-8..1e-6 m): a larger one
@@ -768,7 +764,7 @@ impl MultibodyDae {
                                 y[lay.w(bc.0) + c - 7].abs()
                             });
                     for (sign, loads) in [(1.0, &mut *loads_p), (-1.0, &mut *loads_m)] {
-                        for &b in bodies {
+                        for &b in declared {
                             loads[b.0] = BodyLoad::default();
                         }
                         let st = &mut states[bc.0];
@@ -790,7 +786,7 @@ impl MultibodyDae {
                     } else {
                         lay.w(bc.0) + c - 7
                     };
-                    for &br in bodies {
+                    for &br in declared {
                         let df = (loads_p[br.0].force - loads_m[br.0].force) / (2.0 * h);
                         let dn = (loads_p[br.0].torque - loads_m[br.0].torque) / (2.0 * h);
                         for r in 0..3 {
