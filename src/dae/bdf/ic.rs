@@ -78,7 +78,7 @@ impl<P: DaeSystem> BdfSolver<P> {
         self.update_newton_weights();
         let norm = Self::wrms(&d, &self.ewt_newton);
         if norm > 1.0 {
-            let culprits = self.culprits(&d, &self.ewt_newton.clone(), 3);
+            let culprits = self.culprits(&d, &self.ewt_newton, 3);
             return Err(DaeError::InconsistentInitialValues {
                 t: t0,
                 norm,

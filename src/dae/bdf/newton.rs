@@ -260,7 +260,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             }
             let delnrm = Self::wrms(&self.delta, &self.ewt_newton);
             if !delnrm.is_finite() {
-                let c = self.culprits(&self.delta.clone(), &self.ewt_newton.clone(), 3);
+                let c = self.culprits(&self.delta, &self.ewt_newton, 3);
                 return Err(NlsFailure::Recoverable(NlsCause::Convergence(c)));
             }
             let mut rate = 0.0;
@@ -295,7 +295,7 @@ impl<P: DaeSystem> BdfSolver<P> {
                     continue;
                 }
                 if rate > self.opts.newton_max_rate {
-                    let c = self.culprits(&self.delta.clone(), &self.ewt_newton.clone(), 3);
+                    let c = self.culprits(&self.delta, &self.ewt_newton, 3);
                     return Err(NlsFailure::Recoverable(NlsCause::Convergence(c)));
                 }
                 // An accelerated iterate's error is bounded through the plain map's
@@ -324,7 +324,7 @@ impl<P: DaeSystem> BdfSolver<P> {
             since += 1;
             self.eval_residual()?;
         }
-        let c = self.culprits(&self.delta.clone(), &self.ewt_newton.clone(), 3);
+        let c = self.culprits(&self.delta, &self.ewt_newton, 3);
         Err(NlsFailure::Recoverable(NlsCause::Convergence(c)))
     }
 }

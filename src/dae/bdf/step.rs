@@ -66,7 +66,7 @@ impl<P: DaeSystem> BdfSolver<P> {
                         StepFailure::ErrorTest(est) => {
                             nef += 1;
                             self.stats.error_test_failures += 1;
-                            culprits = self.culprits(&self.ee_est.clone(), &self.ewt_test.clone(), 3);
+                            culprits = self.culprits(&self.ee_est, &self.ewt_test, 3);
                             if nef >= self.opts.max_error_test_fails {
                                 return Err(DaeError::ErrorTestFailures {
                                     t: saved_t,
