@@ -292,24 +292,21 @@ fn main() -> Result<(), Box<dyn Error>> {
              truth_shift_x_m,truth_shift_y_m,truth_shift_z_m,truth_tilt_rad,\
              model_shift_x_m,model_shift_y_m,model_shift_z_m,model_tilt_rad\n",
         );
+        // A field, empty where the model gave no response.
+        let field = |v: Option<f64>| v.map_or(String::from(","), |v| format!(",{v:e}"));
         for i in 0..n {
-            let r = reduced[i].as_ref();
             csv.push_str(&format!("{}", t[i]));
             for k in 0..3 {
-                csv.push_str(&format!(",{:e}", loose.tau[k][i] - tight.tau[k][i]));
+                csv.push_str(&field(Some(loose.tau[k][i] - tight.tau[k][i])));
             }
             for k in 0..3 {
-                csv.push_str(&format!(
-                    ",{}",
-                    r.map_or(String::new(), |r| format!("{:e}", r[k]))
-                ));
+                csv.push_str(&field(reduced[i].as_ref().map(|r| r[k])));
             }
             for e in loose.joint_play[joint][i] {
-                csv.push_str(&format!(",{e:e}"));
+                csv.push_str(&field(Some(e)));
             }
             for a in 0..4 {
-                let e = loose_model[i].as_ref().map(|m| m.offset[a]);
-                csv.push_str(&format!(",{}", e.map_or(String::new(), |e| format!("{e:e}"))));
+                csv.push_str(&field(loose_model[i].as_ref().map(|m| m.offset[a])));
             }
             csv.push('\n');
         }

@@ -694,7 +694,7 @@ impl MultibodyDae {
         // Force elements: their exact load Jacobians, else central differences of their
         // loads over their bodies' states (one scratch copy of the states and two load
         // buffers, made on first use and kept between evaluations).
-        let model = self.model.clone();
+        let model = &self.model;
         let mut scratch = self.fd_scratch.take();
         // The scratch states are this evaluation's (copied at the first element differenced).
         let mut scratch_current = false;
