@@ -45,6 +45,7 @@ fn joint(t: f64, design: &BearingDesign) -> PlayDynamics {
         z_j: Vector3::y(),
         play: UniversalPlay::from_design(design),
         cross_mass: 0.05,
+        cross_load: [0.0; 3],
         reaction: [40.0 * turn.cos(), 40.0 * turn.sin(), swing, 0.5 * swing * 1e-2],
         torque_by_offset: [
             vec![50.0, -20.0, 10.0],

@@ -202,6 +202,17 @@ struct Built {
     dynamic: Option<Windup>,
 }
 
+/// A play joint's loads at a sample's arm motion ([`MechanismModel::play_loads`]).
+struct PlayLoad {
+    /// The reaction on side j at the joint's origin, N (base frame).
+    force: Vector3<f64>,
+    /// Its moment, N·m (base frame).
+    moment: Vector3<f64>,
+    /// g − a_i: gravity less the acceleration of side i's point at the joint's origin, m/s²
+    /// (base frame) — per kilogram, what carries a mass that rides with side i there.
+    carried: Vector3<f64>,
+}
+
 /// A point off a sample for [`MechanismModel::offset_differences_about`]: offsets of the
 /// perturbed constraint rows (m, or rad) and each arm's extra lag behind its encoder (rad,
 /// or m).
@@ -837,37 +848,48 @@ impl MechanismModel {
         Some(out)
     }
 
-    /// The play joints' reactions (force in N, moment in N·m; on side j, base frame) at the arms'
+    /// The play joints' reactions (force in N, moment in N·m; on side j, base frame) and what
+    /// carries a mass riding with their side i ([`PlayLoad::carried`]) at the arms'
     /// motion of the cached sample: the inverse dynamics evaluated afresh at the arms'
     /// positions, rates and accelerations — the encoders' less the wind-up where the model
     /// integrates one. The cached multipliers will not do: the wind-up integration takes them
     /// at the encoders' accelerations (while the transmissions ring near a singular position
     /// the arms' differ by enough to move a joint's load by some 100 N), and perturbation
     /// passes leave theirs. The cache is put back afterwards.
-    fn play_loads(built: &mut Built, qd: &[f64], qdd: &[f64]) -> Option<Vec<(Vector3<f64>, Vector3<f64>)>> {
+    fn play_loads(built: &mut Built, qd: &[f64], qdd: &[f64]) -> Option<Vec<PlayLoad>> {
         let arm = Self::arm_motion(built, qd, qdd);
         Self::keeping_sample(built, &arm, |built| {
             Self::joint_torques(built, &arm[0], &arm[1], &arm[2])?;
+            let gravity = built.model.gravity();
             built
                 .play_joints
                 .iter()
                 .map(|&jh| {
                     let r = built.data.reaction(&built.model, jh)?;
-                    Some((Vector3::from(r.force), Vector3::from(r.torque)))
+                    let joint = built.model.joint(jh)?;
+                    let a = built
+                        .data
+                        .point_acceleration(joint.body_i, &joint.frame_i.origin)?;
+                    Some(PlayLoad {
+                        force: Vector3::from(r.force),
+                        moment: Vector3::from(r.torque),
+                        carried: gravity - a,
+                    })
                 })
                 .collect::<Option<Vec<_>>>()
         })?
     }
 
     /// Play site `site`'s [`PlayDynamics`] from the columns of [`Self::offset_differences`]
-    /// over `np` sites' rows, its own at `slot`: its axes (z_i, z_j, n), its reaction Λ.
+    /// over `np` sites' rows, its own at `slot`: its axes (z_i, z_j, n), its reaction Λ, what
+    /// carries its cross ([`PlayLoad::carried`]).
     fn coupling(
         &self,
         site: usize,
-        slot: usize,
-        np: usize,
+        (slot, np): (usize, usize),
         (z_i, z_j, n): &(Vector3<f64>, Vector3<f64>, Vector3<f64>),
         lam: [f64; 4],
+        carried: &Vector3<f64>,
         d: &[Vec<f64>],
     ) -> PlayDynamics {
         let nj = self.joints.len();
@@ -888,6 +910,7 @@ impl MechanismModel {
             z_j: *z_j,
             play: self.play[site].play,
             cross_mass: self.play[site].cross_mass,
+            cross_load: (self.play[site].cross_mass * carried).into(),
             reaction: lam,
             torque_by_offset: std::array::from_fn(|c| off(c)[..nj].iter().map(|v| sign(c) * v).collect()),
             torque_by_offset_acceleration: std::array::from_fn(|c| {
@@ -1645,11 +1668,12 @@ impl InverseDynamicsModel for MechanismModel {
         let rows = Self::play_rows(built);
         let loads = Self::play_loads(built, qd, qdd)?;
         let mut sites = vec![];
-        for (&jh, (force, moment)) in built.play_joints.iter().zip(loads) {
+        for (&jh, l) in built.play_joints.iter().zip(loads) {
             let (z_i, z_j) = Self::trunnion_axes(built, jh)?;
             let n = z_i.cross(&z_j);
             let n = if n.norm() > 0.0 { n.normalize() } else { n };
-            sites.push(((z_i, z_j, n), [force.x, force.y, force.z, moment.dot(&n)]));
+            let lam = [l.force.x, l.force.y, l.force.z, l.moment.dot(&n)];
+            sites.push(((z_i, z_j, n), lam, l.carried));
         }
         let d = Self::offset_differences(built, &rows, qd, qdd)?;
         let np = sites.len();
@@ -1657,7 +1681,7 @@ impl InverseDynamicsModel for MechanismModel {
             sites
                 .iter()
                 .enumerate()
-                .map(|(k, (axes, lam))| self.coupling(k, k, np, axes, *lam, &d))
+                .map(|(k, (axes, lam, carried))| self.coupling(k, (k, np), axes, *lam, carried, &d))
                 .collect(),
         )
     }
@@ -1684,7 +1708,11 @@ impl InverseDynamicsModel for MechanismModel {
         let built = b.as_mut()?;
         let rows = Self::play_rows(built).get(4 * site..4 * site + 4)?.to_vec();
         let jh = *built.play_joints.get(site)?;
-        let (force, moment) = *Self::play_loads(built, qd, qdd)?.get(site)?;
+        let PlayLoad {
+            force,
+            moment,
+            carried,
+        } = Self::play_loads(built, qd, qdd)?.into_iter().nth(site)?;
         let (z_i, z_j) = Self::trunnion_axes(built, jh)?;
         let n = z_i.cross(&z_j);
         let n = if n.norm() > 0.0 { n.normalize() } else { n };
@@ -1706,7 +1734,8 @@ impl InverseDynamicsModel for MechanismModel {
             force.z + l[2],
             (moment + Vector3::new(l[3], l[4], l[5])).dot(&n),
         ];
-        let dynamics = self.coupling(site, 0, 1, &(z_i, z_j, n), lam, &d);
+        // (The cross's load kept at the sample's: the play moves side i's point by microns.)
+        let dynamics = self.coupling(site, (0, 1), &(z_i, z_j, n), lam, &carried, &d);
         let by_drive = |first: usize| nalgebra::DMatrix::from_fn(nj, nj, |j, k| d[first + k][j]);
         let point = PlayPoint {
             windup: windup.to_vec(),

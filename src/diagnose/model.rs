@@ -109,6 +109,12 @@ pub struct PlayDynamics {
     /// The joint's cross (kg): its own mass, which the reduced play model moves between the
     /// joint's sides (the nominal model carries it in a link).
     pub cross_mass: f64,
+    /// The load that carries the cross along with side i in the nominal motion, N along base
+    /// x, y, z: m_x·(g − a_i), its weight less its mass times the nominal acceleration a_i of
+    /// side i's point at the joint's centre. The nominal model carries the cross in side i's
+    /// link, so Λ leaves it out; the reduced play model hangs the cross on its balls, which
+    /// must carry it (zero: a weightless cross that moves with side i).
+    pub cross_load: [f64; 3],
     /// Λ at the sample, N along x, y, z, then N·m about n: the inverse dynamics' at the arms'
     /// motion (the encoders' less the transmissions' wind-up, where the model carries one).
     pub reaction: [f64; 4],

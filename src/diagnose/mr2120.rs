@@ -379,6 +379,40 @@ mod tests {
         }
     }
 
+    /// The cross's own load m_x·(g − a_i): at rest its weight at every joint; moving, at an
+    /// elbow (side i the arm, turning about its drive's axis) the elbow point's acceleration
+    /// D″(q)·q̇² + D′(q)·q̈ from the geometry, another route than the model's bodies.
+    #[test]
+    fn the_crosss_load_is_its_weight_at_rest_and_follows_the_elbows_acceleration() {
+        let (model, theta, q) = rigid_at_a_pose();
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let gravity = tilted_gravity(theta[9], theta[10]);
+        let rest = model
+            .play_dynamics(&theta, &q, &[0.0; 3], &[0.0; 3])
+            .expect("play dynamics");
+        for (s, name) in rest.iter().zip(model.play_sites()) {
+            let load = Vector3::from(s.cross_load);
+            assert!((load - mp.cross * gravity).norm() < 1e-9, "joint {name}: {load}");
+        }
+        let (qd, qdd) = (vec![2.0, -1.5, 1.0], vec![30.0, 20.0, -40.0]);
+        let moving = model.play_dynamics(&theta, &q, &qd, &qdd).expect("play dynamics");
+        for (i, b) in g.branches().iter().enumerate() {
+            let h = 1e-5;
+            let d2 = (g.elbow_rate(b, q[i] + h) - g.elbow_rate(b, q[i] - h)) / (2.0 * h);
+            let a = d2 * qd[i] * qd[i] + g.elbow_rate(b, q[i]) * qdd[i];
+            let expected = mp.cross * (gravity - a);
+            let load = Vector3::from(moving[i].cross_load);
+            assert!(
+                (load - expected).norm() < 1e-6 * expected.norm(),
+                "elbow {i}: {load} vs {expected}"
+            );
+            assert!(
+                (load - mp.cross * gravity).norm() > 0.02,
+                "elbow {i}: the motion shows"
+            );
+        }
+    }
+
     /// The MR2120's model with rigid drives (the arms follow the encoders), its parameters
     /// and the encoder angles of a pose, rad.
     fn rigid_at_a_pose() -> (MechanismModel, Vec<f64>, Vec<f64>) {

@@ -12,7 +12,7 @@
 //! ```text
 //! M_d·δẅ − T_ë·ë + (D + G)·δẇ − T_ė·ė + (K + S)·δw − T_e·e = 0        the drives
 //! −A_ẅ·δẅ + A_ë·ë − A_ẇ·δẇ + A_ė·ė − A_w·δw + A_e·e = Λ_c(e, ė; c, ω) − Λ   the joint
-//! m_x·c̈ = F_c,   J_x·ω̈ = M_c                                             the cross
+//! m_x·c̈ = F_c + m_x·(g − a_i),   J_x·ω̈ = M_c                             the cross
 //! ```
 //!
 //! with T_e, T_ė, T_ë the joint-side torques' derivatives by the play coordinates, their
@@ -20,7 +20,8 @@
 //! A_ë, A_w, A_ẇ, A_ẅ the joint's generalised reaction's by the same (an arm lags its encoder
 //! by δw), Λ the reaction the nominal (ideal) joint carries and Λ_c what the joint's contacts
 //! give: the reaction the motion asks of the joint must be what its contacts give — nothing
-//! inside the play. F_c, M_c: the balls' force and moment on the cross.
+//! inside the play. F_c, M_c: the balls' force and moment on the cross; g gravity and a_i the
+//! nominal acceleration of side i's point at the joint's centre ([`PlayDynamics::cross_load`]).
 //!
 //! **Velocity products** (G, T_ė, A_ẇ, A_ė; since 2026-11-27): the nominal motion's rates
 //! times the play's. Measured with the example (`play_dynamics`, joint F, 6 µm, balls 1e8
@@ -47,6 +48,29 @@
 //! half the shift along n and half the tilt per pair: then at most three balls could touch,
 //! and under a steady load the joint flipped between two sets of them — a rattle of its own
 //! where the truth stays loaded.)
+//!
+//! **The cross's own load** (2026-11-30, session 54; [`PlayDynamics::cross_load`]). The nominal
+//! model carries the cross in side i's link (the truth carves it out of that link as a body
+//! of its own), so Λ, the load on side j, leaves out what holds the cross up and drags it
+//! along: m_x·(g − a_i), its weight less its mass times side i's acceleration at the joint,
+//! which side i's balls carry and side j's do not (test
+//! `the_crosss_own_load_rides_on_side_is_balls_only`). Until then the model's cross was
+//! weightless and moved only by its balls, so near a load reversal — a joint load of a few
+//! newtons against the cross's 0.5 N weight and its share of the arm's accelerations — the
+//! joint crossed its play at the wrong moment: the model's swings came up to 1.4 ms late or
+//! early, episode by episode, and scaling the play coordinates' inertia by ±5 % moved
+//! different episodes in opposite directions (an experiment, not kept). With the load
+//! (example `play_dynamics`, joint F, 6 µm, Hertz balls damped 1 N·s/m + 450 s/m × F — the
+//! truth's own law —, forces blended, re-linearised once; what the model leaves of the
+//! play's effect on drives A/B/C, RMS in torque-noise units): recording 5 over 0.6–5 s
+//! 0.59/0.55/1.06 → 0.35/0.28/0.57 (0.6–2.6 s 0.65/0.56/1.11 → 0.06/0.07/0.17; 3.1–5 s
+//! 0.36/0.47/0.68 → 0.05/0.07/0.13; the rattle 2.77–3.10 s 1.11/0.88/2.18 → 1.19/0.92/1.97,
+//! where an impact peak at 2.846 s sampled between its rise and fall is most of drive C's
+//! rest and the timing is right: shifted by a quarter sample either way it leaves 4–5);
+//! recording 1 0.40/0.35/0.57 → 0.09/0.07/0.11, recording 3 0.45/0.27/0.70 →
+//! 0.16/0.09/0.21; recording 4 (20 + 500 × F) 0.92/0.72/1.15 → 0.23/0.17/0.32, 0.13/0.07/0.17
+//! at 1 + 450 × F. The cross's rotational share (J_x times side i's angular acceleration) is
+//! left out: J_x is 1.2–2.4e-6 kg·m² (two 24 mm rods of 25 g).
 //!
 //! **Contacts** ([`JointPlay`]): per ball a radial contact in a bore with radial clearance h
 //! and an axial one on the bore's end, h_a/2 away at the centre of a pair's axial play h_a,
@@ -705,6 +729,10 @@ fn matrices(s: &PlaySample) -> Option<System> {
     for r in 0..4 {
         load[nj + r] = -p.reaction[r];
     }
+    // The cross's weight and what carries it along with side i, on its balls.
+    for r in 0..3 {
+        load[nj + CROSS + r] = p.cross_load[r];
+    }
     if let Some(a) = s.about {
         if a.windup.len() != nj || a.torque.len() != nj {
             return None;
@@ -1176,6 +1204,7 @@ pub(crate) mod fixtures {
                 material: crate::contact::Material::steel(),
             },
             cross_mass: 0.05,
+            cross_load: [0.0; 3],
             reaction: [0.0, 0.0, load, 0.0],
             torque_by_offset: [vec![0.0], vec![0.0], vec![tau_per_m], vec![0.0]],
             torque_by_offset_acceleration: [vec![0.0], vec![0.0], vec![0.0], vec![0.0]],
@@ -1714,6 +1743,36 @@ mod tests {
                 "{:?}",
                 at.offset
             );
+        }
+    }
+
+    /// The cross's own load (its weight and what carries it along with side i) goes to side
+    /// i's balls only: side j's carry the joint's reaction Λ as before, side i's Λ − m_x·(g −
+    /// a_i) — here Λ = (0, 60, 80) N on side j and the cross pulled by 20 N along −z, so side
+    /// i's pair carries |(60, 100)| = 116.6 N, side j's 80 N.
+    #[test]
+    fn the_crosss_own_load_rides_on_side_is_balls_only() {
+        let mut joint = fixtures::hanging_joint(80.0, 0.0);
+        joint.reaction = [0.0, 60.0, 80.0, 0.0];
+        joint.cross_load = [0.0, 0.0, -20.0];
+        let transmission = fixtures::one_drive();
+        let samples = every_2_ms(200, |_| &joint, &transmission);
+        let r = respond(
+            &samples,
+            &JointPlay::radial(5e-6),
+            &BALL_CONTACT,
+            Interpolation::Held,
+        );
+        let side_i = 0.5 * (60.0f64.hypot(100.0));
+        for at in [&r[0], &r[199]] {
+            let at = at.as_ref().unwrap();
+            for (ball, expected) in at.radial_forces.iter().zip([side_i, side_i, 40.0, 40.0]) {
+                assert!(
+                    (ball - expected).abs() < 0.02 * expected,
+                    "{:?}",
+                    at.radial_forces
+                );
+            }
         }
     }
 }
