@@ -32,7 +32,8 @@
 //! The third: the reduced model with the play re-linearised
 //! ([`InverseDynamicsModel::play_dynamics_at`](lash::diagnose::model::InverseDynamicsModel::play_dynamics_at))
 //! about its own motion of the first pass at every sample in the plot window, once; the
-//! tracker's sensitivities stay the sample's (its prediction then mixes the two). The fourth:
+//! tracker's prediction then reads the platform there to all orders and about it to first
+//! order through the sample's sensitivities. The fourth:
 //! Hertz balls damped by 200 N·s/m + 1 000 s/m × their elastic force (README,
 //! "Load-proportional contact damping"). The fifth: the forces blended from sample to
 //! sample, and the model's play 3.3 % below the truth's (README, "The rattle reproduced at
@@ -514,14 +515,20 @@ fn main() -> Result<(), Box<dyn Error>> {
                         .sum::<f64>(),
         )
     };
+    // To first order about the sample, or where the response was re-linearised about a
+    // point of its motion, the outputs there (to all orders) and to first order about it.
     let tracker_of = |r: &[Option<PlayResponse>], i: usize, c: usize| -> Option<f64> {
         let p = sens[i].as_ref()?;
         let r = r[i].as_ref()?;
-        Some(
-            (0..3).map(|a| p.dy_dshift[a][c] * r.offset[a]).sum::<f64>()
-                + p.dy_dtilt[c] * r.offset[3]
-                + (0..3).map(|j| r.windup[j] * lag[j][i][c]).sum::<f64>(),
-        )
+        let linear = |offset: &[f64; 4], windup: &[f64]| {
+            (0..3).map(|a| p.dy_dshift[a][c] * offset[a]).sum::<f64>()
+                + p.dy_dtilt[c] * offset[3]
+                + (0..3).map(|j| windup[j] * lag[j][i][c]).sum::<f64>()
+        };
+        let about = r.point.as_ref().map_or(0.0, |x| {
+            x.outputs.get(c).copied().unwrap_or(0.0) - linear(&x.offset, &x.windup)
+        });
+        Some(linear(&r.offset, &r.windup) + about)
     };
     let dynamic = |i: usize, c: usize| tracker_of(&loose_model, i, c);
     let dynamic_less_without =

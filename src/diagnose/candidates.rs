@@ -42,8 +42,8 @@ use super::model::{
     PlayData, PlayDynamics, PlayPoint,
 };
 use super::play_dynamics::{
-    expanded_about, respond, BallContact, ContactDamping, HertzBalls, Interpolation, JointPlay, PlayResponse,
-    PlaySample, BALL_CONTACT,
+    expanded_about, respond, BallContact, ContactDamping, ExpansionPoint, HertzBalls, Interpolation,
+    JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
 };
 use super::signal::derivative;
 use super::transmission::{self, TransmissionDynamics};
@@ -988,6 +988,7 @@ pub fn columns_with(
                         windup: less(&a.windup, &b.windup),
                         offset: std::array::from_fn(|c| a.offset[c] - b.offset[c]),
                         radial_forces: a.radial_forces,
+                        point: ExpansionPoint::less(a.point.as_ref(), b.point.as_ref()),
                     })
                 })
                 .collect()
@@ -1166,17 +1167,26 @@ pub fn columns_with(
         }
         c
     };
-    // Output k at sample i moved by a reduced-model response `r` of play site `p`: its play
-    // coordinates through the output's sensitivities, its extra wind-up through the arms' lag.
-    let dynamic_tracker = |k: usize, p: &PlayData, r: &PlayResponse, i: usize| -> f64 {
-        (0..3).map(|c| p.dy_dshift[c][k] * r.offset[c]).sum::<f64>()
-            + p.dy_dtilt[k] * r.offset[3]
+    // Output k at sample i moved by play coordinates `offset` and extra wind-up `windup` of
+    // play site `p`, to first order: through the output's sensitivities and the arms' lag.
+    let linear_tracker = |k: usize, p: &PlayData, offset: &[f64; 4], windup: &[f64], i: usize| -> f64 {
+        (0..3).map(|c| p.dy_dshift[c][k] * offset[c]).sum::<f64>()
+            + p.dy_dtilt[k] * offset[3]
             + output_row[k].map_or(0.0, |ro| {
                 compliant_drives
                     .iter()
-                    .filter_map(|&b| Some(r.windup.get(b)? * lag_of(b)[ro * n + i]))
+                    .filter_map(|&b| Some(windup.get(b)? * lag_of(b)[ro * n + i]))
                     .sum::<f64>()
             })
+    };
+    // Output k at sample i moved by a reduced-model response `r`: to first order about the
+    // nominal motion, or where the response was expanded about a point of its own motion, the
+    // outputs there to all orders and to first order about it.
+    let dynamic_tracker = |k: usize, p: &PlayData, r: &PlayResponse, i: usize| -> f64 {
+        let about = r.point.as_ref().map_or(0.0, |x| {
+            x.outputs.get(k).copied().unwrap_or(0.0) - linear_tracker(k, p, &x.offset, &x.windup, i)
+        });
+        linear_tracker(k, p, &r.offset, &r.windup, i) + about
     };
     // A reduced-model response's drive torques, over `per`, into a column's torque rows.
     let torque_rows = |col: &mut [f64], response: &[Option<PlayResponse>], per: f64| {
@@ -1734,6 +1744,7 @@ mod tests {
                 torque: vec![TAU_PER_M * offset[2]],
                 load_stiffness: nalgebra::DMatrix::zeros(1, 1),
                 mass: nalgebra::DMatrix::from_element(1, 1, 0.01),
+                outputs: vec![],
             })
         }
         fn play_sites(&self) -> Vec<String> {

@@ -1449,6 +1449,39 @@ impl MechanismModel {
         Self::outputs_of(&self.sensors, built, y);
     }
 
+    /// The outputs at a point off the cached sample (`rows` offset by `base.offsets`, the
+    /// arms lagging by `base.lag` more) less at the sample, both at the sample's arm rates and
+    /// accelerations; empty without outputs. The cache is put back afterwards.
+    fn outputs_off_sample(
+        &self,
+        built: &mut Built,
+        rows: &[usize],
+        qd: &[f64],
+        qdd: &[f64],
+        base: &OffsetBase,
+    ) -> Option<Vec<f64>> {
+        let m = self.sensors.outputs.len();
+        if m == 0 {
+            return Some(vec![]);
+        }
+        let arm = Self::arm_motion(built, qd, qdd);
+        Self::keeping_sample(built, &arm, |built| {
+            let mut at = |offsets: &[f64], lag: &[f64]| -> Option<Vec<f64>> {
+                Self::set_offsets(built, rows, offsets)?;
+                let qa: Vec<f64> = arm[0].iter().zip(lag).map(|(q, l)| q - l).collect();
+                let tau = Self::joint_torques(built, &qa, &arm[1], &arm[2]);
+                built.data.clear_constraint_offsets();
+                tau?;
+                let mut y = vec![0.0; m];
+                Self::outputs_of(&self.sensors, built, &mut y);
+                Some(y)
+            };
+            let point = at(&base.offsets, &base.lag)?;
+            let sample = at(&vec![0.0; base.offsets.len()], &vec![0.0; base.lag.len()])?;
+            Some(point.iter().zip(&sample).map(|(a, b)| a - b).collect())
+        })?
+    }
+
     /// The outputs at the state `built` holds.
     fn outputs_of(sensors: &Sensors, built: &Built, y: &mut [f64]) {
         for (k, (s, &h)) in sensors.outputs.iter().zip(&built.sensor_bodies).enumerate() {
@@ -1737,6 +1770,7 @@ impl InverseDynamicsModel for MechanismModel {
         // (The cross's load kept at the sample's: the play moves side i's point by microns.)
         let dynamics = self.coupling(site, (0, 1), &(z_i, z_j, n), lam, &carried, &d);
         let by_drive = |first: usize| nalgebra::DMatrix::from_fn(nj, nj, |j, k| d[first + k][j]);
+        let outputs = self.outputs_off_sample(built, &rows, qd, qdd, &base)?;
         let point = PlayPoint {
             windup: windup.to_vec(),
             offset,
@@ -1744,6 +1778,7 @@ impl InverseDynamicsModel for MechanismModel {
             torque: change[..nj].to_vec(),
             load_stiffness: by_drive(8),
             mass: by_drive(8 + nj),
+            outputs,
         };
         (point.torque.iter().all(|v| v.is_finite())
             && point.dynamics.reaction.iter().all(|v| v.is_finite())

@@ -165,6 +165,10 @@ pub struct PlayPoint {
     /// ∂τ_s,j/∂q̈_k at the point as `(j, k)`: the mass matrix in drive coordinates, kg·m²
     /// (or kg).
     pub mass: nalgebra::DMatrix<f64>,
+    /// The outputs (the model's point sensors, their units) at the point less at the sample,
+    /// to all orders: near a singular position the platform's answer to the play is far from
+    /// its first-order sensitivities ([`PlayData`]). Empty where the model has no outputs.
+    pub outputs: Vec<f64>,
 }
 
 /// One perturbable parameter of a nominal model.

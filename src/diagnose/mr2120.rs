@@ -413,6 +413,44 @@ mod tests {
         }
     }
 
+    /// The outputs at an expansion point of joint F's play, evaluated there, agree with the
+    /// first-order output sensitivities (the constraint offsets' variation, another route)
+    /// for a small point, and stay near them for one a hundred times larger.
+    #[test]
+    fn the_outputs_at_an_expansion_point_follow_the_sensitivities_to_first_order() {
+        let (model, theta, q) = rigid_at_a_pose();
+        let (qd, qdd) = (vec![0.3, -0.2, 0.1], vec![1.0, 0.5, -2.0]);
+        let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
+        model.evaluate_at(0.0, &theta, &q, &qd, &qdd, &mut tau, &mut y);
+        let sens = model
+            .output_sensitivities(&theta, &q, &qd, &qdd, &y)
+            .expect("sensitivities");
+        let p = &sens.play[2];
+        for c in 0..4 {
+            let first = |k: usize| if c < 3 { p.dy_dshift[c][k] } else { p.dy_dtilt[k] };
+            let scale = (0..3).map(|k| first(k).abs()).fold(0.0, f64::max);
+            assert!(scale > 1e-3, "coordinate {c}: {scale}");
+            // 1e-7 m or 1e-6 rad, then a hundred times that.
+            let small = if c < 3 { 1e-7 } else { 1e-6 };
+            let mut rest = [0.0; 2];
+            for (r, step) in [small, 100.0 * small].into_iter().enumerate() {
+                let mut offset = [0.0; 4];
+                offset[c] = step;
+                let point = model
+                    .play_dynamics_at(&theta, &q, &qd, &qdd, 2, &[0.0; 3], offset)
+                    .expect("point");
+                assert_eq!(point.outputs.len(), 3);
+                rest[r] = (0..3)
+                    .map(|k| (point.outputs[k] - first(k) * step).abs())
+                    .fold(0.0, f64::max)
+                    / (scale * step);
+            }
+            assert!(rest[0] < 1e-3, "coordinate {c}: relative rest {rest:?}");
+            // Away from a singular position the first order still carries most of it.
+            assert!(rest[1] < 0.2, "coordinate {c}: {rest:?}");
+        }
+    }
+
     /// The MR2120's model with rigid drives (the arms follow the encoders), its parameters
     /// and the encoder angles of a pose, rad.
     fn rigid_at_a_pose() -> (MechanismModel, Vec<f64>, Vec<f64>) {

@@ -453,6 +453,43 @@ pub struct PlayResponse {
     pub offset: [f64; 4],
     /// The bore wall's normal force on each ball (side i's two, then side j's), N.
     pub radial_forces: [f64; 4],
+    /// The point this sample was expanded about ([`PlaySample::about`]), None about the
+    /// nominal motion.
+    pub point: Option<ExpansionPoint>,
+}
+
+/// What a response keeps of the point its sample was expanded about ([`PlayPoint`]): to read
+/// the outputs there to all orders and about it to first order, y ≈ y(x₁) + S·(x − x₁).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ExpansionPoint {
+    /// The point's play coordinates ([`PlayPoint::offset`]).
+    pub offset: [f64; 4],
+    /// The point's extra wind-up per drive ([`PlayPoint::windup`]).
+    pub windup: Vec<f64>,
+    /// The outputs there less at the sample ([`PlayPoint::outputs`]).
+    pub outputs: Vec<f64>,
+}
+
+impl ExpansionPoint {
+    /// `self − other` entry by entry (a missing entry counts as zero): the point of a
+    /// difference of two responses, for outputs read linearly about it.
+    pub fn less(a: Option<&Self>, b: Option<&Self>) -> Option<Self> {
+        if a.is_none() && b.is_none() {
+            return None;
+        }
+        let zero = Self::default();
+        let (a, b) = (a.unwrap_or(&zero), b.unwrap_or(&zero));
+        let diff = |x: &[f64], y: &[f64]| -> Vec<f64> {
+            (0..x.len().max(y.len()))
+                .map(|k| x.get(k).unwrap_or(&0.0) - y.get(k).unwrap_or(&0.0))
+                .collect()
+        };
+        Some(Self {
+            offset: std::array::from_fn(|c| a.offset[c] - b.offset[c]),
+            windup: diff(&a.windup, &b.windup),
+            outputs: diff(&a.outputs, &b.outputs),
+        })
+    }
 }
 
 /// Play and cross coordinates per joint: e (shift x, y, z; tilt about n), then the cross's
@@ -1167,6 +1204,11 @@ pub fn respond(
                 .collect(),
             windup: x.rows(0, nj).iter().copied().collect(),
             offset: [x[nj], x[nj + 1], x[nj + 2], x[nj + 3]],
+            point: s.about.map(|a| ExpansionPoint {
+                offset: a.offset,
+                windup: a.windup.clone(),
+                outputs: a.outputs.clone(),
+            }),
             radial_forces: std::array::from_fn(|b| {
                 let mut sink = [0.0; NP];
                 contact_load_one(
@@ -1495,6 +1537,7 @@ mod tests {
             torque: vec![tau_per_m * e1],
             load_stiffness: DMatrix::zeros(1, 1),
             mass: transmission.mass.clone(),
+            outputs: vec![],
         };
         // The samples expanded about `point`, answered.
         let about = |point: &PlayPoint| {
