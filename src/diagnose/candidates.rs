@@ -140,9 +140,11 @@ pub struct LibraryOptions {
     /// Hertz balls) it took the load peak's window 2.60–2.77 s on drive A from 5.28 to 1.47
     /// torque-noise units, but in the suite's clearance-F case (linear balls) the diagnosis
     /// held out 3.10× against 3.01× without it, and the tracker got worse (platform z 1.9×
-    /// against 1.5×): the tracker rows take the re-linearised play coordinates through the
-    /// sample's output sensitivities, not the point's (README). Costs the play derivatives
-    /// again at those samples (clearance-F: 28.6 against 16.7 CPU minutes).
+    /// against 1.5×): the tracker rows took the re-linearised play coordinates through the
+    /// sample's output sensitivities (README). Since 2026-11-30 they read the outputs at the
+    /// expansion point to all orders and about it to first order ([`PlayPoint::outputs`],
+    /// [`PlayResponse::point`]). Costs the play derivatives again at those samples
+    /// (clearance-F: 28.6 against 16.7 CPU minutes).
     pub play_relinearize: bool,
     /// How the reduced dynamic play model's linearised mechanics varies within a sample
     /// interval ([`Interpolation`]). Held at each interval's end by default: with linear
