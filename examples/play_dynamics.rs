@@ -520,15 +520,11 @@ fn main() -> Result<(), Box<dyn Error>> {
     let tracker_of = |r: &[Option<PlayResponse>], i: usize, c: usize| -> Option<f64> {
         let p = sens[i].as_ref()?;
         let r = r[i].as_ref()?;
-        let linear = |offset: &[f64; 4], windup: &[f64]| {
+        Some(r.output(c, |offset, windup| {
             (0..3).map(|a| p.dy_dshift[a][c] * offset[a]).sum::<f64>()
                 + p.dy_dtilt[c] * offset[3]
                 + (0..3).map(|j| windup[j] * lag[j][i][c]).sum::<f64>()
-        };
-        let about = r.point.as_ref().map_or(0.0, |x| {
-            x.outputs.get(c).copied().unwrap_or(0.0) - linear(&x.offset, &x.windup)
-        });
-        Some(linear(&r.offset, &r.windup) + about)
+        }))
     };
     let dynamic = |i: usize, c: usize| tracker_of(&loose_model, i, c);
     let dynamic_less_without =

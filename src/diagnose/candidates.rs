@@ -1181,14 +1181,9 @@ pub fn columns_with(
                     .sum::<f64>()
             })
     };
-    // Output k at sample i moved by a reduced-model response `r`: to first order about the
-    // nominal motion, or where the response was expanded about a point of its own motion, the
-    // outputs there to all orders and to first order about it.
+    // Output k at sample i moved by a reduced-model response `r` ([`PlayResponse::output`]).
     let dynamic_tracker = |k: usize, p: &PlayData, r: &PlayResponse, i: usize| -> f64 {
-        let about = r.point.as_ref().map_or(0.0, |x| {
-            x.outputs.get(k).copied().unwrap_or(0.0) - linear_tracker(k, p, &x.offset, &x.windup, i)
-        });
-        linear_tracker(k, p, &r.offset, &r.windup, i) + about
+        r.output(k, |offset, windup| linear_tracker(k, p, offset, windup, i))
     };
     // A reduced-model response's drive torques, over `per`, into a column's torque rows.
     let torque_rows = |col: &mut [f64], response: &[Option<PlayResponse>], per: f64| {

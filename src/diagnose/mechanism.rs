@@ -222,7 +222,8 @@ struct OffsetBase {
 }
 
 /// What [`MechanismModel::offset_differences_about`] returns: the columns, the torques and
-/// loads at the point, and at the sample (empty where the point is the sample).
+/// loads then the outputs at the point, and at the sample (empty where the point is the
+/// sample).
 type OffsetColumns = (Vec<Vec<f64>>, Vec<f64>, Vec<f64>);
 
 /// The transmissions' wind-up state at one sample of a recording.
@@ -942,6 +943,7 @@ impl MechanismModel {
     /// fails.
     fn offset_differences(
         built: &mut Built,
+        sensors: &Sensors,
         rows: &[usize],
         qd: &[f64],
         qdd: &[f64],
@@ -951,16 +953,17 @@ impl MechanismModel {
             offsets: vec![0.0; rows.len()],
             lag: vec![0.0; n],
         };
-        Self::offset_differences_about(built, rows, qd, qdd, &base).map(|(d, _, _)| d)
+        Self::offset_differences_about(built, sensors, rows, qd, qdd, &base).map(|(d, _, _)| d)
     }
 
     /// [`Self::offset_differences`] about a point off the sample: `rows` offset by
     /// `base.offsets` and the arms lagging by `base.lag` more. Also returns the torques and
-    /// loads (laid out as a perturbation's) there and, where the point is off the sample, at
-    /// the sample itself (else empty). Every path out clears the offsets it set: the cache
+    /// loads (laid out as a perturbation's) followed by the outputs (`sensors`') there and,
+    /// where the point is off the sample, at the sample itself (else empty). Every path out clears the offsets it set: the cache
     /// serves the nominal model next.
     fn offset_differences_about(
         built: &mut Built,
+        sensors: &Sensors,
         rows: &[usize],
         qd: &[f64],
         qdd: &[f64],
@@ -971,7 +974,7 @@ impl MechanismModel {
             return None;
         }
         Self::keeping_sample(built, &arm, |built| {
-            let out = Self::offset_columns(built, rows, base, &arm);
+            let out = Self::offset_columns(built, sensors, rows, base, &arm);
             built.data.clear_constraint_offsets();
             out
         })?
@@ -1000,9 +1003,18 @@ impl MechanismModel {
         tau
     }
 
+    /// `v` followed by the outputs of `sensors` at the cached state.
+    fn with_outputs(sensors: &Sensors, built: &Built, mut v: Vec<f64>) -> Vec<f64> {
+        let start = v.len();
+        v.resize(start + sensors.outputs.len(), 0.0);
+        Self::outputs_of(sensors, built, &mut v[start..]);
+        v
+    }
+
     /// The body of [`Self::offset_differences_about`] (which clears the offsets after it).
     fn offset_columns(
         built: &mut Built,
+        sensors: &Sensors,
         rows: &[usize],
         base: &OffsetBase,
         arm: &[Vec<f64>; 3],
@@ -1072,7 +1084,7 @@ impl MechanismModel {
             built.w.clone_from(&w0);
             built.data.clear_constraint_offsets();
             let tau = Self::joint_torques(built, qa0, qda, qdda)?;
-            Self::with_loads(built, tau)
+            Self::with_outputs(sensors, built, Self::with_loads(built, tau))
         } else {
             vec![]
         };
@@ -1081,7 +1093,7 @@ impl MechanismModel {
         built.w.clone_from(&w0);
         Self::set_offsets(built, rows, &base.offsets)?;
         let tau = Self::joint_torques(built, &qa, qda, qdda)?;
-        let at_point = Self::with_loads(built, tau);
+        let at_point = Self::with_outputs(sensors, built, Self::with_loads(built, tau));
         let lay = built.model.layout();
         let drivers: Vec<usize> = built
             .drivers
@@ -1449,39 +1461,6 @@ impl MechanismModel {
         Self::outputs_of(&self.sensors, built, y);
     }
 
-    /// The outputs at a point off the cached sample (`rows` offset by `base.offsets`, the
-    /// arms lagging by `base.lag` more) less at the sample, both at the sample's arm rates and
-    /// accelerations; empty without outputs. The cache is put back afterwards.
-    fn outputs_off_sample(
-        &self,
-        built: &mut Built,
-        rows: &[usize],
-        qd: &[f64],
-        qdd: &[f64],
-        base: &OffsetBase,
-    ) -> Option<Vec<f64>> {
-        let m = self.sensors.outputs.len();
-        if m == 0 {
-            return Some(vec![]);
-        }
-        let arm = Self::arm_motion(built, qd, qdd);
-        Self::keeping_sample(built, &arm, |built| {
-            let mut at = |offsets: &[f64], lag: &[f64]| -> Option<Vec<f64>> {
-                Self::set_offsets(built, rows, offsets)?;
-                let qa: Vec<f64> = arm[0].iter().zip(lag).map(|(q, l)| q - l).collect();
-                let tau = Self::joint_torques(built, &qa, &arm[1], &arm[2]);
-                built.data.clear_constraint_offsets();
-                tau?;
-                let mut y = vec![0.0; m];
-                Self::outputs_of(&self.sensors, built, &mut y);
-                Some(y)
-            };
-            let point = at(&base.offsets, &base.lag)?;
-            let sample = at(&vec![0.0; base.offsets.len()], &vec![0.0; base.lag.len()])?;
-            Some(point.iter().zip(&sample).map(|(a, b)| a - b).collect())
-        })?
-    }
-
     /// The outputs at the state `built` holds.
     fn outputs_of(sensors: &Sensors, built: &Built, y: &mut [f64]) {
         for (k, (s, &h)) in sensors.outputs.iter().zip(&built.sensor_bodies).enumerate() {
@@ -1708,7 +1687,7 @@ impl InverseDynamicsModel for MechanismModel {
             let lam = [l.force.x, l.force.y, l.force.z, l.moment.dot(&n)];
             sites.push(((z_i, z_j, n), lam, l.carried));
         }
-        let d = Self::offset_differences(built, &rows, qd, qdd)?;
+        let d = Self::offset_differences(built, &self.sensors, &rows, qd, qdd)?;
         let np = sites.len();
         Some(
             sites
@@ -1754,7 +1733,8 @@ impl InverseDynamicsModel for MechanismModel {
             offsets: vec![offset[0], offset[1], offset[2], -offset[3]],
             lag: windup.to_vec(),
         };
-        let (d, at_point, at_sample) = Self::offset_differences_about(built, &rows, qd, qdd, &base)?;
+        let (d, at_point, at_sample) =
+            Self::offset_differences_about(built, &self.sensors, &rows, qd, qdd, &base)?;
         let change: Vec<f64> = if at_sample.is_empty() {
             vec![0.0; at_point.len()]
         } else {
@@ -1770,7 +1750,8 @@ impl InverseDynamicsModel for MechanismModel {
         // (The cross's load kept at the sample's: the play moves side i's point by microns.)
         let dynamics = self.coupling(site, (0, 1), &(z_i, z_j, n), lam, &carried, &d);
         let by_drive = |first: usize| nalgebra::DMatrix::from_fn(nj, nj, |j, k| d[first + k][j]);
-        let outputs = self.outputs_off_sample(built, &rows, qd, qdd, &base)?;
+        // The outputs follow every play joint's loads.
+        let outputs = change.get(nj + 6 * built.play_joints.len()..)?.to_vec();
         let point = PlayPoint {
             windup: windup.to_vec(),
             offset,

@@ -458,6 +458,19 @@ pub struct PlayResponse {
     pub point: Option<ExpansionPoint>,
 }
 
+impl PlayResponse {
+    /// Output `k` moved by this response, given the output's first-order reading `linear` of
+    /// play coordinates and extra wind-up (output units): `linear(e, δw)` about the nominal
+    /// motion; where the response was expanded about a point ([`Self::point`]), the outputs
+    /// there to all orders and `linear` about it, y(x₁) + S·(x − x₁).
+    pub fn output(&self, k: usize, linear: impl Fn(&[f64; 4], &[f64]) -> f64) -> f64 {
+        let about = self.point.as_ref().map_or(0.0, |x| {
+            x.outputs.get(k).copied().unwrap_or(0.0) - linear(&x.offset, &x.windup)
+        });
+        linear(&self.offset, &self.windup) + about
+    }
+}
+
 /// What a response keeps of the point its sample was expanded about ([`PlayPoint`]): to read
 /// the outputs there to all orders and about it to first order, y ≈ y(x₁) + S·(x − x₁).
 #[derive(Debug, Clone, PartialEq, Default)]
