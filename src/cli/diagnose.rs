@@ -131,6 +131,11 @@ pub struct Args {
     /// --suite).
     #[arg(long)]
     play_size_search: bool,
+    /// With the size search (implies --play-size-search), the balls' damping searched too
+    /// where a load-proportional one refits best: its constant part (steps of √10 and ⁴√10),
+    /// then γ (steps of 50, 22 and 10 %), the size refined at each (also with --suite).
+    #[arg(long)]
+    play_damping_search: bool,
     /// Also try load-proportional contact dampings γ·F in the reduced dynamic play model (γ
     /// in s/m, one or more, comma-separated, each over a small constant damping for the
     /// balls' sliding; cross-validation chooses among the dampings; also with --suite).
@@ -277,7 +282,8 @@ pub fn run(a: Args) -> Result<Output, CliError> {
     }
     opts.library.play_relinearize = a.play_relinearize;
     opts.library.play_interpolation = interpolation(&a);
-    opts.play_size_search |= a.play_size_search;
+    opts.play_size_search |= a.play_size_search || a.play_damping_search;
+    opts.play_damping_search |= a.play_damping_search;
     opts.play_contact_dampings.extend(
         a.play_load_damping
             .iter()
@@ -359,7 +365,8 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
     }
     opts.diagnose.library.play_relinearize = a.play_relinearize;
     opts.diagnose.library.play_interpolation = interpolation(a);
-    opts.diagnose.play_size_search |= a.play_size_search;
+    opts.diagnose.play_size_search |= a.play_size_search || a.play_damping_search;
+    opts.diagnose.play_damping_search |= a.play_damping_search;
     opts.diagnose.play_contact_dampings.extend(
         a.play_load_damping
             .iter()

@@ -2246,9 +2246,9 @@ mod tests {
     /// first pass; the re-linearised pass — though no parameter moves the model — runs once
     /// per contact damping of the grid, reports each one's cross-validated error and keeps
     /// the smallest.
-    #[test]
-    fn the_play_dynamics_pass_tries_each_contact_damping_and_end_face_stiffness_and_keeps_the_best() {
-        let h = 5e-6;
+    /// Four recordings of the carried joint ([`Carried`]) with a play of `h` (m) in it,
+    /// its load swinging with the motion, torque and tracker noise from a fixed seed.
+    fn carried_recordings(h: f64) -> Vec<MotionData> {
         let mut seed = 12345u64;
         let mut noise = move |sigma: f64| {
             seed = seed
@@ -2256,7 +2256,7 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             sigma * 3f64.sqrt() * (2.0 * ((seed >> 11) as f64 / (1u64 << 53) as f64) - 1.0)
         };
-        let recordings: Vec<MotionData> = (0..4)
+        (0..4)
             .map(|r| {
                 let n = 501;
                 let t: Vec<f64> = (0..n).map(|i| 0.002 * i as f64).collect();
@@ -2280,7 +2280,96 @@ mod tests {
                     qdd_noise: vec![],
                 }
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn the_damping_search_tries_constant_parts_then_load_factors_each_with_its_size_refined() {
+        let recordings = carried_recordings(5e-6);
+        let start = ContactDamping::load_proportional(500.0);
+        let opts = crate::diagnose::DiagnoseOptions {
+            library: LibraryOptions {
+                play_load_scales: vec![5.0],
+                ..LibraryOptions::default()
+            },
+            play_contact_dampings: vec![start],
+            play_size_search: true,
+            play_damping_search: true,
+            ..crate::diagnose::DiagnoseOptions::default()
+        };
+        let d = crate::diagnose::diagnose(&Carried, &recordings[..3], &recordings[3..], &opts, |_, _| {})
+            .expect("a diagnosis");
+        let log = &d.dynamic_play_size_cv;
+        let best_of = |part: &[(ContactDamping, f64, f64)]| {
+            part.iter()
+                .filter(|x| x.2.is_finite())
+                .min_by(|a, b| a.2.total_cmp(&b.2))
+                .copied()
+        };
+        // The sizes at the grid's damping first, then the damping searched: its constant part
+        // (γ the grid's), then γ (over one constant part, the best one's); each part to three
+        // significant digits, each damping once.
+        let first_other = log
+            .iter()
+            .position(|x| x.0 != start)
+            .expect("another damping tried");
+        let mut blocks: Vec<(usize, usize)> = vec![];
+        for k in first_other..log.len() {
+            match blocks.last_mut() {
+                Some((from, to)) if log[*from].0 == log[k].0 => *to = k + 1,
+                _ => blocks.push((k, k + 1)),
+            }
+        }
+        let constants = blocks
+            .iter()
+            .take_while(|b| log[b.0].0.load == start.load)
+            .count();
+        assert!(constants <= crate::diagnose::MAX_CONSTANT_DAMPINGS, "{log:?}");
+        assert!(
+            blocks.len() - constants <= crate::diagnose::MAX_LOAD_DAMPINGS,
+            "{log:?}"
+        );
+        let three = |x: f64| {
+            let digits = 10f64.powi(2 - x.log10().floor() as i32);
+            (x * digits - (x * digits).round()).abs() < 1e-9
+        };
+        for (k, &(from, to)) in blocks.iter().enumerate() {
+            let c = log[from].0;
+            assert!(
+                c != start && blocks[..k].iter().all(|b| log[b.0].0 != c),
+                "{log:?}"
+            );
+            assert!(three(c.constant) && three(c.load), "{log:?}");
+            if k >= constants {
+                assert_eq!(c.constant, log[blocks[constants].0].0.constant, "{log:?}");
+            }
+            // Its sizes: from the best size before it, in the finest step, a few.
+            assert!(to - from <= crate::diagnose::PROFILE_SIZES, "{log:?}");
+            let before = best_of(&log[..from]).expect("a size tried before");
+            assert_eq!(log[from].1, before.1, "{log:?}");
+            for x in &log[from + 1..to] {
+                let step = (x.1 / log[from].1).ln().abs() / crate::diagnose::PROFILE_STEPS[0].ln();
+                assert!(
+                    (step - step.round()).abs() < 1e-6 && step.round() >= 1.0,
+                    "{log:?}"
+                );
+            }
+        }
+        // No (damping, size) twice.
+        for (k, (c, h, _)) in log.iter().enumerate() {
+            assert!(log[..k].iter().all(|(c2, g, _)| (c2, g) != (c, h)), "{log:?}");
+        }
+        // The selection runs at the best pair, or at the reference plays' best as before.
+        let best = best_of(log).expect("one");
+        if d.dynamic_play_damping != Some(best.0) || d.dynamic_play_reference != Some(best.1) {
+            assert_eq!(d.dynamic_play_damping, Some(start), "{log:?}");
+        }
+    }
+
+    #[test]
+    fn the_play_dynamics_pass_tries_each_contact_damping_and_end_face_stiffness_and_keeps_the_best() {
+        let h = 5e-6;
+        let recordings = carried_recordings(h);
         let opts = crate::diagnose::DiagnoseOptions {
             library: LibraryOptions {
                 play_load_scales: vec![5.0],

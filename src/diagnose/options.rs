@@ -107,6 +107,28 @@ pub struct DiagnoseOptions {
     /// best size and damping. Costs up to twice [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES)
     /// refits of the selected candidates, one per other damping, and one whole selection.
     pub play_size_search: bool,
+    /// With [`play_size_search`](Self::play_size_search), the balls' damping searched too,
+    /// not only chosen from [`play_contact_dampings`](Self::play_contact_dampings): where the
+    /// best refit so far has a load-proportional damping, a pattern search on its constant
+    /// part ([`search_constant_damping`](super::search_constant_damping): steps of √10 and
+    /// ⁴√10), then one on γ at the best constant part
+    /// ([`search_load_damping`](super::search_load_damping): steps of 50, 22 and 10 %),
+    /// each value to three significant digits; each damping's objective is the best refit of
+    /// a short search on the size at it from the best size so far
+    /// ([`PROFILE_STEPS`](super::PROFILE_STEPS), at most
+    /// [`PROFILE_SIZES`](super::PROFILE_SIZES) refits): a profile of the
+    /// leave-one-recording-out objective over the damping. Why all three together: a
+    /// rattle's damping and timing go together, and the constant part damps as γ does. What
+    /// the reduced model leaves of clearance-F's play effect on drives A / B / C, summed over
+    /// fit recordings 1, 3 and 4 in squared torque-noise units (the example `play_dynamics`;
+    /// the truth's Hertz balls damp by 450 s/m × F and nothing constant): at 5.96 µm, 0.41 /
+    /// 0.42 with 20 N·s/m + 250 / 450 s/m × F and 0.75 / 0.39 with 1 N·s/m; at the truth's
+    /// 6.0 µm, 0.35 / 0.36 and 0.44 / **0.15**: the best of the eight moves all three from
+    /// where the grid left clearance-F (5.96 µm, 20 + 250), and from there γ alone or the
+    /// constant part alone does worse (README, "The damping searched"). Costs up to
+    /// `(MAX_CONSTANT_DAMPINGS + MAX_LOAD_DAMPINGS) × PROFILE_SIZES` refits more, each
+    /// damping's with the other selected candidates' columns assembled anew.
+    pub play_damping_search: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -131,6 +153,7 @@ impl Default for DiagnoseOptions {
                 super::transmission::PlayPlace::Spring,
             ],
             play_size_search: false,
+            play_damping_search: false,
         }
     }
 }

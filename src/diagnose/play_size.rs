@@ -47,40 +47,148 @@ pub fn search_play_size<E>(
     known: Option<f64>,
     objective: &mut dyn FnMut(f64) -> Result<f64, E>,
 ) -> Result<Vec<(f64, f64)>, E> {
-    // (The objective at `h0`, if already known, is the log's first entry.)
-    let mut log: Vec<(f64, f64)> = known.map(|f| vec![(h0, f)]).unwrap_or_default();
-    let mut eval = |h: f64, log: &mut Vec<(f64, f64)>| -> Result<Option<f64>, E> {
-        if let Some(&(_, f)) = log.iter().find(|(x, _)| (x / h - 1.0).abs() < 1e-9) {
+    pattern_search(h0, known, &PLAY_SIZE_STEPS, MAX_PLAY_SIZES, &|h| h, objective)
+}
+
+/// The multiplicative steps of the load-proportional damping's search
+/// ([`search_load_damping`]), largest first. Why these: the damping grid the diagnosis
+/// tried before (250, 500, 1 000 s/m) refitted clearance-F's selection at its searched
+/// size to 0.981 / 0.985 / 1.006 noise units (session 54): a minimum some tens of per cent
+/// wide, whose place a 10 % step resolves to within the data's preference.
+pub const LOAD_DAMPING_STEPS: [f64; 3] = [1.5, 1.22, 1.1];
+
+/// The most load-proportional dampings one damping search ([`search_load_damping`]) tries.
+pub const MAX_LOAD_DAMPINGS: usize = 10;
+
+/// A pattern search on a load-proportional contact damping γ (s/m), as
+/// [`search_play_size`] on a size: from `g0`, each step of [`LOAD_DAMPING_STEPS`] tried
+/// either way from the best so far, followed while it improves; at most
+/// [`MAX_LOAD_DAMPINGS`] evaluations of `objective`. Each trial value is rounded to three
+/// significant digits (a damping is not known better than that, and the report reads it).
+/// Returns every (γ, objective) tried, `g0` first.
+///
+/// ```
+/// // An objective with its minimum at 450 s/m, searched from 250 s/m.
+/// let log = lash::diagnose::search_load_damping::<()>(250.0, None, &mut |g| Ok((g / 450.0).ln().powi(2)))?;
+/// let (best, _) = log.iter().copied().min_by(|a, b| a.1.total_cmp(&b.1)).expect("one tried");
+/// assert!((best / 450.0 - 1.0).abs() <= 0.1 && log.len() <= lash::diagnose::MAX_LOAD_DAMPINGS);
+/// # Ok::<(), ()>(())
+/// ```
+pub fn search_load_damping<E>(
+    g0: f64,
+    known: Option<f64>,
+    objective: &mut dyn FnMut(f64) -> Result<f64, E>,
+) -> Result<Vec<(f64, f64)>, E> {
+    pattern_search(
+        g0,
+        known,
+        &LOAD_DAMPING_STEPS,
+        MAX_LOAD_DAMPINGS,
+        &three_digits,
+        objective,
+    )
+}
+
+/// The size search at each damping of the load-proportional damping's search (a profile):
+/// the finest step of [`PLAY_SIZE_STEPS`] either way from the best size so far, followed
+/// while it improves, at most [`PROFILE_SIZES`] refits.
+pub const PROFILE_STEPS: [f64; 1] = [PLAY_SIZE_STEPS[PLAY_SIZE_STEPS.len() - 1]];
+
+/// The most sizes refitted at each damping of the load-proportional damping's search.
+pub const PROFILE_SIZES: usize = 4;
+
+/// The multiplicative steps of the constant contact damping's search
+/// ([`search_constant_damping`]) under a load-proportional one, largest first: √10 and
+/// ⁴√10. The constant part (N·s/m, for the balls' sliding along their walls, over
+/// [`LOAD_DAMPING_BASE`](super::play_dynamics::LOAD_DAMPING_BASE) by default) is a
+/// regularisation whose size is known within a decade or two, not a measured value.
+pub const CONSTANT_DAMPING_STEPS: [f64; 2] = [3.162_277_660_168_379_5, 1.778_279_410_038_922_8];
+
+/// The most constant dampings one search ([`search_constant_damping`]) tries.
+pub const MAX_CONSTANT_DAMPINGS: usize = 6;
+
+/// A pattern search on the constant part (N·s/m) of a load-proportional contact damping, as
+/// [`search_load_damping`] on γ: steps of [`CONSTANT_DAMPING_STEPS`], at most
+/// [`MAX_CONSTANT_DAMPINGS`] evaluations, each trial value to three significant digits.
+///
+/// ```
+/// // An objective with its minimum at 1 N·s/m, searched from 20 N·s/m.
+/// let log = lash::diagnose::search_constant_damping::<()>(20.0, None, &mut |c| Ok((c / 1.0).ln().powi(2)))?;
+/// let (best, _) = log.iter().copied().min_by(|a, b| a.1.total_cmp(&b.1)).expect("one tried");
+/// assert!((best / 1.0).ln().abs() <= 1.8f64.ln() && log.len() <= lash::diagnose::MAX_CONSTANT_DAMPINGS);
+/// # Ok::<(), ()>(())
+/// ```
+pub fn search_constant_damping<E>(
+    c0: f64,
+    known: Option<f64>,
+    objective: &mut dyn FnMut(f64) -> Result<f64, E>,
+) -> Result<Vec<(f64, f64)>, E> {
+    pattern_search(
+        c0,
+        known,
+        &CONSTANT_DAMPING_STEPS,
+        MAX_CONSTANT_DAMPINGS,
+        &three_digits,
+        objective,
+    )
+}
+
+/// `x` rounded to three significant digits.
+fn three_digits(x: f64) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(2 - x.abs().log10().floor() as i32);
+    (x * scale).round() / scale
+}
+
+/// The pattern search of [`search_play_size`] and [`search_load_damping`] on a positive
+/// scalar: multiplicative `steps`, largest first, each trial point passed through `snap`;
+/// at most `max` evaluations; a point is never evaluated twice.
+fn pattern_search<E>(
+    x0: f64,
+    known: Option<f64>,
+    steps: &[f64],
+    max: usize,
+    snap: &dyn Fn(f64) -> f64,
+    objective: &mut dyn FnMut(f64) -> Result<f64, E>,
+) -> Result<Vec<(f64, f64)>, E> {
+    // (The objective at `x0`, if already known, is the log's first entry.)
+    let mut log: Vec<(f64, f64)> = known.map(|f| vec![(x0, f)]).unwrap_or_default();
+    let mut eval = |x: f64, log: &mut Vec<(f64, f64)>| -> Result<Option<f64>, E> {
+        if let Some(&(_, f)) = log.iter().find(|(y, _)| (y / x - 1.0).abs() < 1e-9) {
             return Ok(Some(f));
         }
-        if log.len() >= MAX_PLAY_SIZES {
+        if log.len() >= max {
             return Ok(None);
         }
-        let f = objective(h)?;
-        log.push((h, f));
+        let f = objective(x)?;
+        log.push((x, f));
         Ok(Some(f))
     };
     let better =
         |f: Option<f64>, best: f64| f.is_some_and(|f| f.is_finite() && (f < best || !best.is_finite()));
-    let Some(mut best_f) = eval(h0, &mut log)? else {
+    let Some(mut best_f) = eval(x0, &mut log)? else {
         return Ok(log);
     };
-    let mut best_h = h0;
-    for &s in &PLAY_SIZE_STEPS {
+    let mut best_x = x0;
+    for &s in steps {
         // Which way improves, if either.
         let mut way = None;
         for factor in [s, 1.0 / s] {
-            let f = eval(best_h * factor, &mut log)?;
+            let x = snap(best_x * factor);
+            let f = eval(x, &mut log)?;
             if better(f, best_f) {
-                (best_h, best_f, way) = (best_h * factor, f.unwrap_or(best_f), Some(factor));
+                (best_x, best_f, way) = (x, f.unwrap_or(best_f), Some(factor));
                 break;
             }
         }
         // Followed while it improves.
         while let Some(factor) = way {
-            let f = eval(best_h * factor, &mut log)?;
+            let x = snap(best_x * factor);
+            let f = eval(x, &mut log)?;
             if better(f, best_f) {
-                (best_h, best_f) = (best_h * factor, f.unwrap_or(best_f));
+                (best_x, best_f) = (x, f.unwrap_or(best_f));
             } else {
                 way = None;
             }
@@ -181,6 +289,24 @@ impl<'a> HeldPlay<'a> {
             on_try();
             Ok(self.cv(h).ok().flatten().unwrap_or(f64::NAN))
         })
+        .unwrap_or_default()
+    }
+
+    /// The size refined from `h0` ([`PROFILE_STEPS`], at most [`PROFILE_SIZES`] refits of
+    /// [`cv`](Self::cv), `h0`'s included), `on_try` called before each; every (size,
+    /// objective) tried, `h0` first.
+    pub(super) fn refine(&self, h0: f64, on_try: &mut dyn FnMut()) -> Vec<(f64, f64)> {
+        pattern_search::<std::convert::Infallible>(
+            h0,
+            None,
+            &PROFILE_STEPS,
+            PROFILE_SIZES,
+            &|h| h,
+            &mut |h| {
+                on_try();
+                Ok(self.cv(h).ok().flatten().unwrap_or(f64::NAN))
+            },
+        )
         .unwrap_or_default()
     }
 

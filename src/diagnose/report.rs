@@ -283,7 +283,7 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         };
         let _ = writeln!(
             m,
-            "- The radial play's size, searched, and the contact damping at the best size (the selection refitted with the play's effect held at the reduced model's at each size and damping; leave-one-recording-out RMS in noise units): {}; {}.",
+            "- The radial play's size, searched, and the contact dampings at the best sizes (the selection refitted with the play's effect held at the reduced model's at each size and damping; leave-one-recording-out RMS in noise units): {}; {}.",
             tried.join("; "),
             if d.dynamic_play_size_cv.iter().any(kept) {
                 "the selection at the best size and damping kept"

@@ -12,7 +12,10 @@ use super::model::{on_copies, InverseDynamicsModel};
 use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, ResidualTrace};
 use super::play_dynamics::{ContactDamping, BALL_CONTACT};
-use super::play_size::{HeldPlay, MAX_PLAY_SIZES};
+use super::play_size::{
+    search_constant_damping, search_load_damping, HeldPlay, MAX_CONSTANT_DAMPINGS, MAX_LOAD_DAMPINGS,
+    MAX_PLAY_SIZES, PROFILE_SIZES,
+};
 use super::recording::{Recording, MIN_SAMPLES};
 use super::relinearize;
 use super::residuals::{prepare, Prepared};
@@ -232,7 +235,14 @@ fn diagnose_folds(
     // (The play-size search's shares after those.)
     let size_share = dampings.len() + stiffnesses.len() + places.len() - 2
         + if dynamic { relinearize::MAX_RESIZES } else { 0 };
-    let passes = size_share + if search { MAX_PLAY_SIZES + 1 } else { 0 };
+    // (The refits' shares: the sizes at the kept damping, and each damping round's.)
+    let search_shares = MAX_PLAY_SIZES
+        + if opts.play_damping_search {
+            (MAX_CONSTANT_DAMPINGS + MAX_LOAD_DAMPINGS) * PROFILE_SIZES
+        } else {
+            0
+        };
+    let passes = size_share + if search { search_shares + 1 } else { 0 };
     let share = 0.4 / passes as f64;
     let pass = |k: usize,
                 damping: Option<ContactDamping>,
@@ -415,7 +425,7 @@ fn diagnose_folds(
             let mut on_try = || {
                 progress(
                     "play size",
-                    0.5 + share * (size_share + tried.min(MAX_PLAY_SIZES)) as f64,
+                    0.5 + share * (size_share + tried.min(search_shares)) as f64,
                 );
                 tried += 1;
             };
@@ -458,12 +468,45 @@ fn diagnose_folds(
                     log.extend(again.into_iter().skip(1).map(|(h, cv)| (damping, h, cv)));
                 }
             }
+            // The damping searched (`DiagnoseOptions::play_damping_search`): under a
+            // load-proportional damping, its constant part by a pattern search from the best
+            // refit so far, then γ at the best constant part; each damping's objective the
+            // best of a short search on the size at it from the best size so far (a profile:
+            // a rattle's damping and timing go together, and a search on one at a time
+            // stalls in the valley between them).
+            if opts.play_damping_search {
+                let mut profile = |d: ContactDamping, log: &mut Vec<(ContactDamping, f64, f64)>| {
+                    let Some(held) = held_at(d) else {
+                        return f64::NAN;
+                    };
+                    let from = best_of(log).map_or(h0, |b| b.1);
+                    let sizes = held.refine(from, &mut on_try);
+                    let best = sizes
+                        .iter()
+                        .map(|x| x.1)
+                        .filter(|f| f.is_finite())
+                        .fold(f64::NAN, f64::min);
+                    log.extend(sizes.into_iter().map(|(h, cv)| (d, h, cv)));
+                    best
+                };
+                type Never = std::convert::Infallible;
+                if let Some((d0, _, cv0)) = best_of(&log).filter(|b| b.0.load > 0.0) {
+                    let _ = search_constant_damping::<Never>(d0.constant, Some(cv0), &mut |c| {
+                        Ok(profile(ContactDamping { constant: c, ..d0 }, &mut log))
+                    });
+                }
+                if let Some((d1, _, cv1)) = best_of(&log).filter(|b| b.0.load > 0.0) {
+                    let _ = search_load_damping::<Never>(d1.load, Some(cv1), &mut |g| {
+                        Ok(profile(ContactDamping { load: g, ..d1 }, &mut log))
+                    });
+                }
+            }
             let best = best_of(&log).filter(|&(damping, h, _)| {
                 second.dynamic_play_reference != Some(h) || resolved(second.dynamic_play_damping) != damping
             });
             if let Some((damping, h, _)) = best {
                 let mut d = pass(
-                    size_share + MAX_PLAY_SIZES,
+                    size_share + search_shares,
                     Some(damping),
                     second.dynamic_play_axial_stiffness,
                     second.backlash_place.unwrap_or(places[0]),
