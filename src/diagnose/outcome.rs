@@ -271,7 +271,8 @@ pub struct Diagnosis {
     /// The balls' contact damping the reduced dynamic play model took in the selection
     /// (JSON `{"constant": N·s/m, "load": s/m}`), chosen by cross-validation among
     /// [`DiagnoseOptions::play_contact_dampings`](super::DiagnoseOptions) at the reference
-    /// play, or, with the play-size search, by its refits at the searched size
+    /// play, or, with the play-size search, by its refits at the searched size, among the
+    /// grid's dampings and, with the damping search, the dampings it tried
     /// ([`dynamic_play_size_cv`](Self::dynamic_play_size_cv)); `None` when the play
     /// candidates were quasi-static.
     pub dynamic_play_damping: Option<ContactDamping>,
@@ -326,7 +327,9 @@ pub struct Diagnosis {
     /// ([`DiagnoseOptions::play_size_search`](super::DiagnoseOptions)) refitted the kept
     /// selection at, in the order tried, each with the refit's leave-one-recording-out RMS
     /// (noise units): the sizes at the kept damping, every other damping at the best of
-    /// them, and the sizes again at a damping better there; empty when it did not run.
+    /// them, and the sizes again at a damping better there; then, with the damping search
+    /// ([`DiagnoseOptions::play_damping_search`](super::DiagnoseOptions)), each constant
+    /// part and each γ it tried with the sizes refined at it; empty when it did not run.
     pub dynamic_play_size_cv: Vec<(super::play_dynamics::ContactDamping, f64, f64)>,
     /// The first pass's estimates that moved the model for the second pass, each with the
     /// fraction of its step kept ([`SHIFT_LINEARITY_TOLERANCE`](super::SHIFT_LINEARITY_TOLERANCE));

@@ -142,9 +142,11 @@ fn three_digits(x: f64) -> f64 {
     (x * scale).round() / scale
 }
 
-/// The pattern search of [`search_play_size`] and [`search_load_damping`] on a positive
-/// scalar: multiplicative `steps`, largest first, each trial point passed through `snap`;
-/// at most `max` evaluations; a point is never evaluated twice.
+/// The pattern search of [`search_play_size`], [`search_constant_damping`],
+/// [`search_load_damping`] and the profile's size refinement on a positive scalar:
+/// multiplicative `steps`, largest first, each trial point passed through `snap`; at most
+/// `max` evaluations, a `known` value at `x0` counted among them; a point is never
+/// evaluated twice.
 fn pattern_search<E>(
     x0: f64,
     known: Option<f64>,
@@ -285,28 +287,30 @@ impl<'a> HeldPlay<'a> {
     /// known), `on_try` called before each refit; a refit that fails counts as no
     /// improvement.
     pub(super) fn search(&self, h0: f64, known: Option<f64>, on_try: &mut dyn FnMut()) -> Vec<(f64, f64)> {
-        search_play_size::<std::convert::Infallible>(h0, known, &mut |h| {
-            on_try();
-            Ok(self.cv(h).ok().flatten().unwrap_or(f64::NAN))
-        })
-        .unwrap_or_default()
+        self.pattern(h0, known, &PLAY_SIZE_STEPS, MAX_PLAY_SIZES, on_try)
     }
 
     /// The size refined from `h0` ([`PROFILE_STEPS`], at most [`PROFILE_SIZES`] refits of
     /// [`cv`](Self::cv), `h0`'s included), `on_try` called before each; every (size,
     /// objective) tried, `h0` first.
     pub(super) fn refine(&self, h0: f64, on_try: &mut dyn FnMut()) -> Vec<(f64, f64)> {
-        pattern_search::<std::convert::Infallible>(
-            h0,
-            None,
-            &PROFILE_STEPS,
-            PROFILE_SIZES,
-            &|h| h,
-            &mut |h| {
-                on_try();
-                Ok(self.cv(h).ok().flatten().unwrap_or(f64::NAN))
-            },
-        )
+        self.pattern(h0, None, &PROFILE_STEPS, PROFILE_SIZES, on_try)
+    }
+
+    /// [`pattern_search`] on the size with [`cv`](Self::cv) as its objective; a refit that
+    /// fails counts as no improvement.
+    fn pattern(
+        &self,
+        h0: f64,
+        known: Option<f64>,
+        steps: &[f64],
+        max: usize,
+        on_try: &mut dyn FnMut(),
+    ) -> Vec<(f64, f64)> {
+        pattern_search::<std::convert::Infallible>(h0, known, steps, max, &|h| h, &mut |h| {
+            on_try();
+            Ok(self.cv(h).ok().flatten().unwrap_or(f64::NAN))
+        })
         .unwrap_or_default()
     }
 

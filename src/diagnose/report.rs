@@ -273,10 +273,35 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         );
     }
     if !d.dynamic_play_size_cv.is_empty() {
-        let tried: Vec<String> = d
-            .dynamic_play_size_cv
+        // Per damping, in the order first tried: each size with its refit where a few were
+        // tried, else the count and the best (the JSON has every refit).
+        let mut dampings: Vec<ContactDamping> = vec![];
+        for (c, _, _) in &d.dynamic_play_size_cv {
+            if !dampings.contains(c) {
+                dampings.push(*c);
+            }
+        }
+        let tried: Vec<String> = dampings
             .iter()
-            .map(|(c, h, cv)| format!("{:.3} µm with {c}: {cv:.3}", h * 1e6))
+            .map(|c| {
+                let at: Vec<(f64, f64)> = d
+                    .dynamic_play_size_cv
+                    .iter()
+                    .filter(|x| x.0 == *c)
+                    .map(|x| (x.1, x.2))
+                    .collect();
+                let best = at
+                    .iter()
+                    .filter(|x| x.1.is_finite())
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
+                match (best, at.len()) {
+                    (Some(&(h, cv)), n) if n > 1 => {
+                        format!("with {c}, {n} sizes, the best {:.3} µm: {cv:.3}", h * 1e6)
+                    }
+                    (Some(&(h, cv)), _) => format!("with {c}, {:.3} µm: {cv:.3}", h * 1e6),
+                    (None, n) => format!("with {c}, {n} sizes: no refit succeeded"),
+                }
+            })
             .collect();
         let kept = |(c, h, _): &(ContactDamping, f64, f64)| {
             Some(*h) == d.dynamic_play_reference && Some(*c) == d.dynamic_play_damping

@@ -476,6 +476,10 @@ fn diagnose_folds(
             // stalls in the valley between them).
             if opts.play_damping_search {
                 let mut profile = |d: ContactDamping, log: &mut Vec<(ContactDamping, f64, f64)>| {
+                    // (A damping refitted before, the grid's: its best, not refitted again.)
+                    if let Some(b) = best_of(&log.iter().copied().filter(|x| x.0 == d).collect::<Vec<_>>()) {
+                        return b.2;
+                    }
                     let Some(held) = held_at(d) else {
                         return f64::NAN;
                     };
@@ -490,7 +494,8 @@ fn diagnose_folds(
                     best
                 };
                 type Never = std::convert::Infallible;
-                if let Some((d0, _, cv0)) = best_of(&log).filter(|b| b.0.load > 0.0) {
+                // (A constant part of zero has no scale to step from.)
+                if let Some((d0, _, cv0)) = best_of(&log).filter(|b| b.0.load > 0.0 && b.0.constant > 0.0) {
                     let _ = search_constant_damping::<Never>(d0.constant, Some(cv0), &mut |c| {
                         Ok(profile(ContactDamping { constant: c, ..d0 }, &mut log))
                     });
