@@ -484,14 +484,13 @@ fn diagnose_folds(
                         return f64::NAN;
                     };
                     let from = best_of(log).map_or(h0, |b| b.1);
-                    let sizes = held.refine(from, &mut on_try);
-                    let best = sizes
-                        .iter()
-                        .map(|x| x.1)
-                        .filter(|f| f.is_finite())
-                        .fold(f64::NAN, f64::min);
-                    log.extend(sizes.into_iter().map(|(h, cv)| (d, h, cv)));
-                    best
+                    let sizes: Vec<_> = held
+                        .refine(from, &mut on_try)
+                        .into_iter()
+                        .map(|(h, cv)| (d, h, cv))
+                        .collect();
+                    log.extend(&sizes);
+                    best_of(&sizes).map_or(f64::NAN, |b| b.2)
                 };
                 type Never = std::convert::Infallible;
                 // (A constant part of zero has no scale to step from.)

@@ -36,8 +36,15 @@
 //!
 //! At large N the elimination is bound by memory latency, not by arithmetic: everything a
 //! factorisation and a solve read lies in two arenas (numbers and u32 addresses), group after
-//! group in the order they are visited, and the matrix values are gathered in increasing
-//! position, one forward stream. Against nine small allocations per group, alternated
+//! group in the order they are visited. Each block is gathered, inverted and folded into S
+//! in one visit, while its numbers are in the nearest cache (a body's columns lie together,
+//! so the values are still read nearly forward); gathering every block first, in increasing
+//! position of the values, then eliminating them took 4 % more CPU time at N = 3 000
+//! (`lash bench scaling --links 3000`, 5 alternated whole-process pairs, 0.961× for the
+//! one-visit elimination, a diagnosis on the other core; the MR2120 L1 run, 114 kept
+//! unknowns in cache, 0.992×, 9 pairs; both bit-identical). Storing the numbers a solve
+//! reads (A_EE⁻¹, U, y, W) apart from the factorisation's own measured 1.003× at
+//! N = 3 000: not kept. Against nine small allocations per group, alternated
 //! (`lash bench scaling`, a chain of N links, session 36): with another process loading the
 //! memory, 14 % less time per step at N = 1 000 (6.4–6.7 ms against 7.6 ms) and 12 % at
 //! N = 10 000 (107 ms against 122 ms); on the idle machine 6.3–7.4 ms against 7.3–7.7 ms and
@@ -72,6 +79,10 @@ struct Group {
     /// rows (reduced indices, nu), its kept columns (reduced indices, nv) and the position in
     /// the reduced values of S(row i, column j), row-major (nu · nv).
     adr: usize,
+    /// The block's entries in `BlockSchurLu::group_gather`: `gat..gat + ng`.
+    gat: usize,
+    /// How many entries the block gathers (its A_EE, A_RE and A_ER entries in the pattern).
+    ng: usize,
 }
 
 impl Group {
@@ -147,10 +158,14 @@ pub struct BlockSchurLu {
     groups: Vec<Group>,
     /// Full index of each kept unknown.
     kept: Vec<usize>,
-    /// Every entry the factorisation reads: (position in the values, position in
-    /// `numbers`), in increasing order of the first, so the values are read as one forward
-    /// stream.
+    /// The reduced matrix's own entries (A_RR): (position in the values, position in
+    /// `numbers`), in increasing order of the first.
     gather: Vec<(u32, u32)>,
+    /// Each block's entries (A_EE, A_RE, A_ER), block after block in the order they are
+    /// eliminated ([`Group::gat`]), each block's in increasing position in the values: a
+    /// block is gathered, inverted and folded into S while its numbers are in the nearest
+    /// cache, and the values are still read nearly forward (a body's columns lie together).
+    group_gather: Vec<(u32, u32)>,
     /// Positions in the values of the entries between two groups, which the factors leave
     /// out (the module documentation), so that a NaN there is still reported.
     left_out: Vec<u32>,
@@ -302,6 +317,7 @@ impl BlockSchurLu {
         let at = |r: usize, c: usize| slot.get(r, c).expect("entry is in the reduced pattern");
         let s_nnz = s_pattern.nnz();
         let mut gather: Vec<(usize, usize)> = rr_entries.iter().map(|&(k, r, c)| (k, at(r, c))).collect();
+        let mut all_group_gather: Vec<(u32, u32)> = Vec::new();
         let (mut num, mut addresses) = (s_nnz, Vec::new());
         let mut gs = Vec::with_capacity(groups.len());
         let mut scratch_len = 0;
@@ -312,8 +328,14 @@ impl BlockSchurLu {
                 nv: vcols.len(),
                 num,
                 adr: addresses.len(),
+                gat: all_group_gather.len(),
+                ng: gg.len(),
             };
-            gather.extend(gg.iter().map(|&(k, d)| (k, num + d)));
+            let mut own: Vec<(usize, usize)> = gg.iter().map(|&(k, d)| (k, num + d)).collect();
+            own.sort_unstable();
+            for (k, d) in own {
+                all_group_gather.push((narrow(k)?, narrow(d)?));
+            }
             for &i in idx.iter().chain(urows).chain(vcols) {
                 addresses.push(narrow(i)?);
             }
@@ -339,6 +361,7 @@ impl BlockSchurLu {
             work: vec![0.0; kept.len()],
             kept,
             gather,
+            group_gather: all_group_gather,
             left_out,
             numbers: vec![0.0; num],
             addresses,
@@ -401,18 +424,14 @@ impl BlockSchurLu {
     /// block's inverse computed as it is or `equilibrated` ([`invert_equilibrated`]); false
     /// if a block is singular (the numbers are then incomplete).
     fn eliminate(&mut self, values: &[f64], equilibrated: bool) -> Result<bool, LinearSolveError> {
-        // Zeros where the pattern has no entry (the inversion overwrites the blocks, so they
-        // are cleared every time; A_EE⁻¹, W and y are written whole, so they are not).
+        // Zeros where the pattern has no entry, then S's own entries (A_RR). The values are
+        // checked for NaN and infinities as they are gathered (a second pass over them costs
+        // as much as the gather at large N, where they no longer fit in cache); the entries
+        // the elimination leaves out are checked too, from their own list. A non-finite
+        // value is reported (the first in the matrix, by `check_values`) as soon as its block
+        // is gathered, and before a block's singularity is, so the numbers' state then does
+        // not matter.
         self.numbers[..self.s_nnz].iter_mut().for_each(|v| *v = 0.0);
-        for g in &self.groups {
-            let gathered = g.m * g.m + (g.nu + g.nv) * g.m;
-            self.numbers[g.num..g.num + gathered]
-                .iter_mut()
-                .for_each(|v| *v = 0.0);
-        }
-        // The values are checked for NaN and infinities in the same pass (a second pass over
-        // them costs as much as the gather at large N, where they no longer fit in cache);
-        // the entries the elimination leaves out are checked too, from their own list.
         let mut non_finite = 0u64;
         for &(k, d) in &self.gather {
             let v = values[k as usize];
@@ -429,7 +448,19 @@ impl BlockSchurLu {
         let (s_values, rest) = self.numbers.split_at_mut(self.s_nnz);
         for g in &self.groups {
             let m = g.m;
-            let x = Numbers::split(g, &mut rest[g.num - self.s_nnz..]);
+            // The block's entries, gathered into cleared numbers (the inversion overwrites
+            // the block, so it is cleared every time; A_EE⁻¹, W and y are written whole).
+            let own = &mut rest[g.num - self.s_nnz..];
+            own[..m * m + (g.nu + g.nv) * m].iter_mut().for_each(|v| *v = 0.0);
+            for &(k, d) in &self.group_gather[g.gat..g.gat + g.ng] {
+                let v = values[k as usize];
+                non_finite |= super::lu::non_finite_bit(v);
+                own[d as usize - g.num] = v;
+            }
+            if non_finite != 0 {
+                super::lu::check_values(&self.pattern, values)?;
+            }
+            let x = Numbers::split(g, own);
             let a = Addresses::split(g, &self.addresses);
             let inverted = if equilibrated {
                 invert_equilibrated(x.block, x.inv, m)
@@ -437,6 +468,8 @@ impl BlockSchurLu {
                 invert_in_place(x.block, x.inv, m)
             };
             if !inverted {
+                // (A later block's non-finite value is the error, not this block.)
+                super::lu::check_values(&self.pattern, values)?;
                 return Ok(false);
             }
             // W = A_EE⁻¹·V, column by column.
@@ -810,8 +843,9 @@ mod tests {
         let (p, vals, _) = matrix(0.3);
         let mut s = BlockSchurLu::new(&p, &[vec![0, 1], vec![2]]).unwrap();
         // (4, 1): a kept row against a group's column (gathered into U); (0, 2): the coupling
-        // between the two groups, which the factors leave out; (5, 5): the reduced matrix.
-        for (r, c) in [(4, 1), (0, 2), (5, 5)] {
+        // between the two groups, which the factors leave out; (5, 5): the reduced matrix;
+        // (2, 2): the second group's block, gathered after the first group is eliminated.
+        for (r, c) in [(4, 1), (0, 2), (5, 5), (2, 2)] {
             let mut bad = vals.clone();
             bad[p.find(r, c).unwrap()] = f64::NAN;
             match s.factor(&bad) {
@@ -824,6 +858,18 @@ mod tests {
                 "no factors after a refused matrix"
             );
         }
+        // The first group's block singular and a NaN in the second's: the NaN is the error,
+        // not the singular block (which would send the matrix to the plain LU).
+        let mut bad = vals.clone();
+        for (r, c) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+            bad[p.find(r, c).unwrap()] = 0.0;
+        }
+        bad[p.find(2, 2).unwrap()] = f64::NAN;
+        assert!(matches!(
+            s.factor(&bad),
+            Err(LinearSolveError::NonFiniteEntry { row: 2, col: 2, .. })
+        ));
+        assert!(!s.used_plain_lu());
         assert!(matches!(
             s.factor(&vals[1..]),
             Err(LinearSolveError::DimensionMismatch { .. })
