@@ -13,6 +13,7 @@ use super::data::MotionData;
 use super::error::DiagnoseError;
 use super::model::InverseDynamicsModel;
 use super::options::DiagnoseOptions;
+use super::play_dynamics::ContactDamping;
 use super::residuals::{prepare_with, Prepared};
 
 /// The multiplicative steps of the play-size search ([`search_play_size`]), largest first:
@@ -131,6 +132,18 @@ pub fn search_constant_damping<E>(
         &three_digits,
         objective,
     )
+}
+
+/// The refit with the smallest finite leave-one-recording-out RMS among `log`'s (damping,
+/// size in m, objective) entries ([`Diagnosis::dynamic_play_size_cv`](super::Diagnosis)'s
+/// form); `None` when none is finite.
+pub(super) fn best_refit<'a>(
+    log: impl IntoIterator<Item = &'a (ContactDamping, f64, f64)>,
+) -> Option<(ContactDamping, f64, f64)> {
+    log.into_iter()
+        .copied()
+        .filter(|x| x.2.is_finite())
+        .min_by(|a, b| a.2.total_cmp(&b.2))
 }
 
 /// `x` rounded to three significant digits.

@@ -284,21 +284,12 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         let tried: Vec<String> = dampings
             .iter()
             .map(|c| {
-                let at: Vec<(f64, f64)> = d
-                    .dynamic_play_size_cv
-                    .iter()
-                    .filter(|x| x.0 == *c)
-                    .map(|x| (x.1, x.2))
-                    .collect();
-                let best = at
-                    .iter()
-                    .filter(|x| x.1.is_finite())
-                    .min_by(|a, b| a.1.total_cmp(&b.1));
-                match (best, at.len()) {
-                    (Some(&(h, cv)), n) if n > 1 => {
+                let at = || d.dynamic_play_size_cv.iter().filter(|x| x.0 == *c);
+                match (super::play_size::best_refit(at()), at().count()) {
+                    (Some((_, h, cv)), n) if n > 1 => {
                         format!("with {c}, {n} sizes, the best {:.3} µm: {cv:.3}", h * 1e6)
                     }
-                    (Some(&(h, cv)), _) => format!("with {c}, {:.3} µm: {cv:.3}", h * 1e6),
+                    (Some((_, h, cv)), _) => format!("with {c}, {:.3} µm: {cv:.3}", h * 1e6),
                     (None, n) => format!("with {c}, {n} sizes: no refit succeeded"),
                 }
             })

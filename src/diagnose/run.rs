@@ -13,8 +13,8 @@ use super::options::DiagnoseOptions;
 use super::outcome::{ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, ResidualTrace};
 use super::play_dynamics::{ContactDamping, BALL_CONTACT};
 use super::play_size::{
-    search_constant_damping, search_load_damping, HeldPlay, MAX_CONSTANT_DAMPINGS, MAX_LOAD_DAMPINGS,
-    MAX_PLAY_SIZES, PROFILE_SIZES,
+    best_refit, search_constant_damping, search_load_damping, HeldPlay, MAX_CONSTANT_DAMPINGS,
+    MAX_LOAD_DAMPINGS, MAX_PLAY_SIZES, PROFILE_SIZES,
 };
 use super::recording::{Recording, MIN_SAMPLES};
 use super::relinearize;
@@ -438,12 +438,6 @@ fn diagnose_folds(
                     .ok()
                     .flatten()
             };
-            let best_of = |log: &[(ContactDamping, f64, f64)]| {
-                log.iter()
-                    .copied()
-                    .filter(|x| x.2.is_finite())
-                    .min_by(|a, b| a.2.total_cmp(&b.2))
-            };
             let mut log: Vec<(ContactDamping, f64, f64)> = vec![];
             if let Some(held) = held_at(kept) {
                 log.extend(
@@ -452,7 +446,7 @@ fn diagnose_folds(
                         .map(|(h, cv)| (kept, h, cv)),
                 );
             }
-            if let Some((_, h, cv)) = best_of(&log) {
+            if let Some((_, h, cv)) = best_refit(&log) {
                 let mut better: Option<(HeldPlay, ContactDamping, f64)> = None;
                 for damping in dampings.iter().map(|d| resolved(*d)).filter(|d| *d != kept) {
                     let Some(held) = held_at(damping) else { continue };
@@ -477,35 +471,36 @@ fn diagnose_folds(
             if opts.play_damping_search {
                 let mut profile = |d: ContactDamping, log: &mut Vec<(ContactDamping, f64, f64)>| {
                     // (A damping refitted before, the grid's: its best, not refitted again.)
-                    if let Some(b) = best_of(&log.iter().copied().filter(|x| x.0 == d).collect::<Vec<_>>()) {
+                    if let Some(b) = best_refit(log.iter().filter(|x| x.0 == d)) {
                         return b.2;
                     }
                     let Some(held) = held_at(d) else {
                         return f64::NAN;
                     };
-                    let from = best_of(log).map_or(h0, |b| b.1);
+                    let from = best_refit(log.iter()).map_or(h0, |b| b.1);
                     let sizes: Vec<_> = held
                         .refine(from, &mut on_try)
                         .into_iter()
                         .map(|(h, cv)| (d, h, cv))
                         .collect();
                     log.extend(&sizes);
-                    best_of(&sizes).map_or(f64::NAN, |b| b.2)
+                    best_refit(&sizes).map_or(f64::NAN, |b| b.2)
                 };
                 type Never = std::convert::Infallible;
                 // (A constant part of zero has no scale to step from.)
-                if let Some((d0, _, cv0)) = best_of(&log).filter(|b| b.0.load > 0.0 && b.0.constant > 0.0) {
+                if let Some((d0, _, cv0)) = best_refit(&log).filter(|b| b.0.load > 0.0 && b.0.constant > 0.0)
+                {
                     let _ = search_constant_damping::<Never>(d0.constant, Some(cv0), &mut |c| {
                         Ok(profile(ContactDamping { constant: c, ..d0 }, &mut log))
                     });
                 }
-                if let Some((d1, _, cv1)) = best_of(&log).filter(|b| b.0.load > 0.0) {
+                if let Some((d1, _, cv1)) = best_refit(&log).filter(|b| b.0.load > 0.0) {
                     let _ = search_load_damping::<Never>(d1.load, Some(cv1), &mut |g| {
                         Ok(profile(ContactDamping { load: g, ..d1 }, &mut log))
                     });
                 }
             }
-            let best = best_of(&log).filter(|&(damping, h, _)| {
+            let best = best_refit(&log).filter(|&(damping, h, _)| {
                 second.dynamic_play_reference != Some(h) || resolved(second.dynamic_play_damping) != damping
             });
             if let Some((damping, h, _)) = best {

@@ -163,8 +163,9 @@ pub struct BlockSchurLu {
     /// The reduced matrix's own entries (A_RR): (position in the values, position in
     /// `numbers`), in increasing order of the first.
     gather: Vec<(u32, u32)>,
-    /// Each block's entries (A_EE, A_RE, A_ER), block after block in the order they are
-    /// eliminated ([`Group::gat`]), each block's in increasing position in the values: a
+    /// Each block's entries (A_EE, A_RE, A_ER): (position in the values, position in the
+    /// block's own numbers), block after block in the order they are eliminated
+    /// ([`Group::gat`]), each block's in increasing position in the values: a
     /// block is gathered, inverted and folded into S while its numbers are in the nearest
     /// cache, and the values are still read nearly forward (a body's columns lie together).
     group_gather: Vec<(u32, u32)>,
@@ -310,6 +311,8 @@ impl BlockSchurLu {
                     s_entries.push((r, c));
                 }
             }
+            // (In increasing position in the values: the block's gather reads them forward.)
+            gg.sort_unstable();
             group_gather.push(gg);
             couplings.push((urows, vcols));
         }
@@ -333,9 +336,7 @@ impl BlockSchurLu {
                 gat: all_group_gather.len(),
                 ng: gg.len(),
             };
-            let mut own: Vec<(usize, usize)> = gg.iter().map(|&(k, d)| (k, num + d)).collect();
-            own.sort_unstable();
-            for (k, d) in own {
+            for &(k, d) in gg {
                 all_group_gather.push((narrow(k)?, narrow(d)?));
             }
             for &i in idx.iter().chain(urows).chain(vcols) {
@@ -457,7 +458,7 @@ impl BlockSchurLu {
             for &(k, d) in &self.group_gather[g.gat..g.gat + g.ng] {
                 let v = values[k as usize];
                 non_finite |= super::lu::non_finite_bit(v);
-                own[d as usize - g.num] = v;
+                own[d as usize] = v;
             }
             if non_finite != 0 {
                 super::lu::check_values(&self.pattern, values)?;
