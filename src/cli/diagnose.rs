@@ -175,6 +175,11 @@ pub struct Args {
     /// diagnoses paths and noise that no result in the repository has seen.
     #[arg(long)]
     seed: Option<u64>,
+    /// With --suite: every sensor's noise (encoders, rates, torques, tracker) times this
+    /// factor (default 1: the suite's sensors; 0.1 separates what the noise costs the
+    /// diagnosis from what its models miss).
+    #[arg(long, value_name = "FACTOR", value_parser = parse_positive, requires = "suite")]
+    noise_scale: Option<f64>,
 }
 
 /// Diagnoses the recordings, or runs the suite; the suite's check is its targets.
@@ -357,6 +362,9 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
     opts.keep_recordings = a.keep_recordings.clone();
     if let Some(seed) = a.seed {
         opts.seed = seed;
+    }
+    if let Some(f) = a.noise_scale {
+        opts.record.noise = opts.record.noise.scaled(f);
     }
     opts.diagnose.library.play_contact_hertz = a.hertz_play_contact;
     if let Some(k) = a.play_axial_stiffness {

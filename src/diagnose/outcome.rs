@@ -171,7 +171,8 @@ pub struct ChannelFit {
     pub worst_window: Option<ResidualWindow>,
 }
 
-/// Residual time series of one held-out recording and channel (for plots).
+/// Residual time series of one held-out recording and channel (the report's plots and
+/// `holdout-<recording>-<channel>.csv`).
 #[derive(Debug, Clone, Serialize)]
 pub struct ResidualTrace {
     /// Recording.
@@ -182,9 +183,9 @@ pub struct ResidualTrace {
     pub unit: String,
     /// Time, s.
     pub t: Vec<f64>,
-    /// Nominal residual, N·m.
+    /// Measured less the nominal model, in [`Self::unit`].
     pub before: Vec<f64>,
-    /// Fitted residual, N·m.
+    /// Measured less the model with the selected physics, in [`Self::unit`].
     pub after: Vec<f64>,
 }
 

@@ -28,7 +28,6 @@ fn io(path: &Path, e: impl std::fmt::Display) -> ReportError {
     }
 }
 
-#[cfg(feature = "plot")]
 fn slug(s: &str) -> String {
     s.chars()
         .map(|c| {
@@ -344,10 +343,33 @@ fn reference_source(d: &Diagnosis) -> &'static str {
     }
 }
 
+/// Writes every held-out residual trace as `dir/holdout-<recording>-<channel>.csv`: time
+/// (s), measured less the nominal model and measured less the model with the selected
+/// physics (in the channel's unit, named in the header) — the numbers behind the plots.
+fn residual_tables(d: &Diagnosis, dir: &Path) -> Result<(), ReportError> {
+    for tr in &d.traces {
+        let path = dir.join(format!(
+            "holdout-{}-{}.csv",
+            slug(&tr.recording),
+            slug(&tr.channel)
+        ));
+        let mut text = format!(
+            "t [s],measured - nominal [{u}],measured - selected [{u}]\n",
+            u = tr.unit
+        );
+        for ((t, b), a) in tr.t.iter().zip(&tr.before).zip(&tr.after) {
+            let _ = writeln!(text, "{t},{b:e},{a:e}");
+        }
+        std::fs::write(&path, text).map_err(|e| io(&path, e))?;
+    }
+    Ok(())
+}
+
 /// Writes the report into `dir` (created if needed); returns the Markdown path.
 pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
     std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
     let plots = residual_charts(d, dir)?;
+    residual_tables(d, dir)?;
     let json = dir.join("report.json");
     let text = serde_json::to_string_pretty(d).map_err(|e| io(&json, e))?;
     std::fs::write(&json, text).map_err(|e| io(&json, e))?;

@@ -898,6 +898,49 @@ fn dfki_report_opens_with_what_stays_unexplained_in_both_joints() {
     ] {
         assert!(json["channels"][0].get(key).is_some(), "channels lack {key}");
     }
+    // The numbers behind each held-out plot, as a table: every sample, both residuals.
+    assert!(!d.traces.is_empty());
+    for tr in &d.traces {
+        let slug = |s: &str| {
+            s.chars()
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() {
+                        c.to_ascii_lowercase()
+                    } else {
+                        '-'
+                    }
+                })
+                .collect::<String>()
+                .split('-')
+                .filter(|p| !p.is_empty())
+                .collect::<Vec<_>>()
+                .join("-")
+        };
+        let path = out.join(format!(
+            "holdout-{}-{}.csv",
+            slug(&tr.recording),
+            slug(&tr.channel)
+        ));
+        let table = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let mut rows = table.lines();
+        assert_eq!(
+            rows.next(),
+            Some(
+                format!(
+                    "t [s],measured - nominal [{u}],measured - selected [{u}]",
+                    u = tr.unit
+                )
+                .as_str()
+            )
+        );
+        let rows: Vec<Vec<f64>> = rows
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), tr.t.len());
+        for (k, r) in rows.iter().enumerate() {
+            assert_eq!(r, &vec![tr.t[k], tr.before[k], tr.after[k]], "row {k}");
+        }
+    }
 }
 
 #[test]

@@ -145,6 +145,18 @@ impl Default for SensorNoise {
     }
 }
 
+impl SensorNoise {
+    /// Every standard deviation times `factor` (0.1: ten times quieter sensors).
+    pub fn scaled(self, factor: f64) -> Self {
+        Self {
+            encoder: factor * self.encoder,
+            rate: factor * self.rate,
+            torque: factor * self.torque,
+            tracker: factor * self.tracker,
+        }
+    }
+}
+
 /// A platform path: p(t) = centre + Σ_k a_k ⊙ sin(ω_k t + φ_k), two harmonics per axis.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Excitation {
