@@ -245,6 +245,13 @@ fn out_of_range_settings_exit_with_2_before_running() {
     let (code, err) = status(&["mr2120", "accuracy", "--method", "sideways"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("unknown method 'sideways'"), "{err}");
+    // The suite's noise factor: positive, and only with the suite.
+    let (code, err) = status(&["diagnose", "--suite", "--noise-scale", "0"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("not a positive number"), "{err}");
+    let (code, err) = status(&["diagnose", "--model", "mr2120", "--noise-scale", "0.1"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--suite"), "{err}");
 }
 
 /// Inputs found by a panic audit (2026-11-29): each is refused with exit 2 and a message
