@@ -19,7 +19,13 @@
 //! Hertz's law — and what the response with the play leaves of the whole (with − ideal);
 //! then the joint's play coordinates in the truth and the model side by side over the plot
 //! window. `LASH_LAG_SCAN=1` also prints drive C's miss with the model's effect shifted by
-//! −3 … +3 samples (a timing error shows as a minimum away from 0).
+//! −3 … +3 samples (a timing error shows as a minimum away from 0). The model reads the
+//! encoders as a diagnosis does with `LASH_SENSOR_NOISE=f` (white noise of f × the suite's
+//! encoder and rate noise on the angles and rates, seeded) and `LASH_QDD_CUBIC=8` (the rates
+//! differentiated by local cubics over ±8 samples, the suite's setting; by default central
+//! differences). `against-ideal.csv` holds, every sample, the truth with clearance less the
+//! ideal truth and the model's responses with and without the play (N·m): the columns a
+//! diagnosis combines, to set beside its `holdout-<recording>-<channel>.csv`.
 //!
 //! ```text
 //! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m, or hertz] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes] [load-proportional damping γ s/m] [interpolation linear|held] [the model's radial clearance m]
@@ -48,6 +54,7 @@ use lash::diagnose::play_dynamics::{
     expanded_about, respond, BallContact, HertzBalls, Interpolation, JointPlay, PlayResponse, PlaySample,
     BALL_CONTACT,
 };
+use lash::diagnose::signal::derivative_cubic;
 use lash::diagnose::suite::SuiteOptions;
 use lash::mechanisms::mr2120::clearance::LUBRICATED_DAMPING;
 use lash::mechanisms::mr2120::truth::{simulate_run, TruthSpec};
@@ -146,13 +153,53 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut lin = Vec::with_capacity(n);
     let mut sens = Vec::with_capacity(n);
     let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
+    // The rates differentiated as the diagnosis does (`LASH_QDD_CUBIC=8`: local cubics over
+    // ±8 samples, the suite's setting), or by central differences (default).
+    let cubic: Option<usize> = std::env::var("LASH_QDD_CUBIC")
+        .ok()
+        .map(|s| s.parse())
+        .transpose()?;
+    // `LASH_SENSOR_NOISE=f` reads the motion through the suite's encoders and rate channels
+    // times f: white noise of f × their standard deviations on the angles and rates (seeded).
+    let noise_factor: Option<f64> = std::env::var("LASH_SENSOR_NOISE")
+        .ok()
+        .map(|s| s.parse())
+        .transpose()?;
+    // (The motors follow their command in both truths: the encoders of the truth with
+    // clearance read the same angles and rates as those of the truth without.)
+    let mut tight = tight;
+    if let Some(f) = noise_factor {
+        let sd = lash::mechanisms::mr2120::record::SensorNoise::default().scaled(f);
+        let mut state: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut uniform = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let mut gauss =
+            move || (-2.0 * uniform().ln()).sqrt() * (2.0 * std::f64::consts::PI * uniform()).cos();
+        for j in 0..3 {
+            for i in 0..tight.t.len() {
+                tight.q[j][i] += sd.encoder * gauss();
+                tight.qd[j][i] += sd.rate * gauss();
+            }
+        }
+    }
+    let tight = tight;
+    let t = &tight.t;
+    let qdd_cubic: Option<Vec<Vec<f64>>> =
+        cubic.map(|h| (0..3).map(|j| derivative_cubic(t, &tight.qd[j], h)).collect());
     // The encoders' motion at sample i: angles, rates, rates differenced.
     let motion_at = |i: usize| {
         let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
         let q: Vec<f64> = (0..3).map(|j| tight.q[j][i]).collect();
         let qd: Vec<f64> = (0..3).map(|j| tight.qd[j][i]).collect();
         let qdd: Vec<f64> = (0..3)
-            .map(|j| (tight.qd[j][b] - tight.qd[j][a]) / (t[b] - t[a]))
+            .map(|j| match &qdd_cubic {
+                Some(c) => c[j][i],
+                None => (tight.qd[j][b] - tight.qd[j][a]) / (t[b] - t[a]),
+            })
             .collect();
         (q, qd, qdd)
     };
@@ -396,6 +443,30 @@ fn main() -> Result<(), Box<dyn Error>> {
     // reduced model's tight run and its response alone (with the play, not less without)
     // match it, over 0.6 s to the end, in torque-noise units.
     let ideal = simulate_run(&TruthSpec::nominal(), &path, &ropts)?;
+    // Every sample against the ideal truth (`against-ideal.csv`, N·m): the truth with
+    // clearance less the ideal one, and the reduced model's responses with and without the
+    // play — the columns a diagnosis combines (the play's as the difference of the two,
+    // scaled to its estimate, the compliance's as the response without, scaled by its factor).
+    {
+        let field = |x: Option<f64>| x.map_or(",".to_string(), |v| format!(",{v:e}"));
+        let mut csv = String::from(
+            "t_s,whole_a_nm,whole_b_nm,whole_c_nm,loose_model_a_nm,loose_model_b_nm,loose_model_c_nm,tight_model_a_nm,tight_model_b_nm,tight_model_c_nm\n",
+        );
+        for i in 0..n {
+            csv.push_str(&format!("{}", t[i]));
+            for k in 0..3 {
+                csv.push_str(&format!(",{:e}", loose.tau[k][i] - ideal.tau[k][i]));
+            }
+            for k in 0..3 {
+                csv.push_str(&field(loose_model[i].as_ref().map(|m| m.torque[k])));
+            }
+            for k in 0..3 {
+                csv.push_str(&field(tight_model[i].as_ref().map(|m| m.torque[k])));
+            }
+            csv.push('\n');
+        }
+        std::fs::write(out.join("against-ideal.csv"), csv)?;
+    }
     for (k, drive) in ["A", "B", "C"].iter().enumerate() {
         let (mut s0, mut s1, mut s2, mut s3, mut m) = (0.0, 0.0, 0.0, 0.0, 0usize);
         for i in (0..n).filter(|&i| t[i] >= 0.6) {
