@@ -120,6 +120,11 @@ pub struct Args {
     /// nominal motion everywhere; also with --suite).
     #[arg(long)]
     play_relinearize: bool,
+    /// Continue the re-linearisation's Gauss–Newton steps to the last pass's estimates also
+    /// when no step was held back (at most three passes, each kept only if it
+    /// cross-validates better by 1 %; also with --suite).
+    #[arg(long)]
+    relinearize_to_convergence: bool,
     /// Blend the reduced dynamic play model's linear forces in time from sample to sample
     /// (by default they are held at each sample interval's end; also with --suite).
     #[arg(long)]
@@ -286,6 +291,7 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         opts.play_axial_stiffnesses = vec![k];
     }
     opts.library.play_relinearize = a.play_relinearize;
+    opts.relinearize_to_convergence = a.relinearize_to_convergence;
     opts.library.play_interpolation = interpolation(&a);
     opts.play_size_search |= a.play_size_search || a.play_damping_search;
     opts.play_damping_search |= a.play_damping_search;
@@ -372,6 +378,7 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
         opts.diagnose.play_axial_stiffnesses = vec![k];
     }
     opts.diagnose.library.play_relinearize = a.play_relinearize;
+    opts.diagnose.relinearize_to_convergence = a.relinearize_to_convergence;
     opts.diagnose.library.play_interpolation = interpolation(a);
     opts.diagnose.play_size_search |= a.play_size_search || a.play_damping_search;
     opts.diagnose.play_damping_search |= a.play_damping_search;

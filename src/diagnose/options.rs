@@ -29,6 +29,16 @@ pub struct DiagnoseOptions {
     /// the model, recompute every column around them and select again (one Gauss–Newton
     /// step for effects that are not linear in their parameters).
     pub relinearize: bool,
+    /// With [`relinearize`](Self::relinearize), continue the Gauss–Newton steps (whole
+    /// steps from the point reached to the last pass's estimates, each kept while the
+    /// selection cross-validates better by
+    /// [`CONTINUED_STEP_GAIN`](super::relinearize::CONTINUED_STEP_GAIN), at most
+    /// [`MAX_RELINEARIZATIONS`](super::relinearize::MAX_RELINEARIZATIONS) passes) also when no
+    /// step was held back: the second pass's columns are taken about the first pass's
+    /// estimates, and effects it drops stay in that point, taken back only along their
+    /// columns — which a joint's rattle, computed about the point, does not follow linearly.
+    /// Off by default (only held-back steps continue).
+    pub relinearize_to_convergence: bool,
     /// The linearisation point, set by the re-linearisation: candidates whose values the
     /// model already contains (name, value). Residuals are taken as if from the nominal
     /// model (r + Σ value·column), so estimates are totals and any effect can still drop out.
@@ -146,6 +156,7 @@ impl Default for DiagnoseOptions {
             locate: LocateOptions::default(),
             reweight: true,
             relinearize: true,
+            relinearize_to_convergence: false,
             shift: vec![],
             play_dynamics: true,
             dynamic_play_selection: true,

@@ -534,9 +534,10 @@ fn diagnose_folds(
     let mut shifted = shifted;
     let mut cv_log = vec![second.cv_rms_noise_units];
     let mut base = relinearize::point_toward(model, &[], &first.estimates, &cands, &fraction);
-    let held = steps.iter().any(|s| s.fraction < 1.0);
+    // Continued where a step was held back, or always when asked to converge.
+    let go_on = steps.iter().any(|s| s.fraction < 1.0) || opts.relinearize_to_convergence;
     let mut passes = 1;
-    while held && cv_log.len() < relinearize::MAX_RELINEARIZATIONS {
+    while go_on && cv_log.len() < relinearize::MAX_RELINEARIZATIONS {
         let point = relinearize::point_toward(model, &base, &second.estimates, &cands2, &|_| 1.0);
         // Converged: every effect within `relinearize::CONVERGED_STEP` of the point.
         let converged = point.len() == base.len()

@@ -796,6 +796,65 @@ fn at_noise_nothing_is_unexplained_and_the_residual_is_white() {
     );
 }
 
+/// `DiagnoseOptions::relinearize_to_convergence`: a further Gauss–Newton pass from the point
+/// the first pass's estimates set to the second pass's estimates, also when no step was held
+/// back; it is kept only when it cross-validates better by `CONTINUED_STEP_GAIN` (1 %).
+#[test]
+fn relinearizing_to_convergence_tries_a_further_pass_and_keeps_it_only_if_it_cross_validates_better() {
+    use lash::diagnose::data::roles;
+    use lash::diagnose::diagnose_recordings;
+    use lash::diagnose::recording::parse_mapping;
+    use lash::mechanisms::double_pendulum::DFKI_README;
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let readme = root.join(DFKI_README);
+    let p = DoublePendulumParams::from_readme(&readme)
+        .unwrap_or_else(|e| panic!("this test needs the shared data: {e}"));
+    let model = DoublePendulumModel { params: p };
+    let map = parse_mapping(lash::diagnose::model::DFKI_COLUMNS, &roles(2)).unwrap();
+    let dir = readme.parent().unwrap().join("recordings");
+    let load = |runs: &[&str]| -> Vec<_> {
+        runs.iter()
+            .map(|r| read_csv(&dir.join(format!("trajectory_{r}.csv")), "time", &map).unwrap())
+            .collect()
+    };
+    let fit = load(&["00", "01", "02", "03", "04", "05"]);
+    let held = load(&["12", "13"]);
+    let run = |converge: bool| {
+        let opts = DiagnoseOptions {
+            relinearize_to_convergence: converge,
+            ..DiagnoseOptions::default()
+        };
+        diagnose_recordings(
+            &model,
+            &fit,
+            &held,
+            &[2, 3, 5, 8, 12, 16, 20, 25, 30, 40, 50],
+            &opts,
+            |_, _| {},
+        )
+        .unwrap()
+    };
+    let (once, further) = (run(false), run(true));
+    // Nothing held back: by default one pass; asked to converge, at least one more is tried.
+    assert_eq!(once.relinearization_cv.len(), 1, "{:?}", once.relinearization_cv);
+    assert!(
+        further.relinearization_cv.len() >= 2,
+        "{:?}",
+        further.relinearization_cv
+    );
+    assert_eq!(further.relinearization_cv[0], once.relinearization_cv[0]);
+    // Kept passes are those that gained 1 %; the diagnosis is the last kept one's.
+    let kept = further.relinearization_passes;
+    assert!(kept >= 1 && kept <= further.relinearization_cv.len());
+    if kept == 1 {
+        assert!(further.relinearization_cv[1] > 0.99 * further.relinearization_cv[0]);
+        assert_eq!(further.selected, once.selected);
+        assert_eq!(further.cv_rms_noise_units, once.cv_rms_noise_units);
+    } else {
+        assert!(further.cv_rms_noise_units <= 0.99 * once.cv_rms_noise_units);
+    }
+}
+
 #[test]
 fn dfki_report_opens_with_what_stays_unexplained_in_both_joints() {
     use lash::diagnose::data::roles;
