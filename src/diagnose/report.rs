@@ -28,6 +28,13 @@ fn io(path: &Path, e: impl std::fmt::Display) -> ReportError {
     }
 }
 
+/// The file name, without extension, of a held-out recording's channel in a report:
+/// `holdout-<recording>-<channel>`, each lower-cased with every run of other characters than
+/// ASCII letters and digits one `-` (the plots `.png` / `.svg`, the table `.csv`).
+pub fn holdout_stem(recording: &str, channel: &str) -> String {
+    format!("holdout-{}-{}", slug(recording), slug(channel))
+}
+
 fn slug(s: &str) -> String {
     s.chars()
         .map(|c| {
@@ -52,7 +59,7 @@ fn residual_charts(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String, Pat
     use crate::plot::{LineChart, Series};
     let mut plots = vec![];
     for tr in &d.traces {
-        let stem = dir.join(format!("holdout-{}-{}", slug(&tr.recording), slug(&tr.channel)));
+        let stem = dir.join(holdout_stem(&tr.recording, &tr.channel));
         let chart = LineChart {
             title: format!("{}: {} residual (held out)", tr.recording, tr.channel),
             x_label: "time [s]".into(),
@@ -348,11 +355,7 @@ fn reference_source(d: &Diagnosis) -> &'static str {
 /// physics (in the channel's unit, named in the header) — the numbers behind the plots.
 fn residual_tables(d: &Diagnosis, dir: &Path) -> Result<(), ReportError> {
     for tr in &d.traces {
-        let path = dir.join(format!(
-            "holdout-{}-{}.csv",
-            slug(&tr.recording),
-            slug(&tr.channel)
-        ));
+        let path = dir.join(format!("{}.csv", holdout_stem(&tr.recording, &tr.channel)));
         let mut text = format!(
             "t [s],measured - nominal [{u}],measured - selected [{u}]\n",
             u = tr.unit

@@ -3,7 +3,7 @@
 
 use lash::diagnose::data::MotionData;
 use lash::diagnose::model::DoublePendulumModel;
-use lash::diagnose::recording::{read_csv, RecordingError};
+use lash::diagnose::recording::{read_csv, Recording, RecordingError};
 use lash::diagnose::{diagnose, DiagnoseError, DiagnoseOptions};
 use lash::mechanisms::double_pendulum::DoublePendulumParams;
 
@@ -796,13 +796,10 @@ fn at_noise_nothing_is_unexplained_and_the_residual_is_white() {
     );
 }
 
-/// `DiagnoseOptions::relinearize_to_convergence`: a further Gauss–Newton pass from the point
-/// the first pass's estimates set to the second pass's estimates, also when no step was held
-/// back; it is kept only when it cross-validates better by `CONTINUED_STEP_GAIN` (1 %).
-#[test]
-fn relinearizing_to_convergence_tries_a_further_pass_and_keeps_it_only_if_it_cross_validates_better() {
+/// The DFKI double pendulum's model from the shared data's README, its recordings 00–05 to
+/// fit and 12–13 held out.
+fn dfki_fit_and_held() -> (DoublePendulumModel, Vec<Recording>, Vec<Recording>) {
     use lash::diagnose::data::roles;
-    use lash::diagnose::diagnose_recordings;
     use lash::diagnose::recording::parse_mapping;
     use lash::mechanisms::double_pendulum::DFKI_README;
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -817,8 +814,20 @@ fn relinearizing_to_convergence_tries_a_further_pass_and_keeps_it_only_if_it_cro
             .map(|r| read_csv(&dir.join(format!("trajectory_{r}.csv")), "time", &map).unwrap())
             .collect()
     };
-    let fit = load(&["00", "01", "02", "03", "04", "05"]);
-    let held = load(&["12", "13"]);
+    (
+        model,
+        load(&["00", "01", "02", "03", "04", "05"]),
+        load(&["12", "13"]),
+    )
+}
+
+/// `DiagnoseOptions::relinearize_to_convergence`: a further Gauss–Newton pass from the point
+/// the first pass's estimates set to the second pass's estimates, also when no step was held
+/// back; it is kept only when it cross-validates better by `CONTINUED_STEP_GAIN` (1 %).
+#[test]
+fn relinearizing_to_convergence_tries_a_further_pass_and_keeps_it_only_if_it_cross_validates_better() {
+    use lash::diagnose::diagnose_recordings;
+    let (model, fit, held) = dfki_fit_and_held();
     let run = |converge: bool| {
         let opts = DiagnoseOptions {
             relinearize_to_convergence: converge,
@@ -857,24 +866,8 @@ fn relinearizing_to_convergence_tries_a_further_pass_and_keeps_it_only_if_it_cro
 
 #[test]
 fn dfki_report_opens_with_what_stays_unexplained_in_both_joints() {
-    use lash::diagnose::data::roles;
     use lash::diagnose::diagnose_recordings;
-    use lash::diagnose::recording::parse_mapping;
-    use lash::mechanisms::double_pendulum::DFKI_README;
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let readme = root.join(DFKI_README);
-    let p = DoublePendulumParams::from_readme(&readme)
-        .unwrap_or_else(|e| panic!("this test needs the shared data: {e}"));
-    let model = DoublePendulumModel { params: p };
-    let map = parse_mapping(lash::diagnose::model::DFKI_COLUMNS, &roles(2)).unwrap();
-    let dir = readme.parent().unwrap().join("recordings");
-    let load = |runs: &[&str]| -> Vec<_> {
-        runs.iter()
-            .map(|r| read_csv(&dir.join(format!("trajectory_{r}.csv")), "time", &map).unwrap())
-            .collect()
-    };
-    let fit = load(&["00", "01", "02", "03", "04", "05"]);
-    let held = load(&["12", "13"]);
+    let (model, fit, held) = dfki_fit_and_held();
     let d = diagnose_recordings(
         &model,
         &fit,
@@ -960,25 +953,9 @@ fn dfki_report_opens_with_what_stays_unexplained_in_both_joints() {
     // The numbers behind each held-out plot, as a table: every sample, both residuals.
     assert!(!d.traces.is_empty());
     for tr in &d.traces {
-        let slug = |s: &str| {
-            s.chars()
-                .map(|c| {
-                    if c.is_ascii_alphanumeric() {
-                        c.to_ascii_lowercase()
-                    } else {
-                        '-'
-                    }
-                })
-                .collect::<String>()
-                .split('-')
-                .filter(|p| !p.is_empty())
-                .collect::<Vec<_>>()
-                .join("-")
-        };
         let path = out.join(format!(
-            "holdout-{}-{}.csv",
-            slug(&tr.recording),
-            slug(&tr.channel)
+            "{}.csv",
+            lash::diagnose::report::holdout_stem(&tr.recording, &tr.channel)
         ));
         let table = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let mut rows = table.lines();
