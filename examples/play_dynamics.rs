@@ -170,19 +170,11 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut tight = tight;
     if let Some(f) = noise_factor {
         let sd = lash::mechanisms::mr2120::record::SensorNoise::default().scaled(f);
-        let mut state: u64 = 0x9e37_79b9_7f4a_7c15;
-        let mut uniform = move || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
-        let mut gauss =
-            move || (-2.0 * uniform().ln()).sqrt() * (2.0 * std::f64::consts::PI * uniform()).cos();
+        let mut rng = lash::mechanisms::mr2120::record::Rng::new(0x9e37_79b9_7f4a_7c15);
         for j in 0..3 {
             for i in 0..tight.t.len() {
-                tight.q[j][i] += sd.encoder * gauss();
-                tight.qd[j][i] += sd.rate * gauss();
+                tight.q[j][i] += sd.encoder * rng.normal();
+                tight.qd[j][i] += sd.rate * rng.normal();
             }
         }
     }
