@@ -9,7 +9,11 @@
 //! perf record -g target/release/examples/l1_run 3
 //! ```
 //! `LASH_RTOL` sets rtol (atol = rtol/100), `LASH_T_END` the end time (s, at most 4),
-//! `LASH_ANDERSON` the Newton iteration's Anderson depth (`BdfOptions::anderson_depth`).
+//! `LASH_ANDERSON` the Newton iteration's Anderson depth (`BdfOptions::anderson_depth`);
+//! the matrix reuse's settings: `LASH_JAC_AGE` (`max_steps_between_jacobians`),
+//! `LASH_REFRESH_RATE` (`jacobian_refresh_rate`), `LASH_REFRESHES`
+//! (`max_jacobian_refreshes_in_solve`), `LASH_MAX_NEWTON` (`max_newton_iters`) and
+//! `LASH_MEASURE_RATE` (`true`/`false`, `measure_rate_with_stale_jacobian`).
 
 use lash::bench::mr2120::{bench_mechanism, BENCH_DAMPING};
 use lash::mechanisms::mr2120::trajectory::clearance_options;
@@ -38,6 +42,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         opts.singularity_warning = 0.0;
         if let Some(d) = env("LASH_ANDERSON") {
             opts.bdf.anderson_depth = d;
+        }
+        if let Some(a) = env("LASH_JAC_AGE") {
+            opts.bdf.max_steps_between_jacobians = a;
+        }
+        if let Some(r) = env("LASH_REFRESH_RATE") {
+            opts.bdf.jacobian_refresh_rate = r;
+        }
+        if let Some(k) = env("LASH_REFRESHES") {
+            opts.bdf.max_jacobian_refreshes_in_solve = k;
+        }
+        if let Some(k) = env("LASH_MAX_NEWTON") {
+            opts.bdf.max_newton_iters = k;
+        }
+        if let Some(b) = env("LASH_MEASURE_RATE") {
+            opts.bdf.measure_rate_with_stale_jacobian = b;
         }
         let mut sim = Simulation::new(mech.clone(), 0.0, opts)?;
         sim.run(&times, |_| {})?;

@@ -345,23 +345,29 @@ impl MultibodyDae {
         // Which columns a body's dynamics rows (w rows) depend on, per other body: a constraint
         // between two bodies couples them through its Hessian (G(q)ᵀλ: positions only); a force
         // element through its load, which may depend on positions and velocities. A body's
-        // kinematic rows (q' = T(p)·w + G(q)ᵀμ) depend on its own velocities only. Declaring no
-        // more than this
-        // keeps the LU fill down (`tests/integration/multibody_jacobian.rs` checks that the pattern covers
-        // every nonzero derivative).
+        // kinematic rows (q' = T(p)·w + G(q)ᵀμ) depend on its own velocities only, and on
+        // another body's positions only through a constraint's Hessian (G(q)ᵀμ), never
+        // through a force element. Declaring no more than this keeps the LU fill down and the
+        // matrix small (`tests/integration/multibody_jacobian.rs` checks that the pattern
+        // covers every nonzero derivative).
         #[derive(Clone, Copy, PartialEq)]
         enum Coupling {
             Positions,
             Full,
         }
-        let mut coupled: Vec<Vec<(usize, Coupling)>> = (0..nb).map(|b| vec![(b, Coupling::Full)]).collect();
+        // (other body, how its columns enter the dynamics rows, whether a constraint joins
+        // the two: then its positions enter the kinematic rows too).
+        let mut coupled: Vec<Vec<(usize, Coupling, bool)>> =
+            (0..nb).map(|b| vec![(b, Coupling::Full, true)]).collect();
         let mut link = |a: usize, b: usize, kind: Coupling| match coupled[a].iter_mut().find(|e| e.0 == b) {
             Some(e) => {
                 if kind == Coupling::Full {
                     e.1 = Coupling::Full;
+                } else {
+                    e.2 = true;
                 }
             }
-            None => coupled[a].push((b, kind)),
+            None => coupled[a].push((b, kind, kind == Coupling::Positions)),
         };
         for &(si, sj) in self.ev.row_sides() {
             if let (Some(a), Some(b)) = (si, sj) {
@@ -384,11 +390,17 @@ impl MultibodyDae {
                     e.push((row, col));
                 }
             }
-            for &(c, kind) in &coupled[b] {
+            for &(c, kind, constrained) in &coupled[b] {
                 // Positions of a coupled body enter the kinematic rows through the stabiliser
-                // term G(q)ᵀμ and the dynamics rows through G(q)ᵀλ and the loads.
+                // term G(q)ᵀμ (a constraint only) and the dynamics rows through G(q)ᵀλ and the
+                // loads.
                 for col in lay.q(c)..lay.q(c) + 7 {
-                    for row in (lay.q(b)..lay.q(b) + 7).chain(lay.w(b)..lay.w(b) + 6) {
+                    if constrained {
+                        for row in lay.q(b)..lay.q(b) + 7 {
+                            e.push((row, col));
+                        }
+                    }
+                    for row in lay.w(b)..lay.w(b) + 6 {
                         e.push((row, col));
                     }
                 }

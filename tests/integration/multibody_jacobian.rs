@@ -112,6 +112,48 @@ fn analytic_jacobian_matches_differences_on_a_pendulum_with_a_spring() {
     check(mech, 0.0);
 }
 
+/// A force element couples two bodies' dynamics rows, never their kinematic rows (q' = T(p)·w
+/// + G(q)ᵀμ involves another body only through a constraint's Hessian): the pattern declares
+/// a's positions in b's kinematic rows only when a joint joins them. The block elimination
+/// leaves entries between two bodies' kinematic rows out of its factors, so declaring them
+/// for a force element only stored and cleared zeros (23 % of the chain's entries).
+#[test]
+fn a_force_element_declares_no_other_body_in_a_bodys_kinematic_rows() {
+    let build = |joined: bool| {
+        let mut mech = Mechanism::new();
+        let a = mech.add_body(RigidBody::rod("a", 1.2, 0.5).at(Vector3::new(0.25, 0.0, 0.0)));
+        let b = mech.add_body(RigidBody::cuboid("b", 0.7, 0.2, 0.1, 0.05).at(Vector3::new(0.6, 0.1, -0.05)));
+        if joined {
+            mech.spherical_at("ball", a, b, Vector3::new(0.5, 0.0, 0.0));
+        }
+        mech.add_force(Box::new(SpringDamper {
+            name: "spring".into(),
+            i: (Attach::Body(a), Vector3::new(0.3, 0.0, 0.0)),
+            j: (Attach::Body(b), Vector3::new(0.05, 0.02, 0.0)),
+            stiffness: 200.0,
+            damping: 3.0,
+            free_length: 0.2,
+        }));
+        let dae = MultibodyDae::new(Arc::new(mech)).unwrap();
+        let (lay, pattern) = (dae.layout(), dae.jacobian_pattern());
+        let declared = |rows: std::ops::Range<usize>, cols: std::ops::Range<usize>| {
+            rows.flat_map(|r| cols.clone().map(move |c| (r, c)))
+                .filter(|&(r, c)| pattern.find(r, c).is_some())
+                .count()
+        };
+        let (qa, qb, wb) = (
+            lay.q(0)..lay.q(0) + 7,
+            lay.q(1)..lay.q(1) + 7,
+            lay.w(1)..lay.w(1) + 6,
+        );
+        (declared(qb.clone(), qa.clone()), declared(wb, qa))
+    };
+    // Spring only: a's positions in b's dynamics rows (42 entries), none in its kinematic rows.
+    assert_eq!(build(false), (0, 42));
+    // Joined: the joint's Hessian puts them in the kinematic rows too.
+    assert_eq!(build(true), (49, 42));
+}
+
 #[test]
 fn analytic_jacobian_matches_differences_on_the_driven_mr2120() {
     let g = Geometry::default();
