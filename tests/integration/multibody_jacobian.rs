@@ -112,11 +112,12 @@ fn analytic_jacobian_matches_differences_on_a_pendulum_with_a_spring() {
     check(mech, 0.0);
 }
 
-/// A force element couples two bodies' dynamics rows, never their kinematic rows (q' = T(p)·w
-/// + G(q)ᵀμ involves another body only through a constraint's Hessian): the pattern declares
-/// a's positions in b's kinematic rows only when a joint joins them. The block elimination
-/// leaves entries between two bodies' kinematic rows out of its factors, so declaring them
-/// for a force element only stored and cleared zeros (23 % of the chain's entries).
+/// A force element couples two bodies' dynamics rows, never their kinematic rows (in
+/// q' = T(p)·w + G(q)ᵀμ another body enters only through a constraint's Hessian): the pattern
+/// declares a's positions in b's kinematic rows only when a joint joins them. The block
+/// elimination leaves entries between two bodies' kinematic rows out of its factors, so
+/// declaring them for a force element only stored and cleared zeros (23 % of the chain's
+/// entries).
 #[test]
 fn a_force_element_declares_no_other_body_in_a_bodys_kinematic_rows() {
     let build = |joined: bool| {
