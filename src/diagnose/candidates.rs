@@ -2420,6 +2420,17 @@ mod tests {
             "{:?}",
             d.dynamic_play_damping
         );
+        // Whether the dampings were told apart, from the same record, at the diagnosis's
+        // confounding tolerance (a play was selected and two dampings or more tried).
+        assert_eq!(
+            d.dynamic_play_damping_identified,
+            crate::diagnose::play_size::damping_identified(
+                &d.dynamic_play_damping_cv,
+                &d.dynamic_play_size_cv,
+                opts.confound_tolerance
+            )
+        );
+        assert!(d.dynamic_play_damping_identified.is_some());
         let (tried, best) = tried_and_best(&d.dynamic_play_axial_stiffness_cv);
         assert_eq!(tried, opts.play_axial_stiffnesses);
         assert_eq!(d.dynamic_play_axial_stiffness, best);

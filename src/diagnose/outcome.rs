@@ -280,6 +280,14 @@ pub struct Diagnosis {
     /// Each damping tried and the selection's leave-one-recording-out RMS with it (noise
     /// units).
     pub dynamic_play_damping_cv: Vec<(ContactDamping, f64)>,
+    /// Whether the fit recordings told the contact dampings tried apart (JSON
+    /// `dynamic_play_damping_identified`): `Some(false)` when the next-best damping's
+    /// leave-one-recording-out RMS lies within
+    /// [`DiagnoseOptions::confound_tolerance`](super::DiagnoseOptions) of the best's (the
+    /// play-size search's refits where they compared two dampings or more, else the grid's at
+    /// the reference play), so the damping kept is not a finding and the verdict says so;
+    /// `None` when fewer than two dampings were tried or no play was selected.
+    pub dynamic_play_damping_identified: Option<bool>,
     /// The balls' stiffness on their bores' end faces (N/m, the linear law) the reduced
     /// dynamic play model took in the selection, chosen by cross-validation among
     /// [`DiagnoseOptions::play_axial_stiffnesses`](super::DiagnoseOptions); `None` when the

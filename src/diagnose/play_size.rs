@@ -146,6 +146,46 @@ pub(super) fn best_refit<'a>(
         .min_by(|a, b| a.2.total_cmp(&b.2))
 }
 
+/// Per contact damping tried, its smallest leave-one-recording-out RMS, best first: from the
+/// play-size search's refits (`sized`) where they compared two dampings or more, else from
+/// the grid at the reference play (`grid`); non-finite refits left out.
+pub(super) fn best_per_damping(
+    grid: &[(ContactDamping, f64)],
+    sized: &[(ContactDamping, f64, f64)],
+) -> Vec<(ContactDamping, f64)> {
+    let best_per = |log: &mut dyn Iterator<Item = (ContactDamping, f64)>| {
+        let mut per: Vec<(ContactDamping, f64)> = vec![];
+        for (c, cv) in log.filter(|x| x.1.is_finite()) {
+            match per.iter_mut().find(|p| p.0 == c) {
+                Some(p) => p.1 = p.1.min(cv),
+                None => per.push((c, cv)),
+            }
+        }
+        per.sort_by(|a, b| a.1.total_cmp(&b.1));
+        per
+    };
+    let per = best_per(&mut sized.iter().map(|&(c, _, cv)| (c, cv)));
+    if per.len() >= 2 {
+        per
+    } else {
+        best_per(&mut grid.iter().copied())
+    }
+}
+
+/// Whether the fit recordings told the contact dampings tried apart ([`best_per_damping`]):
+/// `Some(false)` when the next-best damping's RMS lies within `tolerance` (relative) of the
+/// best's, so the damping kept is not a finding; `None` with fewer than two dampings.
+pub(super) fn damping_identified(
+    grid: &[(ContactDamping, f64)],
+    sized: &[(ContactDamping, f64, f64)],
+    tolerance: f64,
+) -> Option<bool> {
+    match best_per_damping(grid, sized).as_slice() {
+        [best, next, ..] => Some(next.1 >= best.1 * (1.0 + tolerance)),
+        _ => None,
+    }
+}
+
 /// `x` rounded to three significant digits.
 fn three_digits(x: f64) -> f64 {
     if x == 0.0 || !x.is_finite() {
@@ -389,6 +429,36 @@ impl<'a> HeldPlay<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_damping_is_identified_only_when_the_next_best_is_worse_beyond_the_tolerance() {
+        let c = |constant: f64, load: f64| ContactDamping { constant, load };
+        // Session 54's grid on clearance-F: 1.377 against 1.378 and 1.384 (0.07 %).
+        let grid = [
+            (c(20.0, 1000.0), 1.377),
+            (c(20.0, 250.0), 1.378),
+            (c(20.0, 500.0), 1.384),
+        ];
+        assert_eq!(damping_identified(&grid, &[], 0.005), Some(false));
+        // 1 % apart: told.
+        let told = [(c(20.0, 1000.0), 1.377), (c(20.0, 250.0), 1.391)];
+        assert_eq!(damping_identified(&told, &[], 0.005), Some(true));
+        // The size search's refits decide where they compared two dampings, each damping at
+        // its best size (20 + 250 at 0.9591 beats its own 0.9700 at another size).
+        let sized = [
+            (c(20.0, 250.0), 5.9e-6, 0.9700),
+            (c(20.0, 250.0), 5.92e-6, 0.9591),
+            (c(20.0, 500.0), 5.92e-6, 0.9720),
+        ];
+        assert_eq!(damping_identified(&grid, &sized, 0.005), Some(true));
+        assert_eq!(damping_identified(&grid, &sized, 0.02), Some(false));
+        // One damping in the refits: the grid's record decides; one damping at all: no answer.
+        assert_eq!(damping_identified(&grid, &sized[..2], 0.005), Some(false));
+        assert_eq!(damping_identified(&grid[..1], &[], 0.005), None);
+        // A failed refit (non-finite) is no evidence.
+        let failed = [(c(20.0, 250.0), 1.0), (c(20.0, 500.0), f64::NAN)];
+        assert_eq!(damping_identified(&failed, &[], 0.005), None);
+    }
 
     #[test]
     fn the_play_size_search_finds_a_narrow_minimum_within_its_last_step() {

@@ -579,6 +579,14 @@ fn diagnose_folds(
     d.relinearization_steps = steps;
     d.relinearization_cv = cv_log;
     d.relinearization_passes = passes;
+    // Only a selected play makes the damping matter.
+    if relinearize::dynamic_play_references(model, &d, &cands2) != (None, None) {
+        d.dynamic_play_damping_identified = super::play_size::damping_identified(
+            &d.dynamic_play_damping_cv,
+            &d.dynamic_play_size_cv,
+            opts.confound_tolerance,
+        );
+    }
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
     adequacy::refresh(&mut d);
     let set: Vec<usize> = d
@@ -917,6 +925,7 @@ fn diagnose_once(
             .then_some(opts.library.backlash_place),
         backlash_place_cv: vec![],
         backlash_place_identified: None,
+        dynamic_play_damping_identified: None,
         dynamic_play_relinearized: opts.library.play_relinearize,
         dynamic_play_interpolation: opts.library.play_interpolation,
         dynamic_play_reference_cv: vec![],

@@ -11,6 +11,7 @@ use super::format::number;
 use super::locate::Location;
 use super::model::InverseDynamicsModel;
 use super::outcome::{ChannelFit, Confound, Diagnosis, Estimate, PlayDynamicsCheck, UnresolvedPlay};
+use super::play_dynamics::ContactDamping;
 
 /// The verdict of a finished diagnosis (after its estimates were moved back to the nominal
 /// model).
@@ -37,6 +38,33 @@ pub(super) fn verdict_text(model: &dyn InverseDynamicsModel, d: &Diagnosis, cand
         .map(play_dynamics_check)
         .unwrap_or_default()
         + &backlash_place(d)
+        + &play_damping(
+            d.dynamic_play_damping_identified,
+            d.dynamic_play_damping,
+            &d.dynamic_play_damping_cv,
+            &d.dynamic_play_size_cv,
+        )
+}
+
+/// Whether the fit recordings told the reduced play model's contact damping (the fields of
+/// [`Diagnosis`]: whether identified, the damping kept, the grid's and the size search's
+/// records): a sentence only when they did not.
+fn play_damping(
+    identified: Option<bool>,
+    kept: Option<ContactDamping>,
+    grid: &[(ContactDamping, f64)],
+    sized: &[(ContactDamping, f64, f64)],
+) -> String {
+    let (Some(false), Some(kept)) = (identified, kept) else {
+        return String::new();
+    };
+    let per = super::play_size::best_per_damping(grid, sized);
+    let shown: Vec<String> = per.iter().take(3).map(|(c, cv)| format!("{c} {cv:.4}")).collect();
+    let spread = per.get(1).map_or(0.0, |n| 100.0 * (n.1 / per[0].1 - 1.0));
+    format!(
+        " The reduced play model's contact damping is not identified: the best two dampings tried fit the held-back recordings within {spread:.2} % of each other (leave-one-recording-out RMS in noise units: {}); {kept} was kept, not a finding. Where the play rattles (near a singular position, after a load peak) what stays unexplained depends on it; fitting a recording that crosses the play there under load would tell.",
+        shown.join(", ")
+    )
 }
 
 /// Where a backlash taken as a dead zone sits, and whether the data told.
@@ -358,6 +386,31 @@ mod tests {
 
     fn candidate(name: &str, effect: Effect) -> Candidate {
         crate::diagnose::candidates::test_candidate(name, effect, true)
+    }
+
+    /// A damping the fit recordings do not tell: the sentence names the spread, the best
+    /// dampings and the one kept; none when told or not asked.
+    #[test]
+    fn an_unidentified_contact_damping_is_said_to_be_no_finding() {
+        let c = |constant: f64, load: f64| ContactDamping { constant, load };
+        let grid = [
+            (c(20.0, 1000.0), 1.377),
+            (c(20.0, 250.0), 1.378),
+            (c(20.0, 500.0), 1.384),
+        ];
+        let t = play_damping(Some(false), Some(c(20.0, 1000.0)), &grid, &[]);
+        assert!(t.contains("not identified"), "{t}");
+        assert!(t.contains("within 0.07 %"), "{t}");
+        assert!(
+            t.contains("20 N s/m + 1000 s/m × F 1.3770, 20 N s/m + 250 s/m × F 1.3780"),
+            "{t}"
+        );
+        assert!(
+            t.contains("20 N s/m + 1000 s/m × F was kept, not a finding"),
+            "{t}"
+        );
+        assert!(play_damping(Some(true), Some(c(20.0, 1000.0)), &grid, &[]).is_empty());
+        assert!(play_damping(None, Some(c(20.0, 1000.0)), &grid, &[]).is_empty());
     }
 
     /// A play below its compression: the sentence says which compliance took its place, or
