@@ -122,9 +122,14 @@ pub struct Args {
     play_relinearize: bool,
     /// Continue the re-linearisation's Gauss–Newton steps to the last pass's estimates also
     /// when no step was held back (at most three passes, each kept only if it
-    /// cross-validates better by 1 %; also with --suite).
+    /// cross-validates better by 1 %; also with --suite). The default since 2026-12-01; the
+    /// flag stays for the commands written before.
     #[arg(long)]
     relinearize_to_convergence: bool,
+    /// Stop the re-linearisation's Gauss–Newton steps after the second pass unless a step
+    /// was held back (the behaviour before 2026-12-01; also with --suite).
+    #[arg(long, conflicts_with = "relinearize_to_convergence")]
+    no_relinearize_to_convergence: bool,
     /// Blend the reduced dynamic play model's linear forces in time from sample to sample
     /// (by default they are held at each sample interval's end; also with --suite).
     #[arg(long)]
@@ -291,7 +296,7 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         opts.play_axial_stiffnesses = vec![k];
     }
     opts.library.play_relinearize = a.play_relinearize;
-    opts.relinearize_to_convergence = a.relinearize_to_convergence;
+    opts.relinearize_to_convergence = a.relinearize_to_convergence || !a.no_relinearize_to_convergence;
     opts.library.play_interpolation = interpolation(&a);
     opts.play_size_search |= a.play_size_search || a.play_damping_search;
     opts.play_damping_search |= a.play_damping_search;
@@ -378,7 +383,8 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
         opts.diagnose.play_axial_stiffnesses = vec![k];
     }
     opts.diagnose.library.play_relinearize = a.play_relinearize;
-    opts.diagnose.relinearize_to_convergence = a.relinearize_to_convergence;
+    opts.diagnose.relinearize_to_convergence =
+        a.relinearize_to_convergence || !a.no_relinearize_to_convergence;
     opts.diagnose.library.play_interpolation = interpolation(a);
     opts.diagnose.play_size_search |= a.play_size_search || a.play_damping_search;
     opts.diagnose.play_damping_search |= a.play_damping_search;

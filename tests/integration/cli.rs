@@ -252,6 +252,14 @@ fn out_of_range_settings_exit_with_2_before_running() {
     let (code, err) = status(&["diagnose", "--model", "mr2120", "--noise-scale", "0.1"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("--suite"), "{err}");
+    // Converging the Gauss–Newton steps and not converging them, both at once: refused.
+    let (code, err) = status(&[
+        "diagnose",
+        "--relinearize-to-convergence",
+        "--no-relinearize-to-convergence",
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("cannot be used with"), "{err}");
 }
 
 /// Inputs found by a panic audit (2026-11-29): each is refused with exit 2 and a message

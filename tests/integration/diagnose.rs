@@ -844,7 +844,7 @@ fn relinearizing_to_convergence_tries_a_further_pass_and_keeps_it_only_if_it_cro
         .unwrap()
     };
     let (once, further) = (run(false), run(true));
-    // Nothing held back: by default one pass; asked to converge, at least one more is tried.
+    // Nothing held back: without it one pass; asked to converge, at least one more is tried.
     assert_eq!(once.relinearization_cv.len(), 1, "{:?}", once.relinearization_cv);
     assert!(
         further.relinearization_cv.len() >= 2,
