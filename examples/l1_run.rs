@@ -24,6 +24,13 @@ fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
     std::env::var(name).ok().and_then(|s| s.parse().ok())
 }
 
+/// Sets `field` from the environment variable `name` when it is set and parses.
+fn set<T: std::str::FromStr>(field: &mut T, name: &str) {
+    if let Some(v) = env(name) {
+        *field = v;
+    }
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = bench_mechanism("L1", BENCH_DAMPING)?;
     let mech = Arc::new(model.mechanism);
@@ -40,24 +47,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         opts.bdf.rtol = rtol;
         opts.bdf.atol = lash::dae::AbsTol::Scalar(rtol / 100.0);
         opts.singularity_warning = 0.0;
-        if let Some(d) = env("LASH_ANDERSON") {
-            opts.bdf.anderson_depth = d;
-        }
-        if let Some(a) = env("LASH_JAC_AGE") {
-            opts.bdf.max_steps_between_jacobians = a;
-        }
-        if let Some(r) = env("LASH_REFRESH_RATE") {
-            opts.bdf.jacobian_refresh_rate = r;
-        }
-        if let Some(k) = env("LASH_REFRESHES") {
-            opts.bdf.max_jacobian_refreshes_in_solve = k;
-        }
-        if let Some(k) = env("LASH_MAX_NEWTON") {
-            opts.bdf.max_newton_iters = k;
-        }
-        if let Some(b) = env("LASH_MEASURE_RATE") {
-            opts.bdf.measure_rate_with_stale_jacobian = b;
-        }
+        let b = &mut opts.bdf;
+        set(&mut b.anderson_depth, "LASH_ANDERSON");
+        set(&mut b.max_steps_between_jacobians, "LASH_JAC_AGE");
+        set(&mut b.jacobian_refresh_rate, "LASH_REFRESH_RATE");
+        set(&mut b.max_jacobian_refreshes_in_solve, "LASH_REFRESHES");
+        set(&mut b.max_newton_iters, "LASH_MAX_NEWTON");
+        set(&mut b.measure_rate_with_stale_jacobian, "LASH_MEASURE_RATE");
         let mut sim = Simulation::new(mech.clone(), 0.0, opts)?;
         sim.run(&times, |_| {})?;
         let s = sim.stats();

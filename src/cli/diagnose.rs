@@ -296,7 +296,7 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         opts.play_axial_stiffnesses = vec![k];
     }
     opts.library.play_relinearize = a.play_relinearize;
-    opts.relinearize_to_convergence = a.relinearize_to_convergence || !a.no_relinearize_to_convergence;
+    opts.relinearize_to_convergence = converge(&a);
     opts.library.play_interpolation = interpolation(&a);
     opts.play_size_search |= a.play_size_search || a.play_damping_search;
     opts.play_damping_search |= a.play_damping_search;
@@ -383,8 +383,7 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
         opts.diagnose.play_axial_stiffnesses = vec![k];
     }
     opts.diagnose.library.play_relinearize = a.play_relinearize;
-    opts.diagnose.relinearize_to_convergence =
-        a.relinearize_to_convergence || !a.no_relinearize_to_convergence;
+    opts.diagnose.relinearize_to_convergence = converge(a);
     opts.diagnose.library.play_interpolation = interpolation(a);
     opts.diagnose.play_size_search |= a.play_size_search || a.play_damping_search;
     opts.diagnose.play_damping_search |= a.play_damping_search;
@@ -479,6 +478,12 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
         dir.display()
     );
     Ok(Output::checked(board.targets_met))
+}
+
+/// Whether the Gauss–Newton steps go on to convergence: the default, unless
+/// `--no-relinearize-to-convergence` (the two flags together are refused by clap).
+fn converge(a: &Args) -> bool {
+    a.relinearize_to_convergence || !a.no_relinearize_to_convergence
 }
 
 /// The reduced dynamic play model's mechanics within a sample interval
