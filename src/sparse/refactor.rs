@@ -236,16 +236,24 @@ impl Plan {
         })
     }
 
-    /// Numeric factorisation of `values` with the plan's pivots (`x`: zeroed scratch of
-    /// length n, left zeroed). `false` when a pivot fails the reuse threshold.
-    fn factor(&mut self, values: &[f64], x: &mut [f64], threshold: f64) -> bool {
+    /// The row scales `row_scale` (by original row) in this plan's step order, into `out`.
+    fn step_scale(&self, row_scale: &[f64], out: &mut [f64]) {
+        for (o, &r) in out.iter_mut().zip(&self.prow) {
+            *o = row_scale[r];
+        }
+    }
+
+    /// Numeric factorisation of `values` with the plan's pivots, row k of the plan's order
+    /// scaled by `scale[k]` as it is gathered (`x`: zeroed scratch of length n, left
+    /// zeroed). `false` when a pivot fails the reuse threshold.
+    fn factor(&mut self, values: &[f64], scale: &[f64], x: &mut [f64], threshold: f64) -> bool {
         let n = self.u_diag.len();
         for j in 0..n {
             for (&k, &i) in self.a_pos[self.a_ptr[j]..self.a_ptr[j + 1]]
                 .iter()
                 .zip(&self.a_row[self.a_ptr[j]..self.a_ptr[j + 1]])
             {
-                x[i as usize] += values[k as usize];
+                x[i as usize] += values[k as usize] * scale[i as usize];
             }
             let (us, ue) = (self.u_ptr[j], self.u_ptr[j + 1]);
             for p in us..ue {
@@ -409,8 +417,10 @@ pub struct RefactorLu {
     /// a row's largest entry is a gather, not a scatter of maxima into `row_scale`.
     row_ptr: Vec<usize>,
     row_pos: Vec<u32>,
-    /// The values scaled by rows.
+    /// The values scaled by rows (filled only to choose pivots).
     scaled: Vec<f64>,
+    /// The row scales in a plan's step order (`row_scale[prow[k]]`).
+    step_scale: Vec<f64>,
     threshold: f64,
     factors: Factors,
     work: Vec<f64>,
@@ -458,6 +468,7 @@ impl RefactorLu {
             row_ptr,
             row_pos,
             scaled: vec![0.0; pattern.nnz()],
+            step_scale: vec![1.0; n],
             threshold: REUSE_PIVOT_THRESHOLD,
             factors: Factors::None,
             work: vec![0.0; 2 * pattern.ncols()],
@@ -513,28 +524,32 @@ impl RefactorLu {
             // Names the first non-finite entry.
             return check_values(&self.pattern, values);
         }
-        for ((s, &r), v) in self.scaled.iter_mut().zip(self.pattern.row_idx()).zip(values) {
-            *s = v * self.row_scale[r];
-        }
-        let scaled = &self.scaled[..];
+        // Each plan scales its rows as it gathers them (no scaled copy of the values).
         for i in 0..self.plans.len() {
-            if self.plans[i].factor(scaled, &mut self.work[..n], self.threshold) {
+            let plan = &mut self.plans[i];
+            plan.step_scale(&self.row_scale, &mut self.step_scale);
+            if plan.factor(values, &self.step_scale, &mut self.work[..n], self.threshold) {
                 self.plans[..=i].rotate_right(1);
                 self.refactorisations += 1;
                 self.factors = Factors::Plan;
                 return Ok(());
             }
         }
-        // Choose the pivots again, then take the sequence as the new plan.
+        // Choose the pivots again (on the scaled values), then take the sequence as the new
+        // plan.
         self.pivotings += 1;
-        let plan = choose_pivots(&self.pattern, scaled, &self.order)
+        for ((s, &r), v) in self.scaled.iter_mut().zip(self.pattern.row_idx()).zip(values) {
+            *s = v * self.row_scale[r];
+        }
+        let plan = choose_pivots(&self.pattern, &self.scaled, &self.order)
             .and_then(|prow| Plan::analyse(&self.pattern, prow, self.order.clone()));
         // The chosen pivots pass the reuse threshold, so the plan reproduces them; should
         // it not (or no pivot sequence was found), faer's LU serves this solve and reports
         // a singular matrix.
         let reproduced = match plan {
             Some(mut plan) => {
-                let ok = plan.factor(scaled, &mut self.work[..n], self.threshold);
+                plan.step_scale(&self.row_scale, &mut self.step_scale);
+                let ok = plan.factor(values, &self.step_scale, &mut self.work[..n], self.threshold);
                 if ok {
                     self.plans.truncate(PLANS_KEPT - 1);
                     self.plans.insert(0, plan);
@@ -658,7 +673,9 @@ mod tests {
         scattered.l_contiguous.iter_mut().for_each(|c| *c = false);
         scattered.u_contiguous.iter_mut().for_each(|c| *c = false);
         let mut work = vec![0.0; n];
-        assert!(scattered.factor(&lu.scaled, &mut work, lu.threshold));
+        let mut scale = vec![0.0; n];
+        scattered.step_scale(&lu.row_scale, &mut scale);
+        assert!(scattered.factor(&v, &scale, &mut work, lu.threshold));
         assert_eq!(scattered.l_val, lu.plans[0].l_val);
         assert_eq!(scattered.u_val, lu.plans[0].u_val);
         assert_eq!(scattered.u_diag, lu.plans[0].u_diag);
