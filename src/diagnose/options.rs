@@ -119,6 +119,10 @@ pub struct DiagnoseOptions {
     /// play; a rattle's damping and timing go together); the whole selection runs at the
     /// best size and damping. Costs up to twice [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES)
     /// refits of the selected candidates, one per other damping, and one whole selection.
+    /// Where further Gauss–Newton passes were kept afterwards
+    /// ([`relinearize_to_convergence`](Self::relinearize_to_convergence)), the search runs
+    /// once more about the point they reached (the play's columns are computed about that
+    /// point, and a rattle does not respond linearly to it), at the same cost again.
     pub play_size_search: bool,
     /// With [`play_size_search`](Self::play_size_search), the balls' damping searched too,
     /// not only chosen from [`play_contact_dampings`](Self::play_contact_dampings): where the

@@ -339,6 +339,7 @@ pub struct Diagnosis {
     /// them, and the sizes again at a damping better there; then, with the damping search
     /// ([`DiagnoseOptions::play_damping_search`](super::DiagnoseOptions)), each constant
     /// part and each γ it tried with the sizes refined at it; empty when it did not run.
+    /// Where the search ran again after further Gauss–Newton passes, that search's.
     pub dynamic_play_size_cv: Vec<(super::play_dynamics::ContactDamping, f64, f64)>,
     /// The first pass's estimates that moved the model for the second pass, each with the
     /// fraction of its step kept ([`SHIFT_LINEARITY_TOLERANCE`](super::SHIFT_LINEARITY_TOLERANCE));

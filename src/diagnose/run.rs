@@ -399,126 +399,20 @@ fn diagnose_folds(
     // from the selection's estimate; the best size becomes the reference of one more whole
     // selection, kept if it cross-validates better.
     if search {
-        if let Some((name, h0)) = relinearize::dynamic_play_clearance(model, &second, &cands2) {
-            let mut o = o2.clone();
-            o.library.play_contact_damping = second.dynamic_play_damping;
-            o.library.play_axial_stiffness = second.dynamic_play_axial_stiffness;
-            o.library.backlash_place = second.backlash_place.unwrap_or(places[0]);
-            (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) =
-                (second.dynamic_play_reference, second.dynamic_axial_play_reference);
-            // Each channel weighted by the larger of its noise floor and what the kept
-            // selection leaves of it; the error in the measured channels' noise floors, as
-            // the selection's.
-            let floors = measured_floors(fit);
-            let weights: Vec<f64> = second
-                .channels
-                .iter()
-                .map(|c| c.fit_after.max(c.noise_floor))
-                .collect();
-            // The size at the kept damping; then every other damping at the best size, and
-            // where one is better there, the size again at it (one round of coordinate
-            // descent: the damping was chosen at the reference play, and a rattle's damping
-            // and timing go together).
-            let resolved = |d: Option<ContactDamping>| d.unwrap_or(BALL_CONTACT.contact_damping());
-            let kept = resolved(second.dynamic_play_damping);
-            let mut tried = 0;
-            let mut on_try = || {
-                progress(
-                    "play size",
-                    0.5 + share * (size_share + tried.min(search_shares)) as f64,
-                );
-                tried += 1;
-            };
-            // (A search that cannot assemble its columns leaves the selection as it is, as
-            // the play-dynamics check does.)
-            let held_at = |damping: ContactDamping| {
-                let mut o = o.clone();
-                o.library.play_contact_damping = Some(damping);
-                HeldPlay::new(&shifted, fit, &o, &second.selected, &name, &weights, &floors)
-                    .ok()
-                    .flatten()
-            };
-            let mut log: Vec<(ContactDamping, f64, f64)> = vec![];
-            if let Some(held) = held_at(kept) {
-                log.extend(
-                    held.search(h0, None, &mut on_try)
-                        .into_iter()
-                        .map(|(h, cv)| (kept, h, cv)),
-                );
-            }
-            if let Some((_, h, cv)) = best_refit(&log) {
-                let mut better: Option<(HeldPlay, ContactDamping, f64)> = None;
-                for damping in dampings.iter().map(|d| resolved(*d)).filter(|d| *d != kept) {
-                    let Some(held) = held_at(damping) else { continue };
-                    on_try();
-                    let cv_d = held.cv(h).ok().flatten().unwrap_or(f64::NAN);
-                    log.push((damping, h, cv_d));
-                    if cv_d < better.as_ref().map_or(cv, |b| b.2) {
-                        better = Some((held, damping, cv_d));
-                    }
-                }
-                if let Some((held, damping, cv_d)) = better {
-                    let again = held.search(h, Some(cv_d), &mut on_try);
-                    log.extend(again.into_iter().skip(1).map(|(h, cv)| (damping, h, cv)));
-                }
-            }
-            // The damping searched (`DiagnoseOptions::play_damping_search`): under a
-            // load-proportional damping, its constant part by a pattern search from the best
-            // refit so far, then γ at the best constant part; each damping's objective the
-            // best of a short search on the size at it from the best size so far (a profile:
-            // a rattle's damping and timing go together, and a search on one at a time
-            // stalls in the valley between them).
-            if opts.play_damping_search {
-                let mut profile = |d: ContactDamping, log: &mut Vec<(ContactDamping, f64, f64)>| {
-                    // (A damping refitted before, the grid's: its best, not refitted again.)
-                    if let Some(b) = best_refit(log.iter().filter(|x| x.0 == d)) {
-                        return b.2;
-                    }
-                    let Some(held) = held_at(d) else {
-                        return f64::NAN;
-                    };
-                    let from = best_refit(log.iter()).map_or(h0, |b| b.1);
-                    let sizes: Vec<_> = held
-                        .refine(from, &mut on_try)
-                        .into_iter()
-                        .map(|(h, cv)| (d, h, cv))
-                        .collect();
-                    log.extend(&sizes);
-                    best_refit(&sizes).map_or(f64::NAN, |b| b.2)
-                };
-                type Never = std::convert::Infallible;
-                // (A constant part of zero has no scale to step from.)
-                if let Some((d0, _, cv0)) = best_refit(&log).filter(|b| b.0.load > 0.0 && b.0.constant > 0.0)
-                {
-                    let _ = search_constant_damping::<Never>(d0.constant, Some(cv0), &mut |c| {
-                        Ok(profile(ContactDamping { constant: c, ..d0 }, &mut log))
-                    });
-                }
-                if let Some((d1, _, cv1)) = best_refit(&log).filter(|b| b.0.load > 0.0) {
-                    let _ = search_load_damping::<Never>(d1.load, Some(cv1), &mut |g| {
-                        Ok(profile(ContactDamping { load: g, ..d1 }, &mut log))
-                    });
-                }
-            }
-            let best = best_refit(&log).filter(|&(damping, h, _)| {
-                second.dynamic_play_reference != Some(h) || resolved(second.dynamic_play_damping) != damping
-            });
-            if let Some((damping, h, _)) = best {
-                let mut d = pass(
-                    size_share + search_shares,
-                    Some(damping),
-                    second.dynamic_play_axial_stiffness,
-                    second.backlash_place.unwrap_or(places[0]),
-                    (Some(h), second.dynamic_axial_play_reference),
-                    &mut *progress,
-                )?;
-                if d.cv_rms_noise_units < second.cv_rms_noise_units {
-                    carry_choices(&mut second, &mut d);
-                    second = d;
-                }
-            }
-            second.dynamic_play_size_cv = log;
-        }
+        search_play_size(
+            model,
+            &shifted,
+            fit,
+            holdout,
+            &o2,
+            opts,
+            &cands2,
+            &dampings,
+            places[0],
+            &mut second,
+            (0.5 + share * size_share as f64, share),
+            &mut *progress,
+        )?;
     }
     // Gauss–Newton continued: where a step was held back (the model not linear enough
     // between the nominal point and the first pass's estimates), a whole step from the
@@ -537,6 +431,8 @@ fn diagnose_folds(
     // Continued where a step was held back, or always when asked to converge.
     let go_on = steps.iter().any(|s| s.fraction < 1.0) || opts.relinearize_to_convergence;
     let mut passes = 1;
+    // What the last kept pass moved the model by (its `DiagnoseOptions::shift`).
+    let mut moved_kept = o2.shift.clone();
     while go_on && cv_log.len() < relinearize::MAX_RELINEARIZATIONS {
         let point = relinearize::point_toward(model, &base, &second.estimates, &cands2, &|_| 1.0);
         // Converged: every effect within `relinearize::CONVERGED_STEP` of the point.
@@ -568,8 +464,31 @@ fn diagnose_folds(
             break;
         }
         carry_choices(&mut second, &mut d);
-        (second, shifted, base) = (d, shifted_k, point);
+        (second, shifted, base, moved_kept) = (d, shifted_k, point, o.shift);
         passes += 1;
+    }
+    // The further passes kept moved the point the play's columns are computed about, and a
+    // rattle does not respond linearly to it: the play's size searched again there.
+    if search && passes > 1 {
+        let mut o = o2.clone();
+        o.shift = moved_kept;
+        if let Some(place) = kept_place {
+            o.library.backlash_place = place;
+        }
+        search_play_size(
+            model,
+            &shifted,
+            fit,
+            holdout,
+            &o,
+            opts,
+            &cands2,
+            &dampings,
+            places[0],
+            &mut second,
+            (0.95, 0.04 / (search_shares + 1) as f64),
+            &mut *progress,
+        )?;
     }
     let mut d = relinearize::against_nominal(model, first, second, &cands2);
     if !selects_backlash(&d) {
@@ -604,6 +523,151 @@ fn diagnose_folds(
     d.verdict = verdict_text(model, &d, &cands2);
     progress("done", 1.0);
     Ok(d)
+}
+
+/// The radial play's size searched (`DiagnoseOptions::play_size_search`, `play_size`) about
+/// the selection `second` made on `shifted` (the model moved by `o2.shift`): the kept
+/// selection refitted with the play held at each size a pattern search tries, from the
+/// selection's estimate; the best size (and damping) becomes the reference of one more whole
+/// selection, which replaces `second` if it cross-validates better. The sizes tried are
+/// recorded in `second.dynamic_play_size_cv` either way. `progress` receives
+/// `base + share × k` at the k-th refit of [`MAX_PLAY_SIZES`] and the damping search's.
+#[allow(clippy::too_many_arguments)]
+fn search_play_size(
+    model: &dyn InverseDynamicsModel,
+    shifted: &dyn InverseDynamicsModel,
+    fit: &[MotionData],
+    holdout: &[MotionData],
+    o2: &DiagnoseOptions,
+    opts: &DiagnoseOptions,
+    cands2: &[super::candidates::Candidate],
+    dampings: &[Option<ContactDamping>],
+    default_place: PlayPlace,
+    second: &mut Diagnosis,
+    (base, share): (f64, f64),
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<(), DiagnoseError> {
+    let search_shares = MAX_PLAY_SIZES
+        + if opts.play_damping_search {
+            (MAX_CONSTANT_DAMPINGS + MAX_LOAD_DAMPINGS) * PROFILE_SIZES
+        } else {
+            0
+        };
+    if let Some((name, h0)) = relinearize::dynamic_play_clearance(model, second, cands2) {
+        let mut o = o2.clone();
+        o.library.play_contact_damping = second.dynamic_play_damping;
+        o.library.play_axial_stiffness = second.dynamic_play_axial_stiffness;
+        o.library.backlash_place = second.backlash_place.unwrap_or(default_place);
+        (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) =
+            (second.dynamic_play_reference, second.dynamic_axial_play_reference);
+        // Each channel weighted by the larger of its noise floor and what the kept
+        // selection leaves of it; the error in the measured channels' noise floors, as
+        // the selection's.
+        let floors = measured_floors(fit);
+        let weights: Vec<f64> = second
+            .channels
+            .iter()
+            .map(|c| c.fit_after.max(c.noise_floor))
+            .collect();
+        // The size at the kept damping; then every other damping at the best size, and
+        // where one is better there, the size again at it (one round of coordinate
+        // descent: the damping was chosen at the reference play, and a rattle's damping
+        // and timing go together).
+        let resolved = |d: Option<ContactDamping>| d.unwrap_or(BALL_CONTACT.contact_damping());
+        let kept = resolved(second.dynamic_play_damping);
+        let mut tried = 0;
+        let mut on_try = || {
+            progress("play size", base + share * tried.min(search_shares) as f64);
+            tried += 1;
+        };
+        // (A search that cannot assemble its columns leaves the selection as it is, as
+        // the play-dynamics check does.)
+        let held_at = |damping: ContactDamping| {
+            let mut o = o.clone();
+            o.library.play_contact_damping = Some(damping);
+            HeldPlay::new(shifted, fit, &o, &second.selected, &name, &weights, &floors)
+                .ok()
+                .flatten()
+        };
+        let mut log: Vec<(ContactDamping, f64, f64)> = vec![];
+        if let Some(held) = held_at(kept) {
+            log.extend(
+                held.search(h0, None, &mut on_try)
+                    .into_iter()
+                    .map(|(h, cv)| (kept, h, cv)),
+            );
+        }
+        if let Some((_, h, cv)) = best_refit(&log) {
+            let mut better: Option<(HeldPlay, ContactDamping, f64)> = None;
+            for damping in dampings.iter().map(|d| resolved(*d)).filter(|d| *d != kept) {
+                let Some(held) = held_at(damping) else { continue };
+                on_try();
+                let cv_d = held.cv(h).ok().flatten().unwrap_or(f64::NAN);
+                log.push((damping, h, cv_d));
+                if cv_d < better.as_ref().map_or(cv, |b| b.2) {
+                    better = Some((held, damping, cv_d));
+                }
+            }
+            if let Some((held, damping, cv_d)) = better {
+                let again = held.search(h, Some(cv_d), &mut on_try);
+                log.extend(again.into_iter().skip(1).map(|(h, cv)| (damping, h, cv)));
+            }
+        }
+        // The damping searched (`DiagnoseOptions::play_damping_search`): under a
+        // load-proportional damping, its constant part by a pattern search from the best
+        // refit so far, then γ at the best constant part; each damping's objective the
+        // best of a short search on the size at it from the best size so far (a profile:
+        // a rattle's damping and timing go together, and a search on one at a time
+        // stalls in the valley between them).
+        if opts.play_damping_search {
+            let mut profile = |d: ContactDamping, log: &mut Vec<(ContactDamping, f64, f64)>| {
+                // (A damping refitted before, the grid's: its best, not refitted again.)
+                if let Some(b) = best_refit(log.iter().filter(|x| x.0 == d)) {
+                    return b.2;
+                }
+                let Some(held) = held_at(d) else {
+                    return f64::NAN;
+                };
+                let from = best_refit(log.iter()).map_or(h0, |b| b.1);
+                let sizes: Vec<_> = held
+                    .refine(from, &mut on_try)
+                    .into_iter()
+                    .map(|(h, cv)| (d, h, cv))
+                    .collect();
+                log.extend(&sizes);
+                best_refit(&sizes).map_or(f64::NAN, |b| b.2)
+            };
+            type Never = std::convert::Infallible;
+            // (A constant part of zero has no scale to step from.)
+            if let Some((d0, _, cv0)) = best_refit(&log).filter(|b| b.0.load > 0.0 && b.0.constant > 0.0) {
+                let _ = search_constant_damping::<Never>(d0.constant, Some(cv0), &mut |c| {
+                    Ok(profile(ContactDamping { constant: c, ..d0 }, &mut log))
+                });
+            }
+            if let Some((d1, _, cv1)) = best_refit(&log).filter(|b| b.0.load > 0.0) {
+                let _ = search_load_damping::<Never>(d1.load, Some(cv1), &mut |g| {
+                    Ok(profile(ContactDamping { load: g, ..d1 }, &mut log))
+                });
+            }
+        }
+        let best = best_refit(&log).filter(|&(damping, h, _)| {
+            second.dynamic_play_reference != Some(h) || resolved(second.dynamic_play_damping) != damping
+        });
+        if let Some((damping, h, _)) = best {
+            let mut o = o.clone();
+            o.library.play_contact_damping = Some(damping);
+            o.library.dynamic_play_clearance = Some(h);
+            let mut d = diagnose_once(shifted, fit, holdout, &o, &mut |s, f| {
+                progress(s, base + share * (search_shares as f64 + f))
+            })?;
+            if d.cv_rms_noise_units < second.cv_rms_noise_units {
+                carry_choices(second, &mut d);
+                *second = d;
+            }
+        }
+        second.dynamic_play_size_cv = log;
+    }
+    Ok(())
 }
 
 /// A later pass `to` replacing `from` takes over the record of the choices made before it
