@@ -157,6 +157,12 @@ pub struct Args {
     /// --suite).
     #[arg(long, value_name = "PLACE", value_parser = ["output", "spring"])]
     backlash_place: Option<String>,
+    /// The reduced dynamic play model as close to the joints' bearings as lash makes it:
+    /// --hertz-play-contact --play-relinearize --play-blended-forces --play-size-search
+    /// and --play-load-damping 250,500,1000 together (`DiagnoseOptions::with_bearing_play`;
+    /// 2–5× the time where a play is selected; also with --suite).
+    #[arg(long)]
+    bearing_play: bool,
     /// Print the diagnosis as JSON.
     #[arg(long)]
     json: bool,
@@ -290,24 +296,7 @@ pub fn run(a: Args) -> Result<Output, CliError> {
         dynamic_play_selection: !a.quasi_static_play,
         ..DiagnoseOptions::default()
     };
-    opts.library.play_contact_hertz = a.hertz_play_contact;
-    if let Some(k) = a.play_axial_stiffness {
-        opts.library.play_axial_stiffness = Some(k);
-        opts.play_axial_stiffnesses = vec![k];
-    }
-    opts.library.play_relinearize = a.play_relinearize;
-    opts.relinearize_to_convergence = converge(&a);
-    opts.library.play_interpolation = interpolation(&a);
-    opts.play_size_search |= a.play_size_search || a.play_damping_search;
-    opts.play_damping_search |= a.play_damping_search;
-    opts.play_contact_dampings.extend(
-        a.play_load_damping
-            .iter()
-            .map(|&g| ContactDamping::load_proportional(g)),
-    );
-    if let Some(p) = backlash_place(&a) {
-        opts.backlash_places = vec![p];
-    }
+    play_options(&a, &mut opts);
     opts.library.exclude = a
         .exclude
         .as_deref()
@@ -377,24 +366,7 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
     if let Some(f) = a.noise_scale {
         opts.record.noise = opts.record.noise.scaled(f);
     }
-    opts.diagnose.library.play_contact_hertz = a.hertz_play_contact;
-    if let Some(k) = a.play_axial_stiffness {
-        opts.diagnose.library.play_axial_stiffness = Some(k);
-        opts.diagnose.play_axial_stiffnesses = vec![k];
-    }
-    opts.diagnose.library.play_relinearize = a.play_relinearize;
-    opts.diagnose.relinearize_to_convergence = converge(a);
-    opts.diagnose.library.play_interpolation = interpolation(a);
-    opts.diagnose.play_size_search |= a.play_size_search || a.play_damping_search;
-    opts.diagnose.play_damping_search |= a.play_damping_search;
-    opts.diagnose.play_contact_dampings.extend(
-        a.play_load_damping
-            .iter()
-            .map(|&g| ContactDamping::load_proportional(g)),
-    );
-    if let Some(p) = backlash_place(a) {
-        opts.diagnose.backlash_places = vec![p];
-    }
+    play_options(a, &mut opts.diagnose);
     let mut progress = Progress::new("diagnose --suite", 1.0);
     let board = run_suite(&opts, Some(dir), |s, f| {
         progress.update_stage("diagnose --suite", s, f)
@@ -480,20 +452,40 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
     Ok(Output::checked(board.targets_met))
 }
 
+/// The flags on the re-linearisation and the reduced dynamic play model, for a diagnosis and
+/// for the suite alike: `--bearing-play` first (`DiagnoseOptions::with_bearing_play`), then
+/// each flag of its own on top.
+fn play_options(a: &Args, opts: &mut DiagnoseOptions) {
+    if a.bearing_play {
+        *opts = std::mem::take(opts).with_bearing_play();
+    }
+    opts.library.play_contact_hertz |= a.hertz_play_contact;
+    if let Some(k) = a.play_axial_stiffness {
+        opts.library.play_axial_stiffness = Some(k);
+        opts.play_axial_stiffnesses = vec![k];
+    }
+    opts.library.play_relinearize |= a.play_relinearize;
+    opts.relinearize_to_convergence = converge(a);
+    if a.play_blended_forces {
+        opts.library.play_interpolation = Interpolation::Linear;
+    }
+    opts.play_size_search |= a.play_size_search || a.play_damping_search;
+    opts.play_damping_search |= a.play_damping_search;
+    for &g in &a.play_load_damping {
+        let d = ContactDamping::load_proportional(g);
+        if !opts.play_contact_dampings.contains(&d) {
+            opts.play_contact_dampings.push(d);
+        }
+    }
+    if let Some(p) = backlash_place(a) {
+        opts.backlash_places = vec![p];
+    }
+}
+
 /// Whether the Gauss–Newton steps go on to convergence: the default, unless
 /// `--no-relinearize-to-convergence` (the two flags together are refused by clap).
 fn converge(a: &Args) -> bool {
     a.relinearize_to_convergence || !a.no_relinearize_to_convergence
-}
-
-/// The reduced dynamic play model's mechanics within a sample interval
-/// (`--play-blended-forces`).
-fn interpolation(a: &Args) -> Interpolation {
-    if a.play_blended_forces {
-        Interpolation::Linear
-    } else {
-        Interpolation::Held
-    }
 }
 
 /// The place `--backlash-place` names, if given.

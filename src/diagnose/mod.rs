@@ -89,7 +89,7 @@ pub mod transmission;
 mod verdict;
 
 pub use error::DiagnoseError;
-pub use options::DiagnoseOptions;
+pub use options::{DiagnoseOptions, BEARING_PLAY_LOAD_DAMPINGS};
 pub use outcome::{
     claimed_name, ChannelFit, Confound, Diagnosis, Estimate, LinearizationStep, Ranked, ResidualTrace, Step,
     UnresolvedPlay,

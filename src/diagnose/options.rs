@@ -151,6 +151,43 @@ pub struct DiagnoseOptions {
     pub play_damping_search: bool,
 }
 
+/// The load-proportional contact dampings γ (s/m, each over
+/// [`LOAD_DAMPING_BASE`](super::play_dynamics::LOAD_DAMPING_BASE)) that
+/// [`DiagnoseOptions::with_bearing_play`] adds to the grid: chosen on the suite's clearance-F
+/// by the reduced model's miss at the truth's play (README, "Load-proportional contact
+/// damping"), the truth's own Hunt–Crossley α (300 s/m) not among them.
+pub const BEARING_PLAY_LOAD_DAMPINGS: [f64; 3] = [250.0, 500.0, 1000.0];
+
+impl DiagnoseOptions {
+    /// These options with the reduced dynamic play model as close to a joint's bearings as
+    /// lash makes it: the balls on Hertz's law with the joint's own constants
+    /// ([`LibraryOptions::play_contact_hertz`](super::candidates::LibraryOptions), which also
+    /// brings each joint's contact compliance as a candidate), re-linearised about its own
+    /// motion where its response is large (`play_relinearize`), its forces blended within a
+    /// sample interval (`play_interpolation`), the load-proportional dampings
+    /// [`BEARING_PLAY_LOAD_DAMPINGS`] added to [`play_contact_dampings`](Self::play_contact_dampings),
+    /// and the play's size searched ([`play_size_search`](Self::play_size_search)). What
+    /// `lash diagnose --bearing-play` sets. Only a diagnosis that selects a radial or axial
+    /// play runs any of it; there it costs about 2–5× the default's time (the suite's
+    /// clearance cases ~45–90 min on 2 cores instead of ~15–20). Measured on the suite
+    /// (README, "The MR2120: concealed effects"): held out 1.39–1.42× the noise on
+    /// clearance-F (3.02× with the defaults), 1.66× on clearance-under-length (3.17×), axial-D's
+    /// play 1.6 % off.
+    pub fn with_bearing_play(mut self) -> Self {
+        self.library.play_contact_hertz = true;
+        self.library.play_relinearize = true;
+        self.library.play_interpolation = super::play_dynamics::Interpolation::Linear;
+        for gamma in BEARING_PLAY_LOAD_DAMPINGS {
+            let d = ContactDamping::load_proportional(gamma);
+            if !self.play_contact_dampings.contains(&d) {
+                self.play_contact_dampings.push(d);
+            }
+        }
+        self.play_size_search = true;
+        self
+    }
+}
+
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         Self {
@@ -176,5 +213,41 @@ impl Default for DiagnoseOptions {
             play_size_search: false,
             play_damping_search: false,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::play_dynamics::Interpolation;
+
+    #[test]
+    fn the_bearing_play_preset_sets_the_play_models_options_once_and_nothing_else() {
+        let base = DiagnoseOptions {
+            max_effects: 4,
+            ..DiagnoseOptions::default()
+        };
+        let b = base.clone().with_bearing_play();
+        assert!(b.library.play_contact_hertz && b.library.play_relinearize && b.play_size_search);
+        assert_eq!(b.library.play_interpolation, Interpolation::Linear);
+        // The grid's dampings kept, the load-proportional ones after them.
+        let mut grid = base.play_contact_dampings.clone();
+        grid.extend(BEARING_PLAY_LOAD_DAMPINGS.map(ContactDamping::load_proportional));
+        assert_eq!(b.play_contact_dampings, grid);
+        // Twice is once.
+        assert_eq!(b.clone().with_bearing_play(), b);
+        // Every other option as it was.
+        let undo = DiagnoseOptions {
+            library: LibraryOptions {
+                play_contact_hertz: base.library.play_contact_hertz,
+                play_relinearize: base.library.play_relinearize,
+                play_interpolation: base.library.play_interpolation,
+                ..b.library.clone()
+            },
+            play_contact_dampings: base.play_contact_dampings.clone(),
+            play_size_search: base.play_size_search,
+            ..b
+        };
+        assert_eq!(undo, base);
     }
 }
