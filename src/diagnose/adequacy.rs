@@ -506,7 +506,7 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
                 let what = if c.noise_ratio_before <= UNEXPLAINED_NOISE_RATIO {
                     "nothing above the noise to explain".to_string()
                 } else {
-                    format!("{:.0} % explained", 100.0 * c.explained_fraction)
+                    format!("{} % explained", percent_text(c.explained_fraction))
                 };
                 return format!(
                     "the {} is at noise ({:.2}× the noise floor; {what})",
@@ -514,10 +514,10 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
                 );
             }
             let mut s = format!(
-                "{:.1}× the noise floor remains unexplained in the {} ({:.0} % explained)",
+                "{:.1}× the noise floor remains unexplained in the {} ({} % explained)",
                 c.noise_ratio_after,
                 c.channel,
-                100.0 * c.explained_fraction
+                percent_text(c.explained_fraction)
             );
             if let Some(w) = &c.worst_window {
                 s.push_str(&format!(
@@ -534,8 +534,8 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
         .collect();
     let lead = if selected_any {
         format!(
-            "the selected physics explains {:.0} % of the {basis} mismatch above the noise",
-            100.0 * a.explained_fraction
+            "the selected physics explains {} % of the {basis} mismatch above the noise",
+            percent_text(a.explained_fraction)
         )
     } else {
         "no candidate physics explains the mismatch".to_string()
@@ -550,7 +550,7 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
             let mut t = format!(
                 "in the {} the residual is {} (lag-1 autocorrelation {:.2}, Ljung–Box p {}) and {} of {} windows stay above {} noise floors",
                 c.channel,
-                if c.far_from_white { "far from white" } else { "close to white" },
+                whiteness_text(c),
                 c.autocorrelation.first().copied().unwrap_or(0.0),
                 p_text(c.whiteness_p),
                 c.significant_windows,
@@ -575,6 +575,32 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
     s
 }
 
+/// A fraction as a percentage without the % sign: whole per cent, but never rounded up to
+/// 100 (or down to 0) when it is not: 0.9954 is "99.5", 0.99996 "99.9", 0.002 "0.2".
+pub fn percent_text(fraction: f64) -> String {
+    let p = 100.0 * fraction;
+    if (99.5..100.0).contains(&p) {
+        format!("{:.1}", (p * 10.0).floor() / 10.0)
+    } else if p > 0.0 && p < 0.5 {
+        format!("{:.1}", ((p * 10.0).ceil() / 10.0).min(0.4))
+    } else {
+        format!("{p:.0}")
+    }
+}
+
+/// How white a residual reads in words: "far from white" ([`ChannelAdequacy::far_from_white`]),
+/// "coloured, but weakly" where Ljung–Box rejects whiteness at [`WHITENESS_ALPHA`] with a
+/// lag-1 autocorrelation at most [`FAR_FROM_WHITE_LAG1`], else "close to white".
+pub fn whiteness_text(c: &ChannelAdequacy) -> &'static str {
+    if c.far_from_white {
+        "far from white"
+    } else if c.whiteness_p < WHITENESS_ALPHA {
+        "coloured, but weakly"
+    } else {
+        "close to white"
+    }
+}
+
 /// A p-value with its relation: "< 1e-300" for an underflow, "= " and two significant
 /// digits otherwise.
 pub fn p_text(p: f64) -> String {
@@ -590,6 +616,16 @@ pub fn p_text(p: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_fraction_short_of_the_whole_is_never_printed_as_100_percent() {
+        assert_eq!(percent_text(0.9954), "99.5");
+        assert_eq!(percent_text(0.99996), "99.9");
+        assert_eq!(percent_text(1.0), "100");
+        assert_eq!(percent_text(0.62), "62");
+        assert_eq!(percent_text(0.002), "0.2");
+        assert_eq!(percent_text(0.0), "0");
+    }
 
     #[test]
     fn explained_fraction_is_the_share_of_the_power_above_noise_removed() {

@@ -169,10 +169,10 @@ impl DiagnoseOptions {
     /// and the play's size searched ([`play_size_search`](Self::play_size_search)). What
     /// `lash diagnose --bearing-play` sets. Only a diagnosis that selects a radial or axial
     /// play runs any of it; there it costs about 2–5× the default's time (the suite's
-    /// clearance cases ~45–90 min on 2 cores instead of ~15–20). Measured on the suite
-    /// (README, "The MR2120: concealed effects"): held out 1.39–1.42× the noise on
-    /// clearance-F (3.02× with the defaults), 1.66× on clearance-under-length (3.17×), axial-D's
-    /// play 1.6 % off.
+    /// play cases 40–90 min on 2 cores instead of 11–20). Measured on the suite
+    /// (README, "The bearing options in one flag"): held out 1.39× the noise on clearance-F
+    /// (3.02× with the defaults), 1.66× on clearance-under-length (3.17×), 1.05× on axial-D
+    /// with its play 1.6 % off.
     pub fn with_bearing_play(mut self) -> Self {
         self.library.play_contact_hertz = true;
         self.library.play_relinearize = true;

@@ -99,8 +99,8 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
     if a.unexplained {
         let _ = writeln!(
             m,
-            "**Unexplained mismatch remains**: the selected physics explains {:.0} % of the mismatch power above the noise on the {basis}; what remains is not noise (threshold: {:.1}× the noise floor, or a residual far from white).\n",
-            100.0 * a.explained_fraction,
+            "**Unexplained mismatch remains**: the selected physics explains {} % of the mismatch power above the noise on the {basis}; what remains is not noise (threshold: {:.1}× the noise floor, or a residual far from white).\n",
+            super::adequacy::percent_text(a.explained_fraction),
             a.unexplained_noise_ratio
         );
     } else {
@@ -112,8 +112,8 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
                 "the nominal model was already at noise".to_string()
             } else {
                 format!(
-                    "the selected physics explains {:.0} % of the mismatch power above the noise",
-                    100.0 * a.explained_fraction
+                    "the selected physics explains {} % of the mismatch power above the noise",
+                    super::adequacy::percent_text(a.explained_fraction)
                 )
             }
         );
@@ -129,7 +129,7 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             if c.noise_ratio_before <= a.unexplained_noise_ratio {
                 "nothing above the noise to explain".to_string()
             } else {
-                format!("{:.0} % explained", 100.0 * c.explained_fraction)
+                format!("{} % explained", super::adequacy::percent_text(c.explained_fraction))
             },
             c.autocorrelation.first().copied().unwrap_or(0.0),
             super::adequacy::p_text(c.whiteness_p),

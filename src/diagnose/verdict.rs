@@ -494,6 +494,23 @@ mod tests {
         }
     }
 
+    /// Ljung–Box rejects whiteness on thousands of samples at the faintest colour: a residual
+    /// it rejects with a small lag-1 autocorrelation is said to be weakly coloured, not close
+    /// to white.
+    #[test]
+    fn a_residual_whose_whiteness_is_rejected_is_never_called_close_to_white() {
+        let mut a = adequacy("load reversal in drive A", 1.9, true);
+        let c = &mut a.channels[0];
+        assert_eq!(crate::diagnose::adequacy::whiteness_text(c), "far from white");
+        (c.far_from_white, c.autocorrelation, c.whiteness_p) = (false, vec![0.27], 2.8e-239);
+        assert_eq!(
+            crate::diagnose::adequacy::whiteness_text(c),
+            "coloured, but weakly"
+        );
+        c.whiteness_p = 0.4;
+        assert_eq!(crate::diagnose::adequacy::whiteness_text(c), "close to white");
+    }
+
     /// After a joint's play is found, a residual concentrated at load reversals is named as
     /// the play's dynamics; not after friction, not when the residual is elsewhere or at
     /// noise, not when the play's estimate is unstable.
