@@ -404,7 +404,7 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
             })
             .collect();
         println!(
-            "{:<24} {:>6.0}% {:>6.1}  {:<6} {:<22} {:>8.2} {:>8.0}%  {:<5} {:>4.0} s  {}",
+            "{:<24} {:>6.0}% {:>6.1}  {:<6} {:<22} {:>8.2} {:>8}%  {:<5} {:>4.0} s  {}",
             c.case,
             100.0 * c.below_noise_fraction,
             c.peak_snr,
@@ -419,7 +419,7 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
                 est.join(", ")
             },
             c.holdout_noise_ratio,
-            100.0 * c.explained_fraction,
+            lash::diagnose::adequacy::percent_text(c.explained_fraction),
             if c.pass { "yes" } else { "NO" },
             c.seconds,
             c.found_text()
