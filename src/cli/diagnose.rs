@@ -472,10 +472,7 @@ fn play_options(a: &Args, opts: &mut DiagnoseOptions) {
     opts.play_size_search |= a.play_size_search || a.play_damping_search;
     opts.play_damping_search |= a.play_damping_search;
     for &g in &a.play_load_damping {
-        let d = ContactDamping::load_proportional(g);
-        if !opts.play_contact_dampings.contains(&d) {
-            opts.play_contact_dampings.push(d);
-        }
+        opts.add_contact_damping(ContactDamping::load_proportional(g));
     }
     if let Some(p) = backlash_place(a) {
         opts.backlash_places = vec![p];

@@ -178,13 +178,18 @@ impl DiagnoseOptions {
         self.library.play_relinearize = true;
         self.library.play_interpolation = super::play_dynamics::Interpolation::Linear;
         for gamma in BEARING_PLAY_LOAD_DAMPINGS {
-            let d = ContactDamping::load_proportional(gamma);
-            if !self.play_contact_dampings.contains(&d) {
-                self.play_contact_dampings.push(d);
-            }
+            self.add_contact_damping(ContactDamping::load_proportional(gamma));
         }
         self.play_size_search = true;
         self
+    }
+
+    /// Adds `damping` to the grid [`play_contact_dampings`](Self::play_contact_dampings)
+    /// unless it is there already (each damping is tried once).
+    pub fn add_contact_damping(&mut self, damping: ContactDamping) {
+        if !self.play_contact_dampings.contains(&damping) {
+            self.play_contact_dampings.push(damping);
+        }
     }
 }
 

@@ -235,13 +235,7 @@ fn diagnose_folds(
     // (The play-size search's shares after those.)
     let size_share = dampings.len() + stiffnesses.len() + places.len() - 2
         + if dynamic { relinearize::MAX_RESIZES } else { 0 };
-    // (The refits' shares: the sizes at the kept damping, and each damping round's.)
-    let search_shares = MAX_PLAY_SIZES
-        + if opts.play_damping_search {
-            (MAX_CONSTANT_DAMPINGS + MAX_LOAD_DAMPINGS) * PROFILE_SIZES
-        } else {
-            0
-        };
+    let search_shares = search_shares(opts);
     let passes = size_share + if search { search_shares + 1 } else { 0 };
     let share = 0.4 / passes as f64;
     let pass = |k: usize,
@@ -394,10 +388,7 @@ fn diagnose_folds(
         }
         second.dynamic_play_reference_cv = log;
     }
-    // The radial play's size searched (`DiagnoseOptions::play_size_search`, `play_size`):
-    // the kept selection refitted with the play held at each size a pattern search tries,
-    // from the selection's estimate; the best size becomes the reference of one more whole
-    // selection, kept if it cross-validates better.
+    // The radial play's size searched about the kept selection (`search_play_size`).
     if search {
         search_play_size(
             model,
@@ -525,6 +516,17 @@ fn diagnose_folds(
     Ok(d)
 }
 
+/// The play-size search's shares of the progress: one per refit, the sizes at the kept
+/// damping and, with the damping search, each damping round's.
+fn search_shares(opts: &DiagnoseOptions) -> usize {
+    MAX_PLAY_SIZES
+        + if opts.play_damping_search {
+            (MAX_CONSTANT_DAMPINGS + MAX_LOAD_DAMPINGS) * PROFILE_SIZES
+        } else {
+            0
+        }
+}
+
 /// The radial play's size searched (`DiagnoseOptions::play_size_search`, `play_size`) about
 /// the selection `second` made on `shifted` (the model moved by `o2.shift`): the kept
 /// selection refitted with the play held at each size a pattern search tries, from the
@@ -547,12 +549,7 @@ fn search_play_size(
     (base, share): (f64, f64),
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<(), DiagnoseError> {
-    let search_shares = MAX_PLAY_SIZES
-        + if opts.play_damping_search {
-            (MAX_CONSTANT_DAMPINGS + MAX_LOAD_DAMPINGS) * PROFILE_SIZES
-        } else {
-            0
-        };
+    let search_shares = search_shares(opts);
     if let Some((name, h0)) = relinearize::dynamic_play_clearance(model, second, cands2) {
         let mut o = o2.clone();
         o.library.play_contact_damping = second.dynamic_play_damping;
