@@ -160,7 +160,7 @@ pub struct Args {
     /// The reduced dynamic play model as close to the joints' bearings as lash makes it:
     /// --hertz-play-contact --play-relinearize --play-blended-forces --play-size-search
     /// and --play-load-damping 250,500,1000 together (`DiagnoseOptions::with_bearing_play`;
-    /// 2–5× the time where a play is selected; also with --suite).
+    /// 2–6× the time where a play is selected; also with --suite).
     #[arg(long)]
     bearing_play: bool,
     /// Print the diagnosis as JSON.

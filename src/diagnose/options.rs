@@ -168,7 +168,7 @@ impl DiagnoseOptions {
     /// [`BEARING_PLAY_LOAD_DAMPINGS`] added to [`play_contact_dampings`](Self::play_contact_dampings),
     /// and the play's size searched ([`play_size_search`](Self::play_size_search)). What
     /// `lash diagnose --bearing-play` sets. Only a diagnosis that selects a radial or axial
-    /// play runs any of it; there it costs about 2–5× the default's time (the suite's
+    /// play runs any of it; there it costs 2–6× the default's time (the suite's
     /// play cases 40–90 min on 2 cores instead of 11–20). Measured on the suite
     /// (README, "The bearing options in one flag"): held out 1.39× the noise on clearance-F
     /// (3.02× with the defaults), 1.66× on clearance-under-length (3.17×), 1.05× on axial-D
