@@ -106,18 +106,18 @@ pub struct Args {
     quasi_static_play: bool,
     /// The reduced dynamic play model's balls on Hertz's law per direction, with the
     /// constants of the joint's own bearings (a ball in a bore of the reference play's
-    /// clearance, a ball on the bore's end face), instead of one linear stiffness (also with
-    /// --suite).
+    /// clearance, a ball on the bore's end face), instead of one linear stiffness (part of
+    /// the default since 2026-12-01; on top of --no-bearing-play, alone; also with --suite).
     #[arg(long)]
     hertz_play_contact: bool,
     /// The reduced dynamic play model's linear stiffness of a ball on its bore's end face,
-    /// N/m, alone (by default cross-validation chooses between 1e8 and 1.5e7; also with
-    /// --suite).
+    /// N/m, alone (with linear balls, --no-bearing-play: by default cross-validation chooses
+    /// between 1e8 and 1.5e7; also with --suite).
     #[arg(long, value_name = "N_PER_M", value_parser = parse_positive)]
     play_axial_stiffness: Option<f64>,
     /// Re-linearise the reduced dynamic play model once about its own motion where its
-    /// response is large (near a singular position; by default it is linearised about the
-    /// nominal motion everywhere; also with --suite).
+    /// response is large (near a singular position; part of the default since 2026-12-01;
+    /// on top of --no-bearing-play, alone; also with --suite).
     #[arg(long)]
     play_relinearize: bool,
     /// Continue the re-linearisation's Gauss–Newton steps to the last pass's estimates also
@@ -131,14 +131,15 @@ pub struct Args {
     #[arg(long, conflicts_with = "relinearize_to_convergence")]
     no_relinearize_to_convergence: bool,
     /// Blend the reduced dynamic play model's linear forces in time from sample to sample
-    /// (by default they are held at each sample interval's end; also with --suite).
+    /// rather than hold them at each sample interval's end (part of the default since
+    /// 2026-12-01; on top of --no-bearing-play, alone; also with --suite).
     #[arg(long)]
     play_blended_forces: bool,
     /// Search the first found radial play's size: the selection refitted with the reduced
     /// dynamic play model run at each trial size (steps of 4, 2 and 1 %), then the other
     /// contact dampings at the best size (and the size again at a better one); the whole
-    /// selection at the best size and damping kept if it cross-validates better (also with
-    /// --suite).
+    /// selection at the best size and damping kept if it cross-validates better (part of
+    /// the default since 2026-12-01; on top of --no-bearing-play, alone; also with --suite).
     #[arg(long)]
     play_size_search: bool,
     /// With the size search (implies --play-size-search), the balls' damping searched too
@@ -148,7 +149,8 @@ pub struct Args {
     play_damping_search: bool,
     /// Also try load-proportional contact dampings γ·F in the reduced dynamic play model (γ
     /// in s/m, one or more, comma-separated, each over a small constant damping for the
-    /// balls' sliding; cross-validation chooses among the dampings; also with --suite).
+    /// balls' sliding; cross-validation chooses among the dampings; 250, 500 and 1000 are
+    /// tried by default since 2026-12-01, not with --no-bearing-play; also with --suite).
     #[arg(long, value_name = "S_PER_M", value_parser = parse_positive, value_delimiter = ',')]
     play_load_damping: Vec<f64>,
     /// Where a found backlash's play sits, alone: "output" (between the transmission's
@@ -160,9 +162,17 @@ pub struct Args {
     /// The reduced dynamic play model as close to the joints' bearings as lash makes it:
     /// --hertz-play-contact --play-relinearize --play-blended-forces --play-size-search
     /// and --play-load-damping 250,500,1000 together (`DiagnoseOptions::with_bearing_play`;
-    /// 2–6× the time where a play is selected; also with --suite).
+    /// 2–6× the time where a play is selected; also with --suite). The default since
+    /// 2026-12-01; the flag stays for the commands written before.
     #[arg(long)]
     bearing_play: bool,
+    /// The fast path of the reduced dynamic play model, as before 2026-12-01: linear balls,
+    /// linearised about the nominal motion, forces held within a sample interval, constant
+    /// contact dampings only, no search on the play's size
+    /// (`DiagnoseOptions::without_bearing_play`; the flags above then add back what they
+    /// name; also with --suite).
+    #[arg(long, conflicts_with = "bearing_play")]
+    no_bearing_play: bool,
     /// Print the diagnosis as JSON.
     #[arg(long)]
     json: bool,
@@ -453,12 +463,15 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
 }
 
 /// The flags on the re-linearisation and the reduced dynamic play model, for a diagnosis and
-/// for the suite alike: `--bearing-play` first (`DiagnoseOptions::with_bearing_play`), then
-/// each flag of its own on top.
+/// for the suite alike: the bearing preset is the default (`--bearing-play` asks for it
+/// again), `--no-bearing-play` the fast path (`DiagnoseOptions::without_bearing_play`);
+/// then each flag of its own on top.
 fn play_options(a: &Args, opts: &mut DiagnoseOptions) {
-    if a.bearing_play {
-        *opts = std::mem::take(opts).with_bearing_play();
-    }
+    *opts = if a.no_bearing_play {
+        std::mem::take(opts).without_bearing_play()
+    } else {
+        std::mem::take(opts).with_bearing_play()
+    };
     opts.library.play_contact_hertz |= a.hertz_play_contact;
     if let Some(k) = a.play_axial_stiffness {
         opts.library.play_axial_stiffness = Some(k);

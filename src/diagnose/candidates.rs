@@ -123,9 +123,12 @@ pub struct LibraryOptions {
     /// stiffness; the radial columns are then the response with the play less the response
     /// without (the balls' own compliance does not scale with the play), and each joint's
     /// compliance at zero play is a candidate of its own ([`Effect::ContactCompliance`], the
-    /// response without play). Off by default: the
-    /// model's joint then follows the truth's (example `play_dynamics`), but in the suite's
-    /// clearance-F case the diagnosis did worse (held out 3.35× against 3.01×, README).
+    /// response without play). Off in these options' own default; on in
+    /// [`DiagnoseOptions::default`](super::DiagnoseOptions) since 2026-12-01 (the bearing
+    /// preset, [`with_bearing_play`](super::DiagnoseOptions::with_bearing_play)). Alone,
+    /// the model's joint follows the truth's (example `play_dynamics`), but in the suite's
+    /// clearance-F case the diagnosis did worse (held out 3.35× against 3.01×, README);
+    /// with the rest of the preset, better.
     pub play_contact_hertz: bool,
     /// The linear law's stiffness of a ball on its bore's end face (N/m) in the reduced
     /// dynamic play model; `None`: [`BALL_CONTACT`]'s. Unused with
@@ -136,7 +139,9 @@ pub struct LibraryOptions {
     /// where its first response on some drive reaches [`RELINEARIZE_FRACTION`] of its
     /// largest over the data (near a singular position, where the play moves the mechanism
     /// far enough that the derivatives at the nominal configuration no longer carry the
-    /// torques). Off by default: in the example `play_dynamics` (joint F, 6 µm, recording 5,
+    /// torques). Off in these options' own default; on in
+    /// [`DiagnoseOptions::default`](super::DiagnoseOptions) since 2026-12-01 (the bearing
+    /// preset). Alone: in the example `play_dynamics` (joint F, 6 µm, recording 5,
     /// Hertz balls) it took the load peak's window 2.60–2.77 s on drive A from 5.28 to 1.47
     /// torque-noise units, but in the suite's clearance-F case (linear balls) the diagnosis
     /// held out 3.10× against 3.01× without it, and the tracker got worse (platform z 1.9×
@@ -147,7 +152,9 @@ pub struct LibraryOptions {
     /// (clearance-F: 28.6 against 16.7 CPU minutes).
     pub play_relinearize: bool,
     /// How the reduced dynamic play model's linearised mechanics varies within a sample
-    /// interval ([`Interpolation`]). Held at each interval's end by default: with linear
+    /// interval ([`Interpolation`]). Held at each interval's end in these options' own
+    /// default; blended in [`DiagnoseOptions::default`](super::DiagnoseOptions) since
+    /// 2026-12-01 (the bearing preset). Alone, with linear
     /// balls and constant dampings (the defaults) the suite's bearing cases held out worse
     /// blended (clearance-F 3.70× against 3.18×, README "Where the play sits: a gear mesh as
     /// the truth"), and with Hertz balls and a load-proportional damping not better either

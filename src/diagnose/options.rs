@@ -65,16 +65,18 @@ pub struct DiagnoseOptions {
     /// play's dynamics are in the selection: the re-linearised pass runs once per damping and
     /// keeps the one with the smallest leave-one-recording-out error
     /// ([`Diagnosis::dynamic_play_damping`](super::Diagnosis)). How fast a joint's rattle dies
-    /// is not known beforehand (a dry or a lubricated joint); the default tries two constant
-    /// dampings, 200 and 2 000 N·s/m (1 % and 10 % of critical for a kilogram on the model's
-    /// 1e8 N/m), one re-linearised pass each. Load-proportional ones
+    /// is not known beforehand (a dry or a lubricated joint); the grid starts with two
+    /// constant dampings, 200 and 2 000 N·s/m (1 % and 10 % of critical for a kilogram on the
+    /// model's 1e8 N/m), one re-linearised pass each. Load-proportional ones
     /// ([`ContactDamping::load_proportional`], the hysteresis of a Hertzian contact, each over
-    /// [`LOAD_DAMPING_BASE`](super::play_dynamics::LOAD_DAMPING_BASE)) may be added (`lash
-    /// diagnose --play-load-damping 250,500,1000`): measured on clearance-F they were chosen
-    /// by cross-validation but did not lower the held-out residual (session 30 over 200
-    /// N·s/m with held forces; session 47 over 20 N·s/m with blended forces; README,
-    /// "Load-proportional contact damping", "The rattle reproduced at the truth's play"), so
-    /// they are not tried by default.
+    /// [`LOAD_DAMPING_BASE`](super::play_dynamics::LOAD_DAMPING_BASE)) follow them by default
+    /// since 2026-12-01 ([`BEARING_PLAY_LOAD_DAMPINGS`], through
+    /// [`with_bearing_play`](Self::with_bearing_play); `lash diagnose --play-load-damping`
+    /// adds others). Alone, over linear balls, they were chosen by cross-validation on
+    /// clearance-F but did not lower the held-out residual (session 30 over 200 N·s/m with
+    /// held forces; session 47 over 20 N·s/m with blended forces; README,
+    /// "Load-proportional contact damping", "The rattle reproduced at the truth's play");
+    /// with the rest of the preset they did.
     pub play_contact_dampings: Vec<ContactDamping>,
     /// The balls' stiffnesses on their bores' end faces (N/m, the linear law) tried in the
     /// reduced dynamic play model when the play's dynamics are in the selection: after the
@@ -167,12 +169,13 @@ impl DiagnoseOptions {
     /// sample interval (`play_interpolation`), the load-proportional dampings
     /// [`BEARING_PLAY_LOAD_DAMPINGS`] added to [`play_contact_dampings`](Self::play_contact_dampings),
     /// and the play's size searched ([`play_size_search`](Self::play_size_search)). What
-    /// `lash diagnose --bearing-play` sets. Only a diagnosis that selects a radial or axial
-    /// play runs any of it; there it costs 2–6× the default's time (the suite's
-    /// play cases 40–90 min on 2 cores instead of 11–20). Measured on the suite
-    /// (README, "The bearing options in one flag"): held out 1.39× the noise on clearance-F
-    /// (3.02× with the defaults), 1.66× on clearance-under-length (3.17×), 1.05× on axial-D
-    /// with its play 1.6 % off.
+    /// The default since 2026-12-01 (session 60; [`DiagnoseOptions::default`] applies it);
+    /// [`without_bearing_play`](Self::without_bearing_play) undoes it (`lash diagnose
+    /// --no-bearing-play`). Only a diagnosis that selects a radial or axial play runs any
+    /// of it; there it costs 2–6× the fast path's time (the suite's play cases 40–90 min on
+    /// 2 cores instead of 11–20). Measured on the suite (README, "The bearing options by
+    /// default"): held out 1.39× the noise on clearance-F (3.02× without), 1.66× on
+    /// clearance-under-length (3.17×), 1.05× on axial-D with its play 1.6 % off.
     pub fn with_bearing_play(mut self) -> Self {
         self.library.play_contact_hertz = true;
         self.library.play_relinearize = true;
@@ -181,6 +184,23 @@ impl DiagnoseOptions {
             self.add_contact_damping(ContactDamping::load_proportional(gamma));
         }
         self.play_size_search = true;
+        self
+    }
+
+    /// These options with the reduced dynamic play model as it was before the bearing
+    /// preset became the default (`lash diagnose --no-bearing-play`, the fast path): the
+    /// balls on one linear stiffness, linearised about the nominal motion, the forces held
+    /// at each sample interval's end, the load-proportional dampings
+    /// [`BEARING_PLAY_LOAD_DAMPINGS`] taken out of the grid and no search on the play's
+    /// size. Undoes [`with_bearing_play`](Self::with_bearing_play); every other option
+    /// (the damping search included) stays as it is.
+    pub fn without_bearing_play(mut self) -> Self {
+        self.library.play_contact_hertz = false;
+        self.library.play_relinearize = false;
+        self.library.play_interpolation = super::play_dynamics::Interpolation::Held;
+        let preset = BEARING_PLAY_LOAD_DAMPINGS.map(ContactDamping::load_proportional);
+        self.play_contact_dampings.retain(|d| !preset.contains(d));
+        self.play_size_search = false;
         self
     }
 
@@ -194,6 +214,9 @@ impl DiagnoseOptions {
 }
 
 impl Default for DiagnoseOptions {
+    /// The diagnosis's defaults, the bearing preset included
+    /// ([`with_bearing_play`](Self::with_bearing_play); the fast path:
+    /// [`without_bearing_play`](Self::without_bearing_play)).
     fn default() -> Self {
         Self {
             library: LibraryOptions::default(),
@@ -218,6 +241,7 @@ impl Default for DiagnoseOptions {
             play_size_search: false,
             play_damping_search: false,
         }
+        .with_bearing_play()
     }
 }
 
@@ -231,7 +255,14 @@ mod tests {
         let base = DiagnoseOptions {
             max_effects: 4,
             ..DiagnoseOptions::default()
-        };
+        }
+        .without_bearing_play();
+        assert!(!base.library.play_contact_hertz && !base.library.play_relinearize && !base.play_size_search);
+        assert_eq!(base.library.play_interpolation, Interpolation::Held);
+        assert_eq!(
+            base.play_contact_dampings,
+            vec![ContactDamping::constant(200.0), ContactDamping::constant(2000.0)]
+        );
         let b = base.clone().with_bearing_play();
         assert!(b.library.play_contact_hertz && b.library.play_relinearize && b.play_size_search);
         assert_eq!(b.library.play_interpolation, Interpolation::Linear);
@@ -251,8 +282,26 @@ mod tests {
             },
             play_contact_dampings: base.play_contact_dampings.clone(),
             play_size_search: base.play_size_search,
-            ..b
+            ..b.clone()
         };
         assert_eq!(undo, base);
+        // And the preset undone is the fast path again.
+        assert_eq!(b.clone().without_bearing_play(), base);
+    }
+
+    #[test]
+    fn the_defaults_are_the_bearing_preset_and_the_fast_path_undoes_it() {
+        let d = DiagnoseOptions::default();
+        assert!(d.library.play_contact_hertz && d.library.play_relinearize && d.play_size_search);
+        assert_eq!(d.library.play_interpolation, Interpolation::Linear);
+        for g in BEARING_PLAY_LOAD_DAMPINGS {
+            assert!(d
+                .play_contact_dampings
+                .contains(&ContactDamping::load_proportional(g)));
+        }
+        assert_eq!(d.clone().with_bearing_play(), d);
+        let fast = d.clone().without_bearing_play();
+        assert_eq!(fast.clone().without_bearing_play(), fast);
+        assert_eq!(fast.with_bearing_play(), d);
     }
 }
