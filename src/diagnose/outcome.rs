@@ -298,7 +298,8 @@ pub struct Diagnosis {
     pub dynamic_play_axial_stiffness_cv: Vec<(f64, f64)>,
     /// Whether the reduced dynamic play model's balls were on Hertz's law per direction
     /// ([`LibraryOptions::play_contact_hertz`](super::candidates::LibraryOptions)) rather
-    /// than one linear stiffness (JSON `dynamic_play_hertz`).
+    /// than one linear stiffness (JSON `dynamic_play_hertz`); false where no reduced dynamic
+    /// play model ran (no play selected), whatever the options.
     pub dynamic_play_hertz: bool,
     /// Where the play of a backlash taken as a dead zone in the selection sits in its
     /// transmission (JSON `"spring"` or `"output"`), chosen by cross-validation among
@@ -318,7 +319,7 @@ pub struct Diagnosis {
     /// Whether the reduced dynamic play model was re-linearised about its own motion where
     /// its response is large
     /// ([`LibraryOptions::play_relinearize`](super::candidates::LibraryOptions)); JSON
-    /// `dynamic_play_relinearized`.
+    /// `dynamic_play_relinearized`; false where no reduced dynamic play model ran.
     pub dynamic_play_relinearized: bool,
     /// How the reduced dynamic play model's linearised mechanics varied within a sample
     /// interval ([`LibraryOptions::play_interpolation`](super::candidates::LibraryOptions));

@@ -978,7 +978,10 @@ fn diagnose_once(
                     .unwrap_or(BALL_CONTACT.axial_stiffness)
             }),
         dynamic_play_axial_stiffness_cv: vec![],
-        dynamic_play_hertz: opts.library.play_contact_hertz,
+        // (Whether the reduced model's balls were on Hertz's law, and whether it was
+        // re-linearised: false where no reduced dynamic play model ran.)
+        dynamic_play_hertz: opts.library.play_contact_hertz
+            && (opts.library.dynamic_play_clearance.is_some() || opts.library.dynamic_axial_play.is_some()),
         backlash_place: opts
             .library
             .backlash_reference
@@ -987,7 +990,8 @@ fn diagnose_once(
         backlash_place_cv: vec![],
         backlash_place_identified: None,
         dynamic_play_damping_identified: None,
-        dynamic_play_relinearized: opts.library.play_relinearize,
+        dynamic_play_relinearized: opts.library.play_relinearize
+            && (opts.library.dynamic_play_clearance.is_some() || opts.library.dynamic_axial_play.is_some()),
         dynamic_play_interpolation: opts.library.play_interpolation,
         dynamic_play_reference_cv: vec![],
         dynamic_play_size_cv: vec![],

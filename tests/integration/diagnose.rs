@@ -153,6 +153,10 @@ fn null_case_reports_no_significant_mismatch() {
     let d = diagnose(&model, &fit, &held, &DiagnoseOptions::default(), |_, _| {}).unwrap();
     assert!(d.no_significant_mismatch, "selected {:?}", d.steps);
     assert!(d.verdict.starts_with("No significant mismatch"), "{}", d.verdict);
+    // The defaults carry the bearing preset, but no play was selected, so no reduced
+    // dynamic play model ran and the diagnosis does not say its balls were on Hertz's law.
+    assert!(DiagnoseOptions::default().library.play_contact_hertz);
+    assert!(d.dynamic_play_reference.is_none() && !d.dynamic_play_hertz && !d.dynamic_play_relinearized);
 }
 
 #[test]
