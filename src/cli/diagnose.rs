@@ -414,9 +414,9 @@ fn suite(a: &Args, dir: &Path) -> Result<Output, CliError> {
             })
             .collect();
         println!(
-            "{:<24} {:>6.0}% {:>6.1}  {:<6} {:<22} {:>8.2} {:>8}%  {:<5} {:>4.0} s  {}",
+            "{:<24} {:>6}% {:>6.1}  {:<6} {:<22} {:>8.2} {:>8}%  {:<5} {:>4.0} s  {}",
             c.case,
-            100.0 * c.below_noise_fraction,
+            lash::diagnose::adequacy::percent_text(c.below_noise_fraction),
             c.peak_snr,
             match c.kind {
                 lash::diagnose::suite::CaseKind::OutOfLibrary => "n/a",

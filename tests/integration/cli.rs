@@ -260,6 +260,10 @@ fn out_of_range_settings_exit_with_2_before_running() {
     ]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("cannot be used with"), "{err}");
+    // The bearing preset (the default) and the fast path, both at once: refused.
+    let (code, err) = status(&["diagnose", "--suite", "--bearing-play", "--no-bearing-play"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("cannot be used with"), "{err}");
 }
 
 /// Inputs found by a panic audit (2026-11-29): each is refused with exit 2 and a message
