@@ -929,6 +929,9 @@ fn diagnose_once(
     adequacy.unstable = adequacy::unstable_names(&estimates);
     let selected: Vec<String> = set.iter().map(|&c| cands[c].name.clone()).collect();
     let found = adequacy::found_effects(&selected, &estimates, &unresolved_play);
+    // Whether this pass ran the reduced dynamic play model (about a selected play).
+    let dynamic_model =
+        opts.library.dynamic_play_clearance.is_some() || opts.library.dynamic_axial_play.is_some();
     let verdict = verdict(
         model,
         &set,
@@ -938,7 +941,7 @@ fn diagnose_once(
         &confounded,
         &location,
         &adequacy,
-        opts.library.dynamic_play_clearance.is_some() || opts.library.dynamic_axial_play.is_some(),
+        dynamic_model,
         &unresolved_play,
     );
     let friction = super::equivalents::joint_friction(model, &set, &prep.cands, &estimates);
@@ -961,27 +964,20 @@ fn diagnose_once(
         play_dynamics: None,
         dynamic_play_reference: opts.library.dynamic_play_clearance,
         dynamic_axial_play_reference: opts.library.dynamic_axial_play,
-        dynamic_play_damping: (opts.library.dynamic_play_clearance.is_some()
-            || opts.library.dynamic_axial_play.is_some())
-        .then(|| {
+        dynamic_play_damping: dynamic_model.then(|| {
             opts.library
                 .play_contact_damping
                 .unwrap_or(BALL_CONTACT.contact_damping())
         }),
         dynamic_play_damping_cv: vec![],
-        dynamic_play_axial_stiffness: ((opts.library.dynamic_play_clearance.is_some()
-            || opts.library.dynamic_axial_play.is_some())
-            && !opts.library.play_contact_hertz)
-            .then(|| {
-                opts.library
-                    .play_axial_stiffness
-                    .unwrap_or(BALL_CONTACT.axial_stiffness)
-            }),
+        dynamic_play_axial_stiffness: (dynamic_model && !opts.library.play_contact_hertz).then(|| {
+            opts.library
+                .play_axial_stiffness
+                .unwrap_or(BALL_CONTACT.axial_stiffness)
+        }),
         dynamic_play_axial_stiffness_cv: vec![],
-        // (Whether the reduced model's balls were on Hertz's law, and whether it was
-        // re-linearised: false where no reduced dynamic play model ran.)
-        dynamic_play_hertz: opts.library.play_contact_hertz
-            && (opts.library.dynamic_play_clearance.is_some() || opts.library.dynamic_axial_play.is_some()),
+        // (False where no reduced dynamic play model ran, whatever the options.)
+        dynamic_play_hertz: opts.library.play_contact_hertz && dynamic_model,
         backlash_place: opts
             .library
             .backlash_reference
@@ -990,8 +986,7 @@ fn diagnose_once(
         backlash_place_cv: vec![],
         backlash_place_identified: None,
         dynamic_play_damping_identified: None,
-        dynamic_play_relinearized: opts.library.play_relinearize
-            && (opts.library.dynamic_play_clearance.is_some() || opts.library.dynamic_axial_play.is_some()),
+        dynamic_play_relinearized: opts.library.play_relinearize && dynamic_model,
         dynamic_play_interpolation: opts.library.play_interpolation,
         dynamic_play_reference_cv: vec![],
         dynamic_play_size_cv: vec![],
