@@ -1,6 +1,7 @@
 //! Selection: rank every candidate by its likelihood-ratio test at the nominal model, add
 //! effects greedily by cross-validated error and an information criterion (among the
-//! candidates the data cannot tell apart, the simpler law), drop members that no longer earn
+//! candidates the data cannot tell apart, a selected play's own contact compliance before
+//! another joint's, then the simpler law), drop members that no longer earn
 //! their place given the others (backward elimination), re-weigh the channels once, then
 //! estimate the selected parameters with their uncertainty and flag the effects the data
 //! cannot separate.
@@ -155,15 +156,23 @@ pub(super) fn select(
                 })
                 .collect();
             // Smallest cross-validated error; among those the data cannot tell from it
-            // (within the confounding tolerance), the smallest information criterion — the
-            // simpler law (Coulomb before Stribeck or asymmetric friction) unless the data
-            // ask for more.
+            // (within the confounding tolerance), first the contact compliance of a joint
+            // whose play is already selected — one joint's bearings explain both, where any
+            // other joint's compliance names a second place with no evidence for it (the
+            // two joints of a leg carry the same force and differ by a fraction of a
+            // percent) — then the smallest information criterion: the simpler law (Coulomb
+            // before Stribeck or asymmetric friction) unless the data ask for more. The
+            // alternative is still reported as confounded.
             let cv_min = short.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
             let tol = (1.0 + opts.confound_tolerance).powi(2);
+            let elsewhere = |c: usize| {
+                !set.iter()
+                    .any(|&p| compliance_of.get(p).is_some_and(|own| own.contains(&c)))
+            };
             let best = short
                 .iter()
                 .filter(|x| x.2 <= cv_min * tol)
-                .min_by(|a, b| a.3.total_cmp(&b.3))
+                .min_by(|a, b| elsewhere(a.0).cmp(&elsewhere(b.0)).then(a.3.total_cmp(&b.3)))
                 .copied();
             let Some((c, stat, cv, b)) = best else { break };
             let k = prep.cols_of[c].len() + cands[c].grid_parameters;
@@ -665,5 +674,102 @@ mod tests {
             Some("error in joint compliance along leg C")
         );
         assert!(u.cv_ratio.is_some_and(|r| r > 1.005), "{:?}", u.cv_ratio);
+    }
+
+    /// Two joints' contact compliances that the data cannot tell apart (the other joint's
+    /// fits marginally better, within the confounding tolerance): with the play of one of
+    /// them selected, its own joint's compliance joins, and the other is reported as
+    /// confounded with it.
+    #[test]
+    fn a_selected_plays_own_compliance_wins_a_tie_with_another_joints() {
+        let cands = vec![
+            candidate(
+                "radial clearance in joint F (reduced dynamic model)",
+                Effect::Play {
+                    site: 0,
+                    direction: PlayDirection::Radial,
+                    load_scale: 5.0,
+                },
+            ),
+            candidate(
+                "contact compliance of joint F",
+                Effect::ContactCompliance { site: 0 },
+            ),
+            candidate(
+                "contact compliance of joint R",
+                Effect::ContactCompliance { site: 1 },
+            ),
+            candidate("torque offset", Effect::TorqueOffset),
+        ];
+        let n = 400;
+        let mut seed = 777u64;
+        let blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)> = (0..3)
+            .map(|r| {
+                let t: Vec<f64> = (0..n).map(|i| (r * n + i) as f64 * 0.01).collect();
+                let p: Vec<f64> = t
+                    .iter()
+                    .map(|t| (1.3 * t).sin() + 0.4 * (3.1 * t).cos())
+                    .collect();
+                let q: Vec<f64> = t
+                    .iter()
+                    .map(|t| (0.9 * t).cos() + 0.3 * (5.3 * t).sin())
+                    .collect();
+                // F's compliance column departs from the shape in the data by a little.
+                let f: Vec<f64> = q
+                    .iter()
+                    .zip(&t)
+                    .map(|(q, t)| q + 0.03 * (11.0 * t).sin())
+                    .collect();
+                let u: Vec<f64> = t.iter().map(|t| (0.37 * t).cos()).collect();
+                let b: Vec<f64> = p
+                    .iter()
+                    .zip(&q)
+                    .map(|(p, q)| {
+                        seed = seed
+                            .wrapping_mul(6364136223846793005)
+                            .wrapping_add(1442695040888963407);
+                        0.05 * p + 0.02 * q + ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.035
+                    })
+                    .collect();
+                (vec![p, f, q, u], b)
+            })
+            .collect();
+        let raw = Prepared::new(cands.clone(), vec![vec![0], vec![1], vec![2], vec![3]], blocks).unwrap();
+        let opts = DiagnoseOptions {
+            reweight: false,
+            ..DiagnoseOptions::default()
+        };
+        let run = |compliance_of: &[Vec<usize>]| {
+            select(
+                &raw,
+                &cands,
+                compliance_of,
+                &[n; 3],
+                &[1.0],
+                &opts,
+                &mut |_, _| {},
+            )
+            .unwrap()
+        };
+        // Without the play's joint declared, the better-fitting other joint is taken.
+        let plain = run(&[vec![], vec![], vec![], vec![]]);
+        assert_eq!(plain.set, vec![0, 2]);
+        let sel = run(&[vec![1], vec![], vec![], vec![]]);
+        assert_eq!(sel.set, vec![0, 1], "the play's own joint's compliance");
+        let ratio = (sel.prep.cv_rss(&[0, 2]) / sel.cv).sqrt();
+        assert!(
+            ratio < 1.0 && ratio > 1.0 / (1.0 + opts.confound_tolerance),
+            "{ratio}"
+        );
+        let x = sel.total.solve(&sel.prep.idx(&sel.set));
+        let conf = confounded(&sel, &cands, &opts, &x);
+        assert!(
+            conf.iter().any(|c| c.selected == "contact compliance of joint F"
+                && c.alternative == "contact compliance of joint R"),
+            "{:?}",
+            conf.iter()
+                .map(|c| (&c.selected, &c.alternative))
+                .collect::<Vec<_>>()
+        );
     }
 }
