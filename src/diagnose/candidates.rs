@@ -2383,6 +2383,11 @@ mod tests {
             d.dynamic_play_damping,
             d.dynamic_play_reference
         );
+        // The reduced model ran: its interpolation is reported (null where none ran).
+        assert_eq!(
+            d.dynamic_play_interpolation,
+            Some(opts.library.play_interpolation)
+        );
     }
 
     #[test]

@@ -323,8 +323,9 @@ pub struct Diagnosis {
     pub dynamic_play_relinearized: bool,
     /// How the reduced dynamic play model's linearised mechanics varied within a sample
     /// interval ([`LibraryOptions::play_interpolation`](super::candidates::LibraryOptions));
-    /// JSON `dynamic_play_interpolation` (`"held"` or `"linear"`).
-    pub dynamic_play_interpolation: super::play_dynamics::Interpolation,
+    /// JSON `dynamic_play_interpolation` (`"held"` or `"linear"`; null where no reduced
+    /// dynamic play model ran).
+    pub dynamic_play_interpolation: Option<super::play_dynamics::Interpolation>,
     /// The reference plays tried at the kept damping — (radial clearance, axial play) in m,
     /// `None` where that direction's candidates were quasi-static — and the selection's
     /// leave-one-recording-out RMS with them (noise units): the first pass's estimates, then,

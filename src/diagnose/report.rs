@@ -252,8 +252,8 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
                 "the model linearised about the nominal motion"
             },
             match d.dynamic_play_interpolation {
-                Interpolation::Linear => "its forces blended from sample to sample",
-                Interpolation::Held => "its forces held at each sample interval's end",
+                Some(Interpolation::Linear) => "its forces blended from sample to sample",
+                Some(Interpolation::Held) | None => "its forces held at each sample interval's end",
             }
         );
     }

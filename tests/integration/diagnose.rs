@@ -156,7 +156,12 @@ fn null_case_reports_no_significant_mismatch() {
     // The defaults carry the bearing preset, but no play was selected, so no reduced
     // dynamic play model ran and the diagnosis does not say its balls were on Hertz's law.
     assert!(DiagnoseOptions::default().library.play_contact_hertz);
-    assert!(d.dynamic_play_reference.is_none() && !d.dynamic_play_hertz && !d.dynamic_play_relinearized);
+    assert!(
+        d.dynamic_play_reference.is_none()
+            && !d.dynamic_play_hertz
+            && !d.dynamic_play_relinearized
+            && d.dynamic_play_interpolation.is_none()
+    );
 }
 
 #[test]
