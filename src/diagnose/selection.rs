@@ -156,22 +156,27 @@ pub(super) fn select(
                 })
                 .collect();
             // Smallest cross-validated error; among those the data cannot tell from it
-            // (within the confounding tolerance), first the contact compliance of a joint
-            // whose play is already selected — one joint's bearings explain both, where any
-            // other joint's compliance names a second place with no evidence for it (the
-            // two joints of a leg carry the same force and differ by a fraction of a
-            // percent) — then the smallest information criterion: the simpler law (Coulomb
-            // before Stribeck or asymmetric friction) unless the data ask for more. The
-            // alternative is still reported as confounded.
+            // (within the confounding tolerance), the smallest information criterion — the
+            // simpler law (Coulomb before Stribeck or asymmetric friction) unless the data
+            // ask for more — except that another joint's contact compliance gives way to
+            // that of a joint whose play is already selected: one joint's bearings explain
+            // both, where the other names a second place with no evidence for it (the two
+            // joints of a leg carry the same force; their columns differ by a fraction of a
+            // percent). The alternative is still reported as confounded.
             let cv_min = short.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
             let tol = (1.0 + opts.confound_tolerance).powi(2);
-            let elsewhere = |c: usize| {
-                !set.iter()
+            let tied: Vec<(usize, f64, f64, f64)> =
+                short.iter().copied().filter(|x| x.2 <= cv_min * tol).collect();
+            let own = |c: usize| {
+                set.iter()
                     .any(|&p| compliance_of.get(p).is_some_and(|own| own.contains(&c)))
             };
-            let best = short
+            // Another joint's compliance gives way only to the selected play's own (which
+            // must be among the tied); any other candidate competes by the criterion.
+            let own_tied = tied.iter().any(|x| own(x.0));
+            let elsewhere = |c: usize| own_tied && !own(c) && compliance_of.iter().any(|of| of.contains(&c));
+            let best = tied
                 .iter()
-                .filter(|x| x.2 <= cv_min * tol)
                 .min_by(|a, b| elsewhere(a.0).cmp(&elsewhere(b.0)).then(a.3.total_cmp(&b.3)))
                 .copied();
             let Some((c, stat, cv, b)) = best else { break };
@@ -700,6 +705,14 @@ mod tests {
                 Effect::ContactCompliance { site: 1 },
             ),
             candidate("torque offset", Effect::TorqueOffset),
+            candidate(
+                "radial clearance in joint R (reduced dynamic model)",
+                Effect::Play {
+                    site: 1,
+                    direction: PlayDirection::Radial,
+                    load_scale: 5.0,
+                },
+            ),
         ];
         let n = 400;
         let mut seed = 777u64;
@@ -731,10 +744,16 @@ mod tests {
                         0.05 * p + 0.02 * q + ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.035
                     })
                     .collect();
-                (vec![p, f, q, u], b)
+                let r_play: Vec<f64> = t.iter().map(|t| (2.3 * t).cos()).collect();
+                (vec![p, f, q, u, r_play], b)
             })
             .collect();
-        let raw = Prepared::new(cands.clone(), vec![vec![0], vec![1], vec![2], vec![3]], blocks).unwrap();
+        let raw = Prepared::new(
+            cands.clone(),
+            vec![vec![0], vec![1], vec![2], vec![3], vec![4]],
+            blocks,
+        )
+        .unwrap();
         let opts = DiagnoseOptions {
             reweight: false,
             ..DiagnoseOptions::default()
@@ -751,10 +770,10 @@ mod tests {
             )
             .unwrap()
         };
-        // Without the play's joint declared, the better-fitting other joint is taken.
-        let plain = run(&[vec![], vec![], vec![], vec![]]);
+        // Without F's compliance declared as its play's, the better-fitting R is taken.
+        let plain = run(&[vec![], vec![], vec![], vec![], vec![2]]);
         assert_eq!(plain.set, vec![0, 2]);
-        let sel = run(&[vec![1], vec![], vec![], vec![]]);
+        let sel = run(&[vec![1], vec![], vec![], vec![], vec![2]]);
         assert_eq!(sel.set, vec![0, 1], "the play's own joint's compliance");
         let ratio = (sel.prep.cv_rss(&[0, 2]) / sel.cv).sqrt();
         assert!(
