@@ -1554,6 +1554,11 @@ fn recording_for(a: &Candidate, b: &Candidate) -> String {
             "a run that raises the load on {} slowly from small to large without reversing it, then reverses it (the contact's compression grows with the load, the play is taken up at the reversal)",
             joint(if matches!(a.effect, ContactCompliance { .. }) { a } else { b })
         ),
+        (ContactCompliance { .. }, ContactCompliance { .. }) => format!(
+            "a motion that loads {} and {} in different proportions; where the two sit in series on one link (the two joints of a leg), they carry the same force in every motion, and only a sensor between them (a tracker on that link) or a load applied to that link separates them",
+            joint(a),
+            joint(b)
+        ),
         (ContactCompliance { .. }, Parameter { .. }) | (Parameter { .. }, ContactCompliance { .. }) => format!(
             "a run that loads {} from small to large forces at one pose (a Hertz contact stiffens with its load, a linear compliance does not)",
             joint(if matches!(a.effect, ContactCompliance { .. }) { a } else { b })
@@ -1640,6 +1645,19 @@ mod tests {
         let text = separating_experiment(&own, &play("F", 2), 3);
         assert!(text.contains("the load on joint F slowly"), "{text}");
         assert!(!text.contains("the joints"), "{text}");
+        // Two joints' compliances: loaded in different proportions, which no motion gives
+        // two joints in series on one link (the text says so, not "reverse the loads").
+        let other = test_candidate(
+            "contact compliance of joint R (Hertz balls without clearance, reduced dynamic model)",
+            Effect::ContactCompliance { site: 5 },
+            true,
+        );
+        let text = separating_experiment(&own, &other, 3);
+        assert!(
+            text.contains("loads joint F and joint R in different proportions"),
+            "{text}"
+        );
+        assert!(text.contains("in series") && !text.contains("reverses"), "{text}");
     }
 
     /// Torque on the drive per metre of the joint's shift along z, N·m/m.
