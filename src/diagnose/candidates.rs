@@ -456,8 +456,10 @@ pub(crate) fn test_candidate(name: &str, effect: Effect, positive: bool) -> Cand
     }
 }
 
-/// Per candidate, the candidates (indices into `cands`) that are the contact compliance of a
-/// play candidate's joint ([`InverseDynamicsModel::play_site_compliance`]); empty for the
+/// Per candidate, the candidates (indices into `cands`) that are the compliance of a play
+/// candidate's joint: the model parameters it declares
+/// ([`InverseDynamicsModel::play_site_compliance`]) and the joint's own contact compliance
+/// under Hertz's law ([`Effect::ContactCompliance`] at the same play site); empty for the
 /// others.
 pub fn compliance_of(model: &dyn InverseDynamicsModel, cands: &[Candidate]) -> Vec<Vec<usize>> {
     cands
@@ -468,7 +470,11 @@ pub fn compliance_of(model: &dyn InverseDynamicsModel, cands: &[Candidate]) -> V
                 cands
                     .iter()
                     .enumerate()
-                    .filter(|(_, d)| matches!(d.effect, Effect::Parameter { index, .. } if params.contains(&index)))
+                    .filter(|(_, d)| match d.effect {
+                        Effect::Parameter { index, .. } => params.contains(&index),
+                        Effect::ContactCompliance { site: s } => s == site,
+                        _ => false,
+                    })
                     .map(|(k, _)| k)
                     .collect()
             }
@@ -1658,6 +1664,32 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("in series") && !text.contains("reverses"), "{text}");
+    }
+
+    /// A play's compliance is its joint's own contact compliance (same play site) beside
+    /// the parameters the model declares; another site's is not.
+    #[test]
+    fn a_plays_compliance_is_its_own_sites_contact_compliance() {
+        let play = test_candidate(
+            "radial clearance in joint F (reduced dynamic model)",
+            Effect::Play {
+                site: 0,
+                direction: PlayDirection::Radial,
+                load_scale: 5.0,
+            },
+            true,
+        );
+        let contact = |site| test_candidate("contact compliance", Effect::ContactCompliance { site }, true);
+        let cands = vec![
+            play,
+            contact(0),
+            contact(1),
+            test_candidate("torque offset", Effect::TorqueOffset, false),
+        ];
+        assert_eq!(
+            compliance_of(&Carried, &cands),
+            vec![vec![1], vec![], vec![], vec![]]
+        );
     }
 
     /// Torque on the drive per metre of the joint's shift along z, N·m/m.

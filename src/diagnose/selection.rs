@@ -571,19 +571,43 @@ mod tests {
         crate::diagnose::candidates::test_candidate(name, effect, false)
     }
 
+    /// The radial play of joint `name` at play site `site`.
+    fn radial_play(name: &str, site: usize) -> Candidate {
+        candidate(
+            &format!("radial clearance in joint {name} (reduced dynamic model)"),
+            Effect::Play {
+                site,
+                direction: PlayDirection::Radial,
+                load_scale: 5.0,
+            },
+        )
+    }
+
+    /// Sample times of recording `r` (n samples each, 10 ms apart, one record after
+    /// another) and the play's column there.
+    fn times_and_play(r: usize, n: usize) -> (Vec<f64>, Vec<f64>) {
+        let t: Vec<f64> = (0..n).map(|i| (r * n + i) as f64 * 0.01).collect();
+        let p = t
+            .iter()
+            .map(|t| (1.3 * t).sin() + 0.4 * (3.1 * t).cos())
+            .collect();
+        (t, p)
+    }
+
+    /// Deterministic uniform noise of RMS ~0.01 (width 0.035), from `seed`.
+    fn noise(seed: &mut u64) -> f64 {
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.035
+    }
+
     /// A play column p, a compliance column p + `apart`·w (w a shape of its own) and an
     /// unrelated column; the residual 0.05·p plus a deterministic noise of RMS ~0.01, over
     /// three recordings; the play's compression `delta` (m).
     fn selection(delta: f64, apart: f64) -> Selection {
         let cands = vec![
-            candidate(
-                "radial clearance in joint F (reduced dynamic model)",
-                Effect::Play {
-                    site: 0,
-                    direction: PlayDirection::Radial,
-                    load_scale: 5.0,
-                },
-            ),
+            radial_play("F", 0),
             candidate(
                 "error in joint compliance along leg C",
                 Effect::Parameter {
@@ -597,11 +621,7 @@ mod tests {
         let mut seed = 12345u64;
         let blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)> = (0..3)
             .map(|r| {
-                let t: Vec<f64> = (0..n).map(|i| (r * n + i) as f64 * 0.01).collect();
-                let p: Vec<f64> = t
-                    .iter()
-                    .map(|t| (1.3 * t).sin() + 0.4 * (3.1 * t).cos())
-                    .collect();
+                let (t, p) = times_and_play(r, n);
                 let c: Vec<f64> = p
                     .iter()
                     .zip(&t)
@@ -609,14 +629,7 @@ mod tests {
                     .collect();
                 let u: Vec<f64> = t.iter().map(|t| (0.37 * t).cos()).collect();
                 let w: Vec<f64> = t.iter().map(|t| (7.7 * t).sin()).collect();
-                let mut e: Vec<f64> = (0..n)
-                    .map(|_| {
-                        seed = seed
-                            .wrapping_mul(6364136223846793005)
-                            .wrapping_add(1442695040888963407);
-                        ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.035
-                    })
-                    .collect();
+                let mut e: Vec<f64> = (0..n).map(|_| noise(&mut seed)).collect();
                 // The noise made orthogonal to w, so the play's column fits better than the
                 // compliance's by `apart` alone, not by chance.
                 let k =
@@ -688,14 +701,7 @@ mod tests {
     #[test]
     fn a_selected_plays_own_compliance_wins_a_tie_with_another_joints() {
         let cands = vec![
-            candidate(
-                "radial clearance in joint F (reduced dynamic model)",
-                Effect::Play {
-                    site: 0,
-                    direction: PlayDirection::Radial,
-                    load_scale: 5.0,
-                },
-            ),
+            radial_play("F", 0),
             candidate(
                 "contact compliance of joint F",
                 Effect::ContactCompliance { site: 0 },
@@ -705,24 +711,13 @@ mod tests {
                 Effect::ContactCompliance { site: 1 },
             ),
             candidate("torque offset", Effect::TorqueOffset),
-            candidate(
-                "radial clearance in joint R (reduced dynamic model)",
-                Effect::Play {
-                    site: 1,
-                    direction: PlayDirection::Radial,
-                    load_scale: 5.0,
-                },
-            ),
+            radial_play("R", 1),
         ];
         let n = 400;
         let mut seed = 777u64;
         let blocks: Vec<(Vec<Vec<f64>>, Vec<f64>)> = (0..3)
             .map(|r| {
-                let t: Vec<f64> = (0..n).map(|i| (r * n + i) as f64 * 0.01).collect();
-                let p: Vec<f64> = t
-                    .iter()
-                    .map(|t| (1.3 * t).sin() + 0.4 * (3.1 * t).cos())
-                    .collect();
+                let (t, p) = times_and_play(r, n);
                 let q: Vec<f64> = t
                     .iter()
                     .map(|t| (0.9 * t).cos() + 0.3 * (5.3 * t).sin())
@@ -737,12 +732,7 @@ mod tests {
                 let b: Vec<f64> = p
                     .iter()
                     .zip(&q)
-                    .map(|(p, q)| {
-                        seed = seed
-                            .wrapping_mul(6364136223846793005)
-                            .wrapping_add(1442695040888963407);
-                        0.05 * p + 0.02 * q + ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.035
-                    })
+                    .map(|(p, q)| 0.05 * p + 0.02 * q + noise(&mut seed))
                     .collect();
                 let r_play: Vec<f64> = t.iter().map(|t| (2.3 * t).cos()).collect();
                 (vec![p, f, q, u, r_play], b)
