@@ -1561,7 +1561,7 @@ fn recording_for(a: &Candidate, b: &Candidate) -> String {
             joint(if matches!(a.effect, ContactCompliance { .. }) { a } else { b })
         ),
         (ContactCompliance { .. }, ContactCompliance { .. }) => format!(
-            "a motion that loads {} and {} in different proportions; where the two sit in series on one link (the two joints of a leg), they carry the same force in every motion, and only a sensor between them (a tracker on that link) or a load applied to that link separates them",
+            "a motion that loads {} and {} in different proportions (two joints in series on one link, as the two joints of a leg, carry the same force in every motion: for them only a sensor between the two, such as a tracker on that link, or a load applied to that link)",
             joint(a),
             joint(b)
         ),
