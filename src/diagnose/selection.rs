@@ -590,6 +590,29 @@ mod tests {
         ((*seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.035
     }
 
+    /// The options of these tests: the default ones, channels not re-weighed.
+    fn unweighted() -> DiagnoseOptions {
+        DiagnoseOptions {
+            reweight: false,
+            ..DiagnoseOptions::default()
+        }
+    }
+
+    /// Selects on `raw` (three recordings of `n` samples, one channel of noise floor 1)
+    /// with the plays' compliances `compliance_of`.
+    fn select_on(raw: &Prepared, compliance_of: &[Vec<usize>], n: usize) -> Selection {
+        select(
+            raw,
+            &raw.cands,
+            compliance_of,
+            &[n; 3],
+            &[1.0],
+            &unweighted(),
+            &mut |_, _| {},
+        )
+        .unwrap()
+    }
+
     /// A play column p, a compliance column p + `apart`·w (w a shape of its own) and an
     /// unrelated column; the residual 0.05·p plus a deterministic noise of RMS ~0.01, over
     /// three recordings; the play's compression `delta` (m).
@@ -629,20 +652,7 @@ mod tests {
             .collect();
         let mut raw = Prepared::new(cands.clone(), vec![vec![0], vec![1], vec![2]], blocks).unwrap();
         raw.compression = vec![Some(delta), None, None];
-        let opts = DiagnoseOptions {
-            reweight: false,
-            ..DiagnoseOptions::default()
-        };
-        select(
-            &raw,
-            &cands,
-            &[vec![1], vec![], vec![]],
-            &[n; 3],
-            &[1.0],
-            &opts,
-            &mut |_, _| {},
-        )
-        .unwrap()
+        select_on(&raw, &[vec![1], vec![], vec![]], n)
     }
 
     /// A play whose estimate (0.05) is below its compression (0.2) resolves no play: the
@@ -733,26 +743,14 @@ mod tests {
             blocks,
         )
         .unwrap();
-        let opts = DiagnoseOptions {
-            reweight: false,
-            ..DiagnoseOptions::default()
-        };
-        let run = |compliance_of: &[Vec<usize>]| {
-            select(
-                &raw,
-                &cands,
-                compliance_of,
-                &[n; 3],
-                &[1.0],
-                &opts,
-                &mut |_, _| {},
-            )
-            .unwrap()
-        };
+        let opts = unweighted();
         // F's compliance declared as its play's or not, the better-fitting R is taken.
-        let sel = run(&[vec![1], vec![], vec![], vec![], vec![2]]);
+        let sel = select_on(&raw, &[vec![1], vec![], vec![], vec![], vec![2]], n);
         assert_eq!(sel.set, vec![0, 2]);
-        assert_eq!(run(&[vec![], vec![], vec![], vec![], vec![2]]).set, vec![0, 2]);
+        assert_eq!(
+            select_on(&raw, &[vec![], vec![], vec![], vec![], vec![2]], n).set,
+            vec![0, 2]
+        );
         let ratio = (sel.prep.cv_rss(&[0, 1]) / sel.cv).sqrt();
         assert!(ratio > 1.0 && ratio < 1.0 + opts.confound_tolerance, "{ratio}");
         let x = sel.total.solve(&sel.prep.idx(&sel.set));
