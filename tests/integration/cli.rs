@@ -225,6 +225,11 @@ fn a_failed_target_exits_with_1_and_says_so() {
         serde_json::from_str(&std::fs::read_to_string(dir.join("scoreboard.json")).unwrap()).unwrap();
     assert_eq!(board["targets_met"], serde_json::Value::Bool(false));
     assert!(dir.join("tilt-under-payload").is_dir());
+    // Beside it, the case's scored result, written as the case ended: the scoreboard's entry.
+    let case: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("tilt-under-payload/case.json")).unwrap())
+            .unwrap();
+    assert_eq!(case, board["cases"][0]);
 }
 
 #[test]

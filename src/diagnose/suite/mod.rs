@@ -415,6 +415,24 @@ impl Scoreboard {
     }
 }
 
+/// File of one case's scored result in its report folder (`dir/<case>/case.json`), written
+/// as the case ends: the scoreboard's entry for it ([`CaseResult`]).
+pub const CASE_FILE: &str = "case.json";
+
+/// Writes a finished case's diagnosis report and its scored result ([`CASE_FILE`]) to
+/// `dir/<case>/`.
+fn write_case(dir: &std::path::Path, case: &str, r: &CaseResult, d: &Diagnosis) -> Result<(), SuiteError> {
+    let folder = dir.join(case);
+    let failed = |message: String| SuiteError::Report {
+        case: case.to_string(),
+        message,
+    };
+    super::report::write_report(d, &folder).map_err(|e| failed(e.to_string()))?;
+    let path = folder.join(CASE_FILE);
+    let text = serde_json::to_string_pretty(r).map_err(|e| failed(e.to_string()))?;
+    std::fs::write(&path, text).map_err(|e| failed(format!("{}: {e}", path.display())))
+}
+
 /// Writes recording `r` (from 0) of `case` to `dir/<case>/recording-NN.csv` when `opts`
 /// keep recordings ([`SuiteOptions::keep_recordings`]).
 pub(crate) fn keep(opts: &SuiteOptions, case: &str, r: usize, rec: &Recorded) -> Result<(), SuiteError> {
@@ -715,8 +733,10 @@ pub fn case_names(truth: TruthSource) -> Vec<String> {
 /// finishes) and the fraction of the whole suite done, never decreasing: 0 first, then
 /// each running case's stages (its truths' simulations, then the diagnosis's stages) as they
 /// are reached, and 1 at the end. With `reports`, each
-/// case's diagnosis report (Markdown, JSON, plots) goes to `reports/<case>/` and the
-/// scoreboard to `reports/scoreboard.json` ([`Scoreboard::write`]). A name in
+/// case's diagnosis report (Markdown, JSON, plots) and its scored result ([`CASE_FILE`]) go
+/// to `reports/<case>/` as soon as the case ends (a run stopped early keeps the cases it
+/// finished), and the scoreboard to `reports/scoreboard.json` ([`Scoreboard::write`]) at the
+/// end. A name in
 /// [`SuiteOptions::only`] that no case's name contains is an error
 /// ([`SuiteError::NoSuchCase`]), before anything runs.
 pub fn run_suite(
@@ -811,7 +831,15 @@ fn run_suite_dyn(
                     format!("{}: {stage}", chosen[slot].1)
                 }
                 Message::Done(slot, out) => {
-                    let out = (*out).unwrap_or_else(|p| std::panic::resume_unwind(p));
+                    let mut out = (*out).unwrap_or_else(|p| std::panic::resume_unwind(p));
+                    // Written as the case ends, so a long run that is stopped keeps the
+                    // cases it finished; a write that fails ends the run like a failed case.
+                    if let (Some(dir), Ok((r, d))) = (reports, &out) {
+                        if let Err(e) = write_case(dir, chosen[slot].1, r, d) {
+                            next.store(chosen.len(), std::sync::atomic::Ordering::Relaxed);
+                            out = Err(e);
+                        }
+                    }
                     fractions[slot] = 1.0;
                     slots[slot] = Some(out);
                     chosen[slot].1.clone()
@@ -827,16 +855,7 @@ fn run_suite_dyn(
         let Some(o) = o else { continue };
         outcomes.push(((*name).clone(), o?));
     }
-    for (name, (r, d)) in outcomes {
-        let name = &name;
-        if let Some(dir) = reports {
-            super::report::write_report(&d, &dir.join(name.as_str())).map_err(|e| SuiteError::Report {
-                case: name.to_string(),
-                message: e.to_string(),
-            })?;
-        }
-        results.push(r);
-    }
+    results.extend(outcomes.into_iter().map(|(_, (r, _))| r));
     progress("done", 1.0);
     let board = scoreboard(opts, results);
     if let Some(dir) = reports {
