@@ -40,9 +40,9 @@
 //! about its own motion of the first pass at every sample in the plot window, once; the
 //! tracker's prediction then reads the platform there to all orders and about it to first
 //! order through the sample's sensitivities. The fourth:
-//! Hertz balls damped by 200 N·s/m + 1 000 s/m × their elastic force (README,
+//! Hertz balls damped by 200 N·s/m + 1 000 s/m × their elastic force (diagnosis log,
 //! "Load-proportional contact damping"). The fifth: the forces blended from sample to
-//! sample, and the model's play 3.3 % below the truth's (README, "The rattle reproduced at
+//! sample, and the model's play 3.3 % below the truth's (diagnosis log, "The rattle reproduced at
 //! the truth's play").
 //! (about a minute: two truth simulations and the nominal model's play derivatives at every
 //! sample).

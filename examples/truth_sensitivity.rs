@@ -6,7 +6,7 @@
 //! torque-noise units, beside the play's whole effect (the first run less the same truth
 //! without clearance).
 //!
-//! What it shows (README, "Load-proportional contact damping"): the rattle after the load
+//! What it shows (diagnosis log, "Load-proportional contact damping"): the rattle after the load
 //! peak near the direct singularity is deterministic (tolerances and a 10⁻⁴ change move it by
 //! hundredths of the noise), but steep in the play and in the contact's damping — a model of
 //! it must size the play within a few per cent and damp the contact as the truth does.

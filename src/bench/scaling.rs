@@ -43,8 +43,9 @@ pub struct ScalingRow {
     pub failure: Option<String>,
 }
 
-/// Longest chain the benchmark builds: each link takes ~150 kB of memory in a run (1.45 GB
-/// at N = 10 000, README), so 20 000 links need ~3 GB.
+/// Longest chain the benchmark builds: each link takes 100–150 kB of memory in a run (1.06–1.45 GB
+/// resident at N = 10 000 across the runs the README and its performance log quote), so 20 000
+/// links need up to ~3 GB.
 pub const MAX_LINKS: usize = 20_000;
 
 /// Issue #16's target for the log-log slope of the time per step against N (N ≥ 100).

@@ -111,7 +111,7 @@ pub struct BdfOptions {
     /// in a few stiff directions (contact stiffness changing between steps), the accelerated
     /// iteration is GMRES preconditioned by that matrix (Walker & Ni, on a linear problem), at
     /// one residual and one solve per iteration as before (`dae::bdf::anderson`). Measured on
-    /// the MR2120 clearance model and not a default there (README, Performance).
+    /// the MR2120 clearance model and not a default there (`validation/performance-log.md`, "Anderson acceleration").
     pub anderson_depth: usize,
     /// Linear solver of the iteration matrices (default: faer's sparse LU).
     pub linear_solver: LinearSolverKind,

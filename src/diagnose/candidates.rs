@@ -81,7 +81,7 @@ pub struct LibraryOptions {
     /// second pass to the backlash its first pass selected: the first-order form smooths the
     /// crossing of the play over a fixed torque scale, where the sensor reads nothing while
     /// the arm flies across it and then the strike (measured on the multibody suite's
-    /// backlash case, README).
+    /// backlash case, diagnosis log).
     pub backlash_reference: Option<f64>,
     /// Where the play of a backlash taken at [`backlash_reference`](Self::backlash_reference)
     /// sits: in the transmission's spring (a dead zone) or between the spring and the arm
@@ -127,7 +127,7 @@ pub struct LibraryOptions {
     /// [`DiagnoseOptions::default`](super::DiagnoseOptions) since 2026-12-01 (the bearing
     /// preset, [`with_bearing_play`](super::DiagnoseOptions::with_bearing_play)). Alone,
     /// the model's joint follows the truth's (example `play_dynamics`), but in the suite's
-    /// clearance-F case the diagnosis did worse (held out 3.35× against 3.01×, README);
+    /// clearance-F case the diagnosis did worse (held out 3.35× against 3.01×, diagnosis log);
     /// with the rest of the preset, better.
     pub play_contact_hertz: bool,
     /// The linear law's stiffness of a ball on its bore's end face (N/m) in the reduced
@@ -146,7 +146,7 @@ pub struct LibraryOptions {
     /// torque-noise units, but in the suite's clearance-F case (linear balls) the diagnosis
     /// held out 3.10× against 3.01× without it, and the tracker got worse (platform z 1.9×
     /// against 1.5×): the tracker rows took the re-linearised play coordinates through the
-    /// sample's output sensitivities (README). Since 2026-11-30 they read the outputs at the
+    /// sample's output sensitivities (diagnosis log). Since 2026-11-30 they read the outputs at the
     /// expansion point to all orders and about it to first order ([`PlayPoint::outputs`],
     /// [`PlayResponse::point`]). Costs the play derivatives again at those samples
     /// (clearance-F: 28.6 against 16.7 CPU minutes).
@@ -156,9 +156,9 @@ pub struct LibraryOptions {
     /// default; blended in [`DiagnoseOptions::default`](super::DiagnoseOptions) since
     /// 2026-12-01 (the bearing preset). Alone, with linear
     /// balls and constant dampings (the defaults) the suite's bearing cases held out worse
-    /// blended (clearance-F 3.70× against 3.18×, README "Where the play sits: a gear mesh as
+    /// blended (clearance-F 3.70× against 3.18×, diagnosis log "Where the play sits: a gear mesh as
     /// the truth"), and with Hertz balls and a load-proportional damping not better either
-    /// (README "The rattle reproduced at the truth's play").
+    /// (diagnosis log "The rattle reproduced at the truth's play").
     pub play_interpolation: Interpolation,
     /// Whether the play candidates that take drive-torque rows from the reduced dynamic play
     /// model ([`dynamic_play_clearance`](Self::dynamic_play_clearance),
@@ -170,7 +170,7 @@ pub struct LibraryOptions {
     /// samples where the model gives no response the quasi-static shift at the grid's middle
     /// load scale stands in. Default true: measured against the truth's effect on the
     /// tracker (example `play_dynamics`, joint F, 6 µm; recording 5 platform z whole record
-    /// 8.30 → 2.01 tracker-noise units left, against 4.66 by the quasi-static shift; README).
+    /// 8.30 → 2.01 tracker-noise units left, against 4.66 by the quasi-static shift; diagnosis log).
     pub dynamic_play_tracker: bool,
     /// Only these candidates (exact names), if any: a fixed selection refitted.
     pub only: Vec<String>,
@@ -899,7 +899,7 @@ pub fn columns_with(
     // (the balls' compliance comes with the clearance: a ball that fits its bore is a
     // conformal, much stiffer contact). Axial, where the radial clearance is zero: its
     // response with the play less its response without, which takes out the balls' radial
-    // compliance that a ball fitting its bore does not have (measured, README). Under Hertz's
+    // compliance that a ball fitting its bore does not have (measured, diagnosis log). Under Hertz's
     // law the radial response too is taken less the response without play: the balls' axial
     // contact on the bores' end faces is soft at any play, and that compliance must not scale
     // with the play (it is the joints' contact-compliance candidates': `ContactCompliance`,

@@ -1023,7 +1023,7 @@ impl MechanismModel {
         // τ(q_a, q̇_a, q̈_a) with q̈_a the encoder's less the wind-up's, so its derivative by
         // the arms' place carries ∂M/∂q_a·q̈_a (at the encoders' accelerations it missed
         // −∂M/∂q_a·ẅ, which near the direct singularity, where the drives ring, is a large
-        // part of it: measured, README).
+        // part of it: measured, diagnosis log).
         let [qa0, qda, qdda] = arm;
         let (n, nr) = (qa0.len(), rows.len());
         let qa: Vec<f64> = qa0.iter().zip(&base.lag).map(|(q, l)| q - l).collect();

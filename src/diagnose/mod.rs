@@ -10,6 +10,7 @@
 //! | `mechanism.rs` | any mechanism built with the multibody API as a nominal model: declared sensors (encoder placement, trackers), joints with play |
 //! | `mr2120.rs` | the MR2120's multibody nominal model (the diagnosis' nominal for the MR2120) |
 //! | `transmission.rs` | the drive transmissions' wind-up dynamics: one Newmark integrator for the nominal model's wind-up and the candidates' linear response to a joint-side torque |
+//! | `model_file.rs` | a TOML model file as the nominal model (`lash diagnose --model FILE.toml`): its sensors make the channels |
 //! | `play_dynamics.rs` | a reduced dynamic model of a universal joint's play along a recording (the drives' transmissions and the joint's play coordinates, linearised about the nominal, the trunnion balls' contact nonlinear): what the quasi-static play candidates leave out; the diagnosis' play-dynamics check refits its selection with it |
 //! | `data.rs` | measured motion and torques of one recording, checked against the model |
 //! | `candidates.rs` | the library of candidate physics and their regressors |
@@ -22,12 +23,17 @@
 //! | `error.rs` | [`DiagnoseError`]: why a diagnosis cannot run |
 //! | `residuals.rs` | residual assembly for both residual modes: weighted residuals, candidate columns, Gram matrices |
 //! | `selection.rs` | ranking, greedy selection by cross-validation and BIC (Occam tie-break), estimates, confounding; its module doc states the statistics (effective samples, tests, the rules for joining) |
+//! | `play_size.rs` | the found radial play's size, searched with the reduced dynamic play model run at each size |
+//! | `equivalents.rs` | selected effects read together (one joint's friction laws summed, Coulomb asymmetry with a sensor offset) |
 //! | `relinearize.rs` | the Gauss–Newton re-linearisation around the first estimates |
 //! | `verdict.rs` | the one-paragraph verdict in prose |
 //! | `format.rs` | number formatting shared by the verdict, the findings and the reports |
 //! | `report.rs` | the report folder (Markdown, JSON, plots) |
-//! | `suite.rs` | the concealed-effects suite on synthetic MR2120 recordings and its scoreboard |
+//! | `suite/` | the concealed-effects suite on synthetic MR2120 recordings and its scoreboard (`multibody.rs`: the proof, from multibody truths; `lumped.rs`: closed-form unit cases) |
 //!
+//! What was measured on the suite while this module was built — each change tried, kept or
+//! dropped, with its run and numbers — is logged in `validation/diagnosis-log.md` (the
+//! "diagnosis log" that doc comments here cite by section name).
 //! Two residual modes share one selection. Equation error: measured motion → inverse
 //! dynamics → compare the measured torques. Output error: the outputs the model predicts
 //! from the recorded inputs (for the MR2120, a position-driven 3-DOF mechanism, simulating

@@ -39,7 +39,7 @@ pub struct DiagnoseOptions {
     /// columns — which a joint's rattle, computed about the point, does not follow linearly.
     /// On by default since 2026-12-01: in the whole concealed-effects suite (22 cases) the
     /// further pass was kept in clearance-F alone (held out 3.33× → 3.02× the noise) and
-    /// every other case's diagnosis stayed as it was (README); `false` stops after the
+    /// every other case's diagnosis stayed as it was (diagnosis log); `false` stops after the
     /// second pass unless a step was held back.
     pub relinearize_to_convergence: bool,
     /// The linearisation point, set by the re-linearisation: candidates whose values the
@@ -74,7 +74,7 @@ pub struct DiagnoseOptions {
     /// [`with_bearing_play`](Self::with_bearing_play); `lash diagnose --play-load-damping`
     /// adds others). Alone, over linear balls, they were chosen by cross-validation on
     /// clearance-F but did not lower the held-out residual (session 30 over 200 N·s/m with
-    /// held forces; session 47 over 20 N·s/m with blended forces; README,
+    /// held forces; session 47 over 20 N·s/m with blended forces; diagnosis log,
     /// "Load-proportional contact damping", "The rattle reproduced at the truth's play");
     /// with the rest of the preset they did.
     pub play_contact_dampings: Vec<ContactDamping>,
@@ -103,7 +103,7 @@ pub struct DiagnoseOptions {
     /// massless node must, on whichever side of it the play is), then the spring itself (a
     /// dead zone of its deflection, gone the moment the arm lets go). Measured on the
     /// multibody suite, each fits a truth of its own structure at the noise and the other's
-    /// at 1.4× it (README, "Where the play sits").
+    /// at 1.4× it (diagnosis log, "Where the play sits").
     pub backlash_places: Vec<super::transmission::PlayPlace>,
     /// With the play's dynamics in the selection, the first selected radial play's size
     /// searched after the selection: the kept selection refitted with the reduced dynamic
@@ -144,7 +144,7 @@ pub struct DiagnoseOptions {
     /// 0.42 with 20 N·s/m + 250 / 450 s/m × F and 0.75 / 0.39 with 1 N·s/m; at the truth's
     /// 6.0 µm, 0.35 / 0.36 and 0.44 / **0.15**: the best of the eight moves all three from
     /// where the grid left clearance-F (5.96 µm, 20 + 250), and from there γ alone or the
-    /// constant part alone does worse (README, "The damping searched"). Costs up to
+    /// constant part alone does worse (diagnosis log, "The damping searched"). Costs up to
     /// `(MAX_CONSTANT_DAMPINGS + MAX_LOAD_DAMPINGS − 2) × PROFILE_SIZES` refits more (each
     /// search's start is known), each damping's with the other selected candidates'
     /// columns assembled anew. The constant search counts its start among its
@@ -156,7 +156,7 @@ pub struct DiagnoseOptions {
 /// The load-proportional contact dampings γ (s/m, each over
 /// [`LOAD_DAMPING_BASE`](super::play_dynamics::LOAD_DAMPING_BASE)) that
 /// [`DiagnoseOptions::with_bearing_play`] adds to the grid: chosen on the suite's clearance-F
-/// by the reduced model's miss at the truth's play (README, "Load-proportional contact
+/// by the reduced model's miss at the truth's play (diagnosis log, "Load-proportional contact
 /// damping"), the truth's own Hunt–Crossley α (300 s/m) not among them.
 pub const BEARING_PLAY_LOAD_DAMPINGS: [f64; 3] = [250.0, 500.0, 1000.0];
 
@@ -173,7 +173,7 @@ impl DiagnoseOptions {
     /// [`without_bearing_play`](Self::without_bearing_play) undoes it (`lash diagnose
     /// --no-bearing-play`). Only a diagnosis that selects a radial or axial play runs any
     /// of it; there it costs 2–6× the fast path's time (the suite's play cases 40–90 min on
-    /// 2 cores instead of 11–20). Measured on the suite (README, "The bearing options by
+    /// 2 cores instead of 11–20). Measured on the suite (diagnosis log, "The bearing options by
     /// default"): held out 1.39× the noise on clearance-F (3.02× without), 1.66× on
     /// clearance-under-length (3.17×), 1.05× on axial-D with its play 1.6 % off.
     pub fn with_bearing_play(mut self) -> Self {

@@ -118,7 +118,7 @@
 //! elastic force — the hysteresis of a Hertzian contact, the form of the truth's law too —
 //! can. In the diagnosis γ is one of the dampings cross-validation chooses among
 //! ([`DiagnoseOptions::play_contact_dampings`](super::DiagnoseOptions), not by default: chosen
-//! on clearance-F, it did not lower the held-out residual; README), the truth's value
+//! on clearance-F, it did not lower the held-out residual; diagnosis log), the truth's value
 //! (1.5·α = 450 s/m) not among the values tried (`--play-load-damping` takes any). Measured
 //! with held forces, over 200 N·s/m, with the example
 //! `play_dynamics` (Hertz balls, 200 N·s/m constant; what the model leaves of the play's
@@ -143,7 +143,7 @@
 //! `blended_forces_follow_a_swinging_load_as_a_finely_sampled_model_does`). Blended, with Hertz
 //! balls, re-linearised once and a damping of Hunt–Crossley's form (γ·F over a small
 //! constant), the model at the truth's play leaves about one noise unit of recording 5's
-//! play effect, the rattle included (README, "The rattle reproduced at the truth's play");
+//! play effect, the rattle included (diagnosis log, "The rattle reproduced at the truth's play");
 //! in the diagnosis the bearing cases did not improve (the play's size is estimated through
 //! a column scaled from a reference play, and the rattle is steep in the size). The substep a
 //! fifth of the period of the fastest mode with every ball in contact
@@ -163,7 +163,7 @@
 //! ([`UniversalPlay::shift`](crate::contact::play::UniversalPlay::shift)), then Newton's
 //! method on the statics of the joint, its cross and the transmissions.
 //!
-//! Measured on the suite's truth (README, "What the play leaves in the torques"; example
+//! Measured on the suite's truth (diagnosis log, "What the play leaves in the torques"; example
 //! `play_dynamics`): with 6 µm of radial clearance in joint F, the play's effect on drive A's
 //! torque, RMS over the record in torque-noise units, and what the model leaves of it: 11.2 →
 //! 3.9 on the shaken recording 5 (the torque swing after the load peak near the direct
@@ -351,7 +351,7 @@ impl BallContact {
     }
 }
 
-/// The contact the README's measurements used: 1e8 N/m, about the secant stiffness F/δ of the
+/// The contact the diagnosis log's measurements used: 1e8 N/m, about the secant stiffness F/δ of the
 /// MR2120 bearing design's Hertz contact (a 4 mm steel ball in a bore 6 µm larger:
 /// K = 1.12e11 N/m^1.5 from [`crate::contact::stiffness::ball_in_bore`], so F/δ = 0.85e8 N/m
 /// at 50 N, 1.08e8 at 100 N, 1.55e8 at 300 N), and 2e3 N·s/m, a tenth of critical for a

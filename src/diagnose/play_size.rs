@@ -18,7 +18,7 @@ use super::residuals::{prepare_with, Prepared};
 
 /// The multiplicative steps of the play-size search ([`search_play_size`]), largest first:
 /// each is tried either way from the best size so far while that improves, then the next.
-/// Why 1 % at the end (README, "The rattle reproduced at the truth's play"): the reduced
+/// Why 1 % at the end (diagnosis log, "The rattle reproduced at the truth's play"): the reduced
 /// model (forces blended, Hertz balls, 20 N·s/m + 500 s/m × F) run at 5.55 / 5.8 / 6.0 /
 /// 6.2 / 6.45 µm against a 6 µm truth (clearance-F) left of the play's effect on drive A's
 /// torque in fit recording 1 2.21 / 1.13 / 0.43 / 1.73 / 2.02 noise units: a minimum a few

@@ -10,7 +10,7 @@
 //! drives does): a friction torque winds the transmission up, and near a singular position
 //! the platform's response to that wind-up is not linear in it, nor is the friction in the
 //! arm's rate, which the wind-up changes. Measured on the MR2120 suite at seed 7 (full
-//! design, README): coulomb-under-viscous held out 1.20× → 1.04× the noise (its Coulomb
+//! design, diagnosis log): coulomb-under-viscous held out 1.20× → 1.04× the noise (its Coulomb
 //! friction 27 % → 3.7 % off), scale-under-coulomb 1.21× → 1.09×.
 
 use super::candidates::{Candidate, Effect};
@@ -33,7 +33,7 @@ use super::verdict::verdict_text;
 /// the step is halved, down to a quarter, then the effect stays at the nominal point.
 /// Relative, not in noise units: a large effect the second pass selects again (a 0.5 kg
 /// payload: 0.28, i.e. 26 noise units) needs its point moved; holding it back was measured
-/// to leave 66–78× the noise held out (README). Measured (README): sensor offsets, lengths,
+/// to leave 66–78× the noise held out (diagnosis log). Measured (diagnosis log): sensor offsets, lengths,
 /// a drive compliance and payloads 0.000–0.28; a leg's axial-contact compliance of
 /// 2e-7 m/N joining a drive compliance 1.7e-6 rad/(N m) stiffer 0.80 (its column at the
 /// nominal point 80 % off at the moved one; 2.3 noise units).
@@ -321,7 +321,7 @@ pub const RESIZE_FACTOR: f64 = 1.25;
 /// The most re-linearised passes in all (Gauss–Newton steps): one from the nominal point
 /// (its effects held back where the model is not linear enough, [`SHIFT_LINEARITY_TOLERANCE`]), then,
 /// only while a step was held back, whole steps to the last pass's estimates, each kept
-/// while the selection cross-validates better ([`CONTINUED_STEP_GAIN`]). Measured (README, 2026-11-28): on the
+/// while the selection cross-validates better ([`CONTINUED_STEP_GAIN`]). Measured (diagnosis log, 2026-11-28): on the
 /// reduced suite at seed 7, tilt-under-payload's 0.5 kg payload was held back to half its
 /// step (departure 0.58 from the nominal point), and what the half step left was read as
 /// torque-sensor delays; with one further whole step the tilt is found.
@@ -330,7 +330,7 @@ pub const MAX_RELINEARIZATIONS: usize = 3;
 /// A further Gauss–Newton step ([`MAX_RELINEARIZATIONS`]) is kept only when it lowers the
 /// leave-one-recording-out error by at least this fraction: a smaller gain is within that
 /// error's own spread and does not justify moving effects the first step held back.
-/// Measured (README, 2026-11-28): clearance-under-length's held-back axial contacts moved by
+/// Measured (diagnosis log, 2026-11-28): clearance-under-length's held-back axial contacts moved by
 /// further steps gained 0.3 % (1.327 → 1.323) and held out 3.05× against 2.98×; the payload
 /// held back on seed 7's tilt-under-payload gained 93 % (14.39 → 0.966).
 pub const CONTINUED_STEP_GAIN: f64 = 0.01;

@@ -685,7 +685,7 @@ fn carry_choices(from: &mut Diagnosis, to: &mut Diagnosis) {
 /// drive torques from the reduced dynamic play model ([`super::play_dynamics`]) at its
 /// estimate ([`LibraryOptions::dynamic_play_clearance`](super::candidates::LibraryOptions)).
 /// It does not change the diagnosis: the dynamic columns cannot tell the two joints of a leg
-/// apart (measured, README), the quasi-static tracker rows can. `None` when off
+/// apart (measured, diagnosis log), the quasi-static tracker rows can. `None` when off
 /// ([`DiagnoseOptions::play_dynamics`]), when no radial play was selected, or when the refit
 /// fails.
 #[allow(clippy::too_many_arguments)]

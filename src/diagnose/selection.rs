@@ -158,7 +158,7 @@ pub(super) fn select(
             // (within the confounding tolerance), the smallest information criterion — the
             // simpler law (Coulomb before Stribeck or asymmetric friction) unless the data
             // ask for more. (Preferring, at such a tie, the compliance of the joint whose play
-            // is selected over another joint's was measured and not kept: README, "A leg's
+            // is selected over another joint's was measured and not kept: diagnosis log, "A leg's
             // two joints".)
             let cv_min = short.iter().map(|x| x.2).fold(f64::INFINITY, f64::min);
             let tol = (1.0 + opts.confound_tolerance).powi(2);

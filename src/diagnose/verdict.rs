@@ -291,7 +291,7 @@ pub const CONFOUNDS_IN_VERDICT: usize = 3;
 /// its load reverses and what that excites — an impact, and the ringing of the drives'
 /// transmissions it sets off — which they cannot express (they place the joint against the
 /// side its load pushes it to, as if it got there at once). Measured on the multibody suite's
-/// bearing truths (README, "What the play leaves in the torques"): with lubricated contacts
+/// bearing truths (diagnosis log, "What the play leaves in the torques"): with lubricated contacts
 /// the torque part is mostly the transmissions' ringing near the direct singularity, three
 /// times smaller with three times their damping. The channels whose unexplained residual
 /// concentrates at load reversals (> 3× larger there) are named.
