@@ -79,13 +79,32 @@ pub fn smooth_sign(x: f64, scale: f64) -> f64 {
 impl UniversalPlay {
     /// The shift of side j under the joint's force `force` on side j (N, base frame) and
     /// moment `moment` on side j (N·m, base frame), with the axes `z_i`, `z_j` (unit, base
-    /// frame) at the current pose, smoothed over the load scale `load_scale` (N).
+    /// frame) at the current pose, smoothed over the load scale `load_scale` (N). Both
+    /// trunnion pairs carry `force`: the cross between them is weightless here
+    /// ([`Self::shift_with_cross_weight`] when it is not).
     pub fn shift(
         &self,
         z_i: &Vector3<f64>,
         z_j: &Vector3<f64>,
         force: &Vector3<f64>,
         moment: &Vector3<f64>,
+        load_scale: f64,
+    ) -> PlayShift {
+        self.shift_with_cross_weight(z_i, z_j, force, moment, &Vector3::zeros(), load_scale)
+    }
+
+    /// [`Self::shift`] with a cross of weight `cross_weight` (N, base frame: its mass times
+    /// gravity) between the pairs, at rest: side j's pair carries `force`, side i's pair
+    /// `force − cross_weight` (what side i passes to the cross, which holds the cross up as
+    /// well); the weight acts at the cross's centre, so both pairs carry the same moment.
+    /// Near a load reversal the weight decides which wall side i's balls sit against.
+    pub fn shift_with_cross_weight(
+        &self,
+        z_i: &Vector3<f64>,
+        z_j: &Vector3<f64>,
+        force: &Vector3<f64>,
+        moment: &Vector3<f64>,
+        cross_weight: &Vector3<f64>,
         load_scale: f64,
     ) -> PlayShift {
         let n = z_i.cross(z_j);
@@ -95,7 +114,7 @@ impl UniversalPlay {
         // across the axis; each sits against the wall opposite its own load (a unit vector
         // smoothed over half the load scale, one ball's share). The pair moves by the mean
         // of its balls' shifts and turns by z × (difference)/s.
-        let pair = |z: &Vector3<f64>| -> (Vector3<f64>, Vector3<f64>) {
+        let pair = |z: &Vector3<f64>, force: &Vector3<f64>| -> (Vector3<f64>, Vector3<f64>) {
             let f_perp = force - z * force.dot(z);
             let m_perp = moment - z * moment.dot(z);
             let g = m_perp.cross(z) / s;
@@ -110,13 +129,14 @@ impl UniversalPlay {
             let (u_plus, u_minus) = (unit(0.5 * f_perp + g), unit(0.5 * f_perp - g));
             (-0.5 * (u_plus + u_minus), -z.cross(&(u_plus - u_minus)) / s)
         };
-        let (t_i, th_i) = pair(z_i);
-        let (t_j, th_j) = pair(z_j);
+        let force_i = force - cross_weight;
+        let (t_i, th_i) = pair(z_i, &force_i);
+        let (t_j, th_j) = pair(z_j, force);
         PlayShift {
             radial_translation: t_i + t_j,
             radial_tilt: (th_i + th_j).dot(&n),
             axial_translation: -0.5
-                * (z_i * smooth_sign(force.dot(z_i), load_scale)
+                * (z_i * smooth_sign(force_i.dot(z_i), load_scale)
                     + z_j * smooth_sign(force.dot(z_j), load_scale)),
         }
     }
@@ -155,5 +175,31 @@ mod tests {
             1.0,
         );
         assert!((s.radial_translation.z + 2.0 / 5f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_cross_heavier_than_the_pull_on_side_j_hangs_on_side_i() {
+        let play = UniversalPlay::from_design(&BearingDesign::mr2120(1e-5, 2e-5, Damping::Elastic));
+        let (x, y, zero) = (Vector3::x(), Vector3::y(), Vector3::zeros());
+        // Side j pulled down by 0.3 N across horizontal axes: weightless, both pairs sit up
+        // (+h each); a 0.5 N cross makes side i hold it up with 0.2 N, so side i's pair sits
+        // down (−h) while side j's still sits up: the two cancel.
+        let down = Vector3::new(0.0, 0.0, -0.3);
+        let weight = Vector3::new(0.0, 0.0, -0.5);
+        let weightless = play.shift(&x, &y, &down, &zero, 0.0);
+        assert!((weightless.radial_translation - Vector3::new(0.0, 0.0, 2.0)).norm() < 1e-12);
+        let heavy = play.shift_with_cross_weight(&x, &y, &down, &zero, &weight, 0.0);
+        assert!(heavy.radial_translation.norm() < 1e-12);
+        // Side i's axial contact follows its own load: 0.2 N along z_i with the cross's
+        // weight along it, −0.3 N without.
+        let (zi, zj) = (Vector3::z(), Vector3::x());
+        let along = play.shift_with_cross_weight(&zi, &zj, &down, &zero, &weight, 0.0);
+        assert!((along.axial_translation - Vector3::new(0.0, 0.0, -0.5)).norm() < 1e-12);
+        let along = play.shift(&zi, &zj, &down, &zero, 0.0);
+        assert!((along.axial_translation - Vector3::new(0.0, 0.0, 0.5)).norm() < 1e-12);
+        // A load well above the weight: the weight moves nothing but by its share.
+        let up = Vector3::new(0.0, 0.0, 100.0);
+        let heavy = play.shift_with_cross_weight(&x, &y, &up, &zero, &weight, 0.0);
+        assert!((heavy.radial_translation - Vector3::new(0.0, 0.0, -2.0)).norm() < 1e-12);
     }
 }

@@ -6,7 +6,8 @@
 //! case (gravity and the model's force elements at rest), the joints' static reactions say
 //! which way each joint's play lets it sit ([`UniversalPlay::shift`], exact signs); the
 //! constraint-offset sensitivity of the assembly ([`Analysis::constraint_offset_sensitivity`])
-//! carries each joint's shift and tilt to the body. The result is linear in the clearances:
+//! carries each joint's shift and tilt to the body; side i's trunnion pair also carries its
+//! cross's weight ([`JointPlay::cross_mass`]). The result is linear in the clearances:
 //! a 6-vector (d_x, d_y, d_z in m, δx, δy, δz in rad; base frame, rotation vector of the body
 //! against its ideal orientation) per metre of radial clearance and per metre of axial play,
 //! the same in every joint. Contact elasticity is left out (it is not play); near a singular
@@ -32,6 +33,10 @@ pub struct JointPlay {
     pub joint: JointHandle,
     /// Its play geometry.
     pub play: UniversalPlay,
+    /// Mass of its cross, kg (0 for a joint whose cross is weightless): under gravity side
+    /// i's trunnion pair carries the cross's weight besides the joint's force
+    /// ([`UniversalPlay::shift_with_cross_weight`]).
+    pub cross_mass: f64,
 }
 
 /// The first-order pose error of a body per unit clearance (see the [module docs](self)).
@@ -189,11 +194,12 @@ pub fn play_pose_errors_per_joint(
             };
             let z_i = axis(joint.body_i, joint.frame_i.axes.column(2).into());
             let z_j = axis(joint.body_j, joint.frame_j.axes.column(2).into());
-            let shift = jp.play.shift(
+            let shift = jp.play.shift_with_cross_weight(
                 &z_i,
                 &z_j,
                 &Vector3::from(reaction.force),
                 &Vector3::from(reaction.torque),
+                &(jp.cross_mass * model.gravity()),
                 0.0,
             );
             for i in 0..n {

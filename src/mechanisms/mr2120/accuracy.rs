@@ -439,7 +439,11 @@ pub fn linear_per_joint(
                 .mechanism
                 .joints()
                 .find(|(_, j)| j.name == *name)
-                .map(|(joint, _)| JointPlay { joint, play })
+                .map(|(joint, _)| JointPlay {
+                    joint,
+                    play,
+                    cross_mass: mp.cross,
+                })
                 .ok_or_else(|| {
                     Mr2120Error::Model(ModelError::BadElement {
                         kind: "joint",
@@ -466,13 +470,17 @@ pub fn linear_per_joint(
 
 /// The universal joints of the ideal model (elbows and platform joints), each with the play
 /// of the bearings of `set`.
-fn play_joints(mech: &crate::multibody::Mechanism, set: &ClearanceSet) -> Vec<JointPlay> {
+fn play_joints(mech: &crate::multibody::Mechanism, set: &ClearanceSet, cross_mass: f64) -> Vec<JointPlay> {
     let play = UniversalPlay::from_design(&bearing_design(set, DEFAULT_DAMPING));
     mech.joints()
         .filter(|(_, j)| {
             ELBOW_JOINTS.contains(&j.name.as_str()) || PLATFORM_JOINTS.contains(&j.name.as_str())
         })
-        .map(|(joint, _)| JointPlay { joint, play })
+        .map(|(joint, _)| JointPlay {
+            joint,
+            play,
+            cross_mass,
+        })
         .collect()
 }
 
@@ -496,7 +504,7 @@ pub fn linear_case(
             torque,
         }));
     }
-    let joints = play_joints(&model.mechanism, set);
+    let joints = play_joints(&model.mechanism, set, mp.cross);
     Ok(play_pose_error(
         &model.mechanism,
         0.0,
