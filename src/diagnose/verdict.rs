@@ -123,15 +123,18 @@ pub(super) fn verdict(
     if let Some(f) = location.findings.first() {
         s.push_str(&format!("The nominal model disagrees most {}. ", f.text));
     }
+    // The localisation reads the nominal model's residual on the fit recordings; said so, for
+    // after an opening "What remains is noise" a bare "the residual follows …" reads as the
+    // residual after the fit.
     for c in &location.correlations {
         s.push_str(&format!(
-            "The {} residual follows the {} (r = {:+.2}). ",
+            "Against the nominal model, the {} residual follows the {} (r = {:+.2}). ",
             c.channel, c.state, c.r
         ));
     }
     for a in location.associations.iter().filter(|a| a.ratio > 1.5) {
         s.push_str(&format!(
-            "In the {} the residual is {:.1}× larger in windows with {}. ",
+            "Against the nominal model, the {} residual is {:.1}× larger in windows with {}. ",
             a.channel, a.ratio, a.tag
         ));
     }

@@ -144,6 +144,16 @@ fn hidden_coulomb_friction_in_joint_2_is_named_estimated_and_removed() {
         d.location.correlations
     );
     assert!(top.r > 0.9, "{top:?}");
+    // After "What remains is noise" the verdict says whose residual that correlation is: the
+    // nominal model's, not the one left after the fit.
+    assert!(
+        d.verdict.contains(&format!(
+            "Against the nominal model, the {} residual follows the {}",
+            top.channel, top.state
+        )),
+        "{}",
+        d.verdict
+    );
 }
 
 #[test]
