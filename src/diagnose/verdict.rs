@@ -126,11 +126,26 @@ pub(super) fn verdict(
     // The localisation reads the nominal model's residual on the fit recordings; said so, for
     // after an opening "What remains is noise" a bare "the residual follows …" reads as the
     // residual after the fit.
-    for c in &location.correlations {
+    // One sentence per channel: its strongest correlation, the others in brackets.
+    let mut rest = location.correlations.as_slice();
+    while let Some(c) = rest.first() {
+        let n = rest.iter().take_while(|o| o.channel == c.channel).count();
+        let also: Vec<String> = rest[1..n]
+            .iter()
+            .map(|o| format!("the {} {:+.2}", o.state, o.r))
+            .collect();
         s.push_str(&format!(
-            "Against the nominal model, the {} residual follows the {} (r = {:+.2}). ",
-            c.channel, c.state, c.r
+            "Against the nominal model, the {} residual follows the {} (r = {:+.2}{}). ",
+            c.channel,
+            c.state,
+            c.r,
+            if also.is_empty() {
+                String::new()
+            } else {
+                format!("; also {}", also.join(", "))
+            }
         ));
+        rest = &rest[n..];
     }
     for a in location.associations.iter().filter(|a| a.ratio > 1.5) {
         s.push_str(&format!(
