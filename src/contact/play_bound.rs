@@ -35,7 +35,9 @@ pub struct JointPlay {
     pub play: UniversalPlay,
     /// Mass of its cross, kg (0 for a joint whose cross is weightless): under gravity side
     /// i's trunnion pair carries the cross's weight besides the joint's force
-    /// ([`UniversalPlay::shift_with_cross_weight`]).
+    /// ([`UniversalPlay::shift_with_cross_weight`]). The model's own loads must carry the
+    /// cross too (a mass lumped on side i at the joint, or its weight as a load there), so
+    /// that the joint's reaction is the force across side j's pair.
     pub cross_mass: f64,
 }
 
