@@ -849,13 +849,10 @@ fn run_suite_dyn(
             progress(&label, reported);
         }
     });
-    let mut outcomes = vec![];
     // The first failure in case order; cases never started after it have no result.
-    for ((_, name), o) in chosen.iter().zip(slots) {
-        let Some(o) = o else { continue };
-        outcomes.push(((*name).clone(), o?));
+    for o in slots.into_iter().flatten() {
+        results.push(o?.0);
     }
-    results.extend(outcomes.into_iter().map(|(_, (r, _))| r));
     progress("done", 1.0);
     let board = scoreboard(opts, results);
     if let Some(dir) = reports {
