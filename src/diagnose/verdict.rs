@@ -127,10 +127,9 @@ pub(super) fn verdict(
     // after an opening "What remains is noise" a bare "the residual follows …" reads as the
     // residual after the fit.
     // One sentence per channel: its strongest correlation, the others in brackets.
-    let mut rest = location.correlations.as_slice();
-    while let Some(c) = rest.first() {
-        let n = rest.iter().take_while(|o| o.channel == c.channel).count();
-        let also: Vec<String> = rest[1..n]
+    for group in location.correlations.chunk_by(|a, b| a.channel == b.channel) {
+        let (c, others) = (&group[0], &group[1..]);
+        let also: Vec<String> = others
             .iter()
             .map(|o| format!("the {} {:+.2}", o.state, o.r))
             .collect();
@@ -145,7 +144,6 @@ pub(super) fn verdict(
                 format!("; also {}", also.join(", "))
             }
         ));
-        rest = &rest[n..];
     }
     for a in location.associations.iter().filter(|a| a.ratio > 1.5) {
         s.push_str(&format!(

@@ -779,7 +779,6 @@ fn run_suite_dyn(
         .enumerate()
         .filter(|(_, c)| opts.only.is_empty() || opts.only.iter().any(|o| c.contains(o.as_str())))
         .collect();
-    let mut results = vec![];
     // Cases run side by side, one per core (each builds its own model), from a shared queue:
     // a worker that finishes takes the next case at once (in fixed batches the short cases
     // waited for the longest of their batch). Reports and results stay in case order.
@@ -791,8 +790,7 @@ fn run_suite_dyn(
         TruthSource::Lumped => lumped::run_case(&lumped::cases()[i], opts, i, p),
     };
     let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut slots: Vec<Option<Result<(CaseResult, Diagnosis), SuiteError>>> =
-        (0..chosen.len()).map(|_| None).collect();
+    let mut slots: Vec<Option<Result<CaseResult, SuiteError>>> = (0..chosen.len()).map(|_| None).collect();
     progress(chosen.first().map_or("done", |c| c.1.as_str()), 0.0);
     std::thread::scope(|scope| {
         let (tx, rx) = std::sync::mpsc::channel();
@@ -841,7 +839,8 @@ fn run_suite_dyn(
                         }
                     }
                     fractions[slot] = 1.0;
-                    slots[slot] = Some(out);
+                    // The diagnosis is in its report now; only the scored result stays.
+                    slots[slot] = Some(out.map(|(r, _)| r));
                     chosen[slot].1.clone()
                 }
             };
@@ -850,9 +849,7 @@ fn run_suite_dyn(
         }
     });
     // The first failure in case order; cases never started after it have no result.
-    for o in slots.into_iter().flatten() {
-        results.push(o?.0);
-    }
+    let results = slots.into_iter().flatten().collect::<Result<Vec<_>, _>>()?;
     progress("done", 1.0);
     let board = scoreboard(opts, results);
     if let Some(dir) = reports {
