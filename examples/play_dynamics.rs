@@ -26,6 +26,10 @@
 //! differences). `against-ideal.csv` holds, every sample, the truth with clearance less the
 //! ideal truth and the model's responses with and without the play (N·m): the columns a
 //! diagnosis combines, to set beside its `holdout-<recording>-<channel>.csv`.
+//! `LASH_FOREARM_A=d` lengthens forearm A by d m in every truth (the suite's
+//! clearance-under-length case: 3e-5), so the play's effect is the one beside that larger
+//! effect; `LASH_MODEL_FOREARM_A=d` expands the reduced model about a forearm A d m longer,
+//! the point a diagnosis reaches once it has estimated that length.
 //!
 //! ```text
 //! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m, or hertz] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes] [load-proportional damping γ s/m] [interpolation linear|held] [the model's radial clearance m]
@@ -131,8 +135,19 @@ fn main() -> Result<(), Box<dyn Error>> {
 
     // The truth, with and without clearance in the joint (a Hertz bearing both times).
     let (path, ropts) = SuiteOptions::default().recording_setup(recording - 1);
-    let truth = |radial: f64, axial: f64| {
+    // `LASH_FOREARM_A=d`: every truth's forearm A d m longer (m).
+    let forearm_a: f64 = std::env::var("LASH_FOREARM_A")
+        .ok()
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(0.0);
+    let truth_spec = || {
         let mut spec = TruthSpec::nominal();
+        spec.links.forearm_length[0] += forearm_a;
+        spec
+    };
+    let truth = |radial: f64, axial: f64| {
+        let mut spec = truth_spec();
         spec.joints[joint] = Some(BearingDesign::mr2120(radial, axial, LUBRICATED_DAMPING));
         simulate_run(&spec, &path, &ropts)
     };
@@ -147,7 +162,21 @@ fn main() -> Result<(), Box<dyn Error>> {
         .iter()
         .position(|s| s == name)
         .ok_or("the nominal model has no play site for that joint")?;
-    let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    let mut theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    // `LASH_MODEL_FOREARM_A=d`: the reduced model expanded about a forearm A d m longer (m).
+    if let Some(d) = std::env::var("LASH_MODEL_FOREARM_A")
+        .ok()
+        .map(|s| s.parse::<f64>())
+        .transpose()?
+    {
+        let k = model
+            .parameters()
+            .iter()
+            .position(|p| p.name == "forearm A length")
+            .ok_or("the nominal model has no parameter 'forearm A length'")?;
+        theta[k] += d;
+    }
+    let theta = theta;
     let t = &tight.t;
     let n = t.len();
     let mut lin = Vec::with_capacity(n);
@@ -434,7 +463,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     // play's column (with the play less without) leaves to other candidates — and how the
     // reduced model's tight run and its response alone (with the play, not less without)
     // match it, over 0.6 s to the end, in torque-noise units.
-    let ideal = simulate_run(&TruthSpec::nominal(), &path, &ropts)?;
+    let ideal = simulate_run(&truth_spec(), &path, &ropts)?;
     // Every sample against the ideal truth (`against-ideal.csv`, N·m): the truth with
     // clearance less the ideal one, and the reduced model's responses with and without the
     // play — the columns a diagnosis combines (the play's as the difference of the two,

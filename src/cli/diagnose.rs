@@ -122,7 +122,7 @@ pub struct Args {
     play_relinearize: bool,
     /// Continue the re-linearisation's Gauss–Newton steps to the last pass's estimates also
     /// when no step was held back (at most three passes, each kept only if it
-    /// cross-validates better by 1 %; also with --suite). The default since 2026-12-01; the
+    /// cross-validates better; also with --suite). The default since 2026-12-01; the
     /// flag stays for the commands written before.
     #[arg(long)]
     relinearize_to_convergence: bool,
