@@ -193,12 +193,8 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         let cv: Vec<String> = d.relinearization_cv.iter().map(|v| format!("{v:.3}")).collect();
         let _ = writeln!(
             m,
-            "- Re-linearisation continued: whole steps from the point reached to the last pass's estimates, each kept while the selection cross-validates better{}; cross-validated RMS per pass {} noise units; {} pass(es) kept.",
-            if super::CONTINUED_STEP_GAIN >= 1e-3 {
-                format!(" by {:.1} %", 100.0 * super::CONTINUED_STEP_GAIN)
-            } else {
-                format!(" (by more than {:.0e} of it)", super::CONTINUED_STEP_GAIN)
-            },
+            "- Re-linearisation continued: whole steps from the point reached to the last pass's estimates, each kept while the selection cross-validates better (by more than {:.0e} of it); cross-validated RMS per pass {} noise units; {} pass(es) kept.",
+            super::CONTINUED_STEP_GAIN,
             cv.join(" → "),
             d.relinearization_passes
         );
