@@ -68,6 +68,21 @@ use std::path::PathBuf;
 
 const JOINTS: [&str; 6] = ["D", "E", "F", "P", "Q", "R"];
 
+/// An optional setting from the environment: `None` when `var` is unset, an error naming the
+/// variable when its value does not parse.
+fn env_parse<T: std::str::FromStr>(var: &str) -> Result<Option<T>, Box<dyn Error>>
+where
+    T::Err: std::fmt::Display,
+{
+    match std::env::var(var) {
+        Err(_) => Ok(None),
+        Ok(s) => s
+            .parse()
+            .map(Some)
+            .map_err(|e| format!("{var}='{s}': {e}").into()),
+    }
+}
+
 fn main() -> Result<(), Box<dyn Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let name = args.first().map(String::as_str).unwrap_or("F");
@@ -136,11 +151,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     // The truth, with and without clearance in the joint (a Hertz bearing both times).
     let (path, ropts) = SuiteOptions::default().recording_setup(recording - 1);
     // `LASH_FOREARM_A=d`: every truth's forearm A d m longer (m).
-    let forearm_a: f64 = std::env::var("LASH_FOREARM_A")
-        .ok()
-        .map(|s| s.parse())
-        .transpose()?
-        .unwrap_or(0.0);
+    let forearm_a: f64 = env_parse("LASH_FOREARM_A")?.unwrap_or(0.0);
     let truth_spec = || {
         let mut spec = TruthSpec::nominal();
         spec.links.forearm_length[0] += forearm_a;
@@ -164,11 +175,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         .ok_or("the nominal model has no play site for that joint")?;
     let mut theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
     // `LASH_MODEL_FOREARM_A=d`: the reduced model expanded about a forearm A d m longer (m).
-    if let Some(d) = std::env::var("LASH_MODEL_FOREARM_A")
-        .ok()
-        .map(|s| s.parse::<f64>())
-        .transpose()?
-    {
+    if let Some(d) = env_parse::<f64>("LASH_MODEL_FOREARM_A")? {
         let k = model
             .parameters()
             .iter()
@@ -184,16 +191,10 @@ fn main() -> Result<(), Box<dyn Error>> {
     let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
     // The rates differentiated as the diagnosis does (`LASH_QDD_CUBIC=8`: local cubics over
     // ±8 samples, the suite's setting), or by central differences (default).
-    let cubic: Option<usize> = std::env::var("LASH_QDD_CUBIC")
-        .ok()
-        .map(|s| s.parse())
-        .transpose()?;
+    let cubic: Option<usize> = env_parse("LASH_QDD_CUBIC")?;
     // `LASH_SENSOR_NOISE=f` reads the motion through the suite's encoders and rate channels
     // times f: white noise of f × their standard deviations on the angles and rates (seeded).
-    let noise_factor: Option<f64> = std::env::var("LASH_SENSOR_NOISE")
-        .ok()
-        .map(|s| s.parse())
-        .transpose()?;
+    let noise_factor: Option<f64> = env_parse("LASH_SENSOR_NOISE")?;
     // (The motors follow their command in both truths: the encoders of the truth with
     // clearance read the same angles and rates as those of the truth without.)
     let mut tight = tight;

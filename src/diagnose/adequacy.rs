@@ -558,7 +558,11 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
                 a.window.1
             );
             if let Some(st) = c.strongest_state.as_ref().filter(|s| s.ratio > 1.2) {
-                t.push_str(&format!(", {:.1}× larger in windows with {}", st.ratio, st.tag));
+                t.push_str(&format!(
+                    ", {:.1}× larger in windows {}",
+                    st.ratio,
+                    super::locate::windows_phrase(&st.tag)
+                ));
             }
             t
         })

@@ -92,6 +92,17 @@ pub struct Location {
     pub significant_fraction: Vec<(String, f64)>,
 }
 
+/// The windows a state tag names, as a phrase after "in windows": "with load reversal in drive
+/// C", but "near the direct-kinematics singularity" for a configuration tag that carries its
+/// own preposition.
+pub(super) fn windows_phrase(tag: &str) -> String {
+    if tag.starts_with("near ") {
+        tag.to_string()
+    } else {
+        format!("with {tag}")
+    }
+}
+
 fn pearson(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len()) as f64;
     if n < 2.0 {

@@ -153,7 +153,11 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             ));
         }
         if let Some(st) = c.strongest_state.as_ref().filter(|_| c.unexplained) {
-            line.push_str(&format!("; {:.1}× larger in windows with {}", st.ratio, st.tag));
+            line.push_str(&format!(
+                "; {:.1}× larger in windows {}",
+                st.ratio,
+                super::locate::windows_phrase(&st.tag)
+            ));
         }
         let _ = writeln!(m, "{line}.");
     }
@@ -438,8 +442,11 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
     for a in &d.location.associations {
         let _ = writeln!(
             m,
-            "- {}: residual {:.2}× larger in windows with {} ({} windows).",
-            a.channel, a.ratio, a.tag, a.windows
+            "- {}: residual {:.2}× larger in windows {} ({} windows).",
+            a.channel,
+            a.ratio,
+            super::locate::windows_phrase(&a.tag),
+            a.windows
         );
     }
     let _ = writeln!(m, "\nStrongest windows:\n");

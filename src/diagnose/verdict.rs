@@ -8,7 +8,7 @@
 use super::adequacy::{fold_movement, opening, Adequacy};
 use super::candidates::Candidate;
 use super::format::number;
-use super::locate::Location;
+use super::locate::{Association, Location};
 use super::model::InverseDynamicsModel;
 use super::outcome::{ChannelFit, Confound, Diagnosis, Estimate, PlayDynamicsCheck, UnresolvedPlay};
 use super::play_dynamics::ContactDamping;
@@ -145,12 +145,7 @@ pub(super) fn verdict(
             }
         ));
     }
-    for a in location.associations.iter().filter(|a| a.ratio > 1.5) {
-        s.push_str(&format!(
-            "Against the nominal model, the {} residual is {:.1}× larger in windows with {}. ",
-            a.channel, a.ratio, a.tag
-        ));
-    }
+    s.push_str(&association_sentences(&location.associations));
     let describe = |c: usize| {
         let est: Vec<String> = estimates
             .iter()
@@ -222,6 +217,30 @@ pub(super) fn verdict(
     }
     s.push_str(&confound_sentences(confounded));
     s.trim_end().to_string()
+}
+
+/// One sentence per channel on the states whose windows hold a residual more than 1.5× that of
+/// the rest, strongest first: "Against the nominal model, the drive A torque residual is larger
+/// in windows with load reversal in drive C (2.6×), with velocity reversal of drive B (1.8×) and
+/// near the direct-kinematics singularity (1.6×)."
+fn association_sentences(associations: &[Association]) -> String {
+    let strong: Vec<&Association> = associations.iter().filter(|a| a.ratio > 1.5).collect();
+    let mut s = String::new();
+    for group in strong.chunk_by(|a, b| a.channel == b.channel) {
+        let parts: Vec<String> = group
+            .iter()
+            .map(|a| format!("{} ({:.1}×)", super::locate::windows_phrase(&a.tag), a.ratio))
+            .collect();
+        let listed = match parts.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+            _ => parts.join(""),
+        };
+        s.push_str(&format!(
+            "Against the nominal model, the {} residual is larger in windows {listed}. ",
+            group[0].channel
+        ));
+    }
+    s
 }
 
 /// The verdict's sentences on plays whose estimates fell below their balls' compression.
@@ -402,6 +421,34 @@ mod tests {
 
     fn candidate(name: &str, effect: Effect) -> Candidate {
         crate::diagnose::candidates::test_candidate(name, effect, true)
+    }
+
+    /// The windows' states: one sentence per channel, strongest first, only those above 1.5×,
+    /// and a configuration tag keeps its own preposition ("near …", not "with near …").
+    #[test]
+    fn window_states_are_one_sentence_per_channel() {
+        let a = |channel: &str, tag: &str, ratio: f64| Association {
+            channel: channel.into(),
+            tag: tag.into(),
+            ratio,
+            windows: 5,
+        };
+        let t = association_sentences(&[
+            a("drive A torque", "load reversal in drive C", 2.6),
+            a("drive A torque", "velocity reversal of drive B", 1.8),
+            a("drive A torque", "near the direct-kinematics singularity", 1.6),
+            a("drive B torque", "acceleration peak of drive B", 1.7),
+            a("drive B torque", "high speed of drive A", 1.2),
+            a("drive C torque", "drive C at rest", 1.4),
+        ]);
+        assert_eq!(
+            t,
+            "Against the nominal model, the drive A torque residual is larger in windows with \
+             load reversal in drive C (2.6×), with velocity reversal of drive B (1.8×) and near \
+             the direct-kinematics singularity (1.6×). Against the nominal model, the drive B \
+             torque residual is larger in windows with acceleration peak of drive B (1.7×). "
+        );
+        assert!(association_sentences(&[a("drive C torque", "drive C at rest", 1.4)]).is_empty());
     }
 
     /// A damping the fit recordings do not tell: the sentence names the spread, the best
