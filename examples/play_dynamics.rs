@@ -29,7 +29,9 @@
 //! `LASH_FOREARM_A=d` lengthens forearm A by d m in every truth (the suite's
 //! clearance-under-length case: 3e-5), so the play's effect is the one beside that larger
 //! effect; `LASH_MODEL_FOREARM_A=d` expands the reduced model about a forearm A d m longer,
-//! the point a diagnosis reaches once it has estimated that length.
+//! the point a diagnosis reaches once it has estimated that length. `LASH_SEED=n` takes the
+//! recording's commanded path from the suite at seed n (`lash diagnose --suite --seed n`;
+//! default the suite's seed).
 //!
 //! ```text
 //! cargo run --release --example play_dynamics -- [joint D|E|F|P|Q|R] [radial clearance m[,axial play m]] [recording 1-6] [out dir] [ball stiffness N/m, or hertz] [ball damping N·s/m] [plot window t0,t1 s] [re-linearisation passes] [load-proportional damping γ s/m] [interpolation linear|held] [the model's radial clearance m]
@@ -149,7 +151,13 @@ fn main() -> Result<(), Box<dyn Error>> {
     };
 
     // The truth, with and without clearance in the joint (a Hertz bearing both times).
-    let (path, ropts) = SuiteOptions::default().recording_setup(recording - 1);
+    // `LASH_SEED=n`: the suite's paths at seed n (`lash diagnose --suite --seed n`).
+    let suite = SuiteOptions::default();
+    let suite = SuiteOptions {
+        seed: env_parse("LASH_SEED")?.unwrap_or(suite.seed),
+        ..suite
+    };
+    let (path, ropts) = suite.recording_setup(recording - 1);
     // `LASH_FOREARM_A=d`: every truth's forearm A d m longer (m).
     let forearm_a: f64 = env_parse("LASH_FOREARM_A")?.unwrap_or(0.0);
     let truth_spec = || {
@@ -596,7 +604,10 @@ fn main() -> Result<(), Box<dyn Error>> {
     let axis = ["x", "y", "z"];
     let quasi_static = |i: usize, c: usize, load_scale: f64| -> Option<f64> {
         let p = sens[i].as_ref()?;
-        let sh = p.play.shift(&p.z_i, &p.z_j, &p.force, &p.moment, load_scale);
+        // Side i's pair carries the cross besides, as in the diagnosis's columns.
+        let sh =
+            p.play
+                .shift_with_cross_weight(&p.z_i, &p.z_j, &p.force, &p.moment, &p.cross_load, load_scale);
         Some(
             h * ((0..3)
                 .map(|a| p.dy_dshift[a][c] * sh.radial_translation[a])

@@ -1287,7 +1287,14 @@ pub fn columns_with(
                         let v = dynamic_tracker(k, p, r, i) / h;
                         return if v.is_finite() { v } else { 0.0 };
                     }
-                    let sh = p.play.shift(&p.z_i, &p.z_j, &p.force, &p.moment, load_scale);
+                    let sh = p.play.shift_with_cross_weight(
+                        &p.z_i,
+                        &p.z_j,
+                        &p.force,
+                        &p.moment,
+                        &p.cross_load,
+                        load_scale,
+                    );
                     let v = match direction {
                         PlayDirection::Radial => {
                             (0..3)
@@ -1752,6 +1759,7 @@ mod tests {
                     z_j: Vector3::y(),
                     force: Vector3::new(0.0, 0.0, load(q[0])),
                     moment: Vector3::zeros(),
+                    cross_load: Vector3::zeros(),
                     play: UniversalPlay {
                         ball_spacing: 0.024,
                         ball_radius: 0.004,

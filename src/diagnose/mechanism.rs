@@ -1650,6 +1650,12 @@ impl InverseDynamicsModel for MechanismModel {
             let reaction = built.data.reaction(&built.model, jh)?;
             let (force, moment) = (Vector3::from(reaction.force), Vector3::from(reaction.torque));
             let (z_i, z_j) = Self::trunnion_axes(built, jh)?;
+            // What carries the cross with side i at the same state (`PlayLoad::carried`).
+            let joint = built.model.joint(jh)?;
+            let a_i = built
+                .data
+                .point_acceleration(joint.body_i, &joint.frame_i.origin)?;
+            let cross_load = site.cross_mass * (built.model.gravity() - a_i);
             play.push(PlayData {
                 dy_dshift: [
                     dy(&dq[4 * k], 1.0),
@@ -1662,6 +1668,7 @@ impl InverseDynamicsModel for MechanismModel {
                 z_j,
                 force,
                 moment,
+                cross_load,
                 play: site.play,
             });
         }

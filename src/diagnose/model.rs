@@ -85,6 +85,12 @@ pub struct PlayData {
     pub force: Vector3<f64>,
     /// Moment of the joint on side j about the joint centre, N·m (base frame).
     pub moment: Vector3<f64>,
+    /// The load that carries the joint's cross along with side i, N (base frame): its mass
+    /// times gravity less the acceleration of side i's point at the joint's centre, as
+    /// [`PlayDynamics::cross_load`]. Side i's trunnion pair carries `force` less this
+    /// ([`crate::contact::play::UniversalPlay::shift_with_cross_weight`]); zero for a
+    /// weightless cross.
+    pub cross_load: Vector3<f64>,
     /// The play geometry.
     pub play: crate::contact::play::UniversalPlay,
 }

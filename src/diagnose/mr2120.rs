@@ -411,6 +411,21 @@ mod tests {
                 "elbow {i}: the motion shows"
             );
         }
+        // The quasi-static play columns carry the same load (one play model for both).
+        for (qd, qdd) in [(vec![0.0; 3], vec![0.0; 3]), (qd.clone(), qdd.clone())] {
+            let dynamics = model.play_dynamics(&theta, &q, &qd, &qdd).expect("play dynamics");
+            let sens = model
+                .output_sensitivities(&theta, &q, &qd, &qdd, &[0.0; 3])
+                .expect("sensitivities");
+            for ((d, p), name) in dynamics.iter().zip(&sens.play).zip(model.play_sites()) {
+                let load = Vector3::from(d.cross_load);
+                assert!(
+                    (p.cross_load - load).norm() < 1e-9 * load.norm(),
+                    "joint {name}: {} vs {load}",
+                    p.cross_load
+                );
+            }
+        }
     }
 
     /// The outputs at an expansion point of joint F's play, evaluated there, agree with the

@@ -939,7 +939,15 @@ fn static_start(
     // can point elsewhere).
     let reaction = p.reaction;
     let force = Vector3::new(reaction[0], reaction[1], reaction[2]);
-    let shift = p.play.shift(&p.z_i, &p.z_j, &force, &(n * reaction[3]), 1e-6);
+    // Side i's pair carries the cross besides (as the system solved below does).
+    let shift = p.play.shift_with_cross_weight(
+        &p.z_i,
+        &p.z_j,
+        &force,
+        &(n * reaction[3]),
+        &Vector3::from(p.cross_load),
+        1e-6,
+    );
     // A tenth beyond the walls and ends, so that the loaded balls start in contact
     // (Newton's method sees no stiffness inside the play).
     // (Without radial clearance, a tenth of the axial play's half, or of a nanometre.)
