@@ -94,7 +94,9 @@ impl UniversalPlay {
     }
 
     /// [`Self::shift`] with a cross of weight `cross_weight` (N, base frame: its mass times
-    /// gravity) between the pairs, at rest: side j's pair carries `force`, side i's pair
+    /// gravity at rest; moving, its mass times gravity less the acceleration of side i's point
+    /// at the joint's centre, the load that carries it along) between the pairs: side j's
+    /// pair carries `force`, side i's pair
     /// `force − cross_weight` (what side i passes to the cross, which holds the cross up as
     /// well); the weight acts at the cross's centre, so both pairs carry the same moment.
     /// Near a load reversal the weight decides which wall side i's balls sit against.

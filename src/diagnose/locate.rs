@@ -92,14 +92,30 @@ pub struct Location {
     pub significant_fraction: Vec<(String, f64)>,
 }
 
-/// The windows a state tag names, as a phrase after "in windows": "with load reversal in drive
-/// C", but "near the direct-kinematics singularity" for a configuration tag that carries its
-/// own preposition.
+/// The windows a state tag names, as a phrase after "in windows": "with a load reversal in
+/// drive C", "with an acceleration peak of drive A", "with drive B at high speed", "with drive
+/// A at rest"; a configuration tag that carries its own preposition as it is ("near the
+/// direct-kinematics singularity (measure below 0.3)").
 pub(super) fn windows_phrase(tag: &str) -> String {
     if tag.starts_with("near ") {
         tag.to_string()
+    } else if let Some(joint) = tag.strip_prefix("high speed of ") {
+        format!("with {joint} at high speed")
+    } else if tag.starts_with("acceleration peak") {
+        format!("with an {tag}")
+    } else if tag.starts_with("velocity reversal") || tag.starts_with("load reversal") {
+        format!("with a {tag}")
     } else {
         format!("with {tag}")
+    }
+}
+
+/// `phrase` with a note in brackets, merged into the phrase's own closing bracket where it
+/// ends in one: "near the singularity (measure below 0.3; 1.6×)", not "(…) (1.6×)".
+pub(super) fn with_note(phrase: &str, note: &str) -> String {
+    match phrase.strip_suffix(')') {
+        Some(open) => format!("{open}; {note})"),
+        None => format!("{phrase} ({note})"),
     }
 }
 

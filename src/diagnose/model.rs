@@ -86,8 +86,9 @@ pub struct PlayData {
     /// Moment of the joint on side j about the joint centre, N·m (base frame).
     pub moment: Vector3<f64>,
     /// The load that carries the joint's cross along with side i, N (base frame): its mass
-    /// times gravity less the acceleration of side i's point at the joint's centre, as
-    /// [`PlayDynamics::cross_load`]. Side i's trunnion pair carries `force` less this
+    /// times gravity less the acceleration of side i's point at the joint's centre, at the
+    /// sample's state as `force` (the form of [`PlayDynamics::cross_load`], which takes the
+    /// arms' motion). Side i's trunnion pair carries `force` less this
     /// ([`crate::contact::play::UniversalPlay::shift_with_cross_weight`]); zero for a
     /// weightless cross.
     pub cross_load: Vector3<f64>,

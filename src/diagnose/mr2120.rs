@@ -417,6 +417,7 @@ mod tests {
             let sens = model
                 .output_sensitivities(&theta, &q, &qd, &qdd, &[0.0; 3])
                 .expect("sensitivities");
+            assert_eq!(sens.play.len(), dynamics.len());
             for ((d, p), name) in dynamics.iter().zip(&sens.play).zip(model.play_sites()) {
                 let load = Vector3::from(d.cross_load);
                 assert!(

@@ -442,11 +442,13 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
     for a in &d.location.associations {
         let _ = writeln!(
             m,
-            "- {}: residual {:.2}× larger in windows {} ({} windows).",
+            "- {}: residual {:.2}× larger in windows {}.",
             a.channel,
             a.ratio,
-            super::locate::windows_phrase(&a.tag),
-            a.windows
+            super::locate::with_note(
+                &super::locate::windows_phrase(&a.tag),
+                &format!("{} windows", a.windows)
+            )
         );
     }
     let _ = writeln!(m, "\nStrongest windows:\n");

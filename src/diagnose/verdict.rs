@@ -221,15 +221,20 @@ pub(super) fn verdict(
 
 /// One sentence per channel on the states whose windows hold a residual more than 1.5× that of
 /// the rest, strongest first: "Against the nominal model, the drive A torque residual is larger
-/// in windows with load reversal in drive C (2.6×), with velocity reversal of drive B (1.8×) and
-/// near the direct-kinematics singularity (1.6×)."
+/// in windows with a load reversal in drive C (2.6×), with a velocity reversal of drive B (1.8×)
+/// and near the direct-kinematics singularity (measure below 0.3; 1.6×)."
 fn association_sentences(associations: &[Association]) -> String {
     let strong: Vec<&Association> = associations.iter().filter(|a| a.ratio > 1.5).collect();
     let mut s = String::new();
     for group in strong.chunk_by(|a, b| a.channel == b.channel) {
         let parts: Vec<String> = group
             .iter()
-            .map(|a| format!("{} ({:.1}×)", super::locate::windows_phrase(&a.tag), a.ratio))
+            .map(|a| {
+                super::locate::with_note(
+                    &super::locate::windows_phrase(&a.tag),
+                    &format!("{:.1}×", a.ratio),
+                )
+            })
             .collect();
         let listed = match parts.split_last() {
             Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
@@ -436,19 +441,29 @@ mod tests {
         let t = association_sentences(&[
             a("drive A torque", "load reversal in drive C", 2.6),
             a("drive A torque", "velocity reversal of drive B", 1.8),
-            a("drive A torque", "near the direct-kinematics singularity", 1.6),
+            a(
+                "drive A torque",
+                "near the direct-kinematics singularity (measure below 0.3)",
+                1.6,
+            ),
             a("drive B torque", "acceleration peak of drive B", 1.7),
-            a("drive B torque", "high speed of drive A", 1.2),
+            a("drive B torque", "high speed of drive A", 1.6),
+            a("drive B torque", "drive C at rest", 1.2),
             a("drive C torque", "drive C at rest", 1.4),
         ]);
         assert_eq!(
             t,
-            "Against the nominal model, the drive A torque residual is larger in windows with \
-             load reversal in drive C (2.6×), with velocity reversal of drive B (1.8×) and near \
-             the direct-kinematics singularity (1.6×). Against the nominal model, the drive B \
-             torque residual is larger in windows with acceleration peak of drive B (1.7×). "
+            "Against the nominal model, the drive A torque residual is larger in windows with a \
+             load reversal in drive C (2.6×), with a velocity reversal of drive B (1.8×) and near \
+             the direct-kinematics singularity (measure below 0.3; 1.6×). Against the nominal \
+             model, the drive B torque residual is larger in windows with an acceleration peak \
+             of drive B (1.7×) and with drive A at high speed (1.6×). "
         );
         assert!(association_sentences(&[a("drive C torque", "drive C at rest", 1.4)]).is_empty());
+        assert_eq!(
+            super::super::locate::windows_phrase("drive C at rest"),
+            "with drive C at rest"
+        );
     }
 
     /// A damping the fit recordings do not tell: the sentence names the spread, the best
