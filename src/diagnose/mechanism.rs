@@ -849,6 +849,16 @@ impl MechanismModel {
         Some(out)
     }
 
+    /// [`PlayLoad::carried`] of play joint `jh` at the state `built.data` holds: gravity less
+    /// the acceleration of side i's point at the joint's origin, m/s² (base frame).
+    fn carried(built: &Built, jh: JointHandle) -> Option<Vector3<f64>> {
+        let joint = built.model.joint(jh)?;
+        let a = built
+            .data
+            .point_acceleration(joint.body_i, &joint.frame_i.origin)?;
+        Some(built.model.gravity() - a)
+    }
+
     /// The play joints' reactions (force in N, moment in N·m; on side j, base frame) and what
     /// carries a mass riding with their side i ([`PlayLoad::carried`]) at the arms'
     /// motion of the cached sample: the inverse dynamics evaluated afresh at the arms'
@@ -861,20 +871,15 @@ impl MechanismModel {
         let arm = Self::arm_motion(built, qd, qdd);
         Self::keeping_sample(built, &arm, |built| {
             Self::joint_torques(built, &arm[0], &arm[1], &arm[2])?;
-            let gravity = built.model.gravity();
             built
                 .play_joints
                 .iter()
                 .map(|&jh| {
                     let r = built.data.reaction(&built.model, jh)?;
-                    let joint = built.model.joint(jh)?;
-                    let a = built
-                        .data
-                        .point_acceleration(joint.body_i, &joint.frame_i.origin)?;
                     Some(PlayLoad {
                         force: Vector3::from(r.force),
                         moment: Vector3::from(r.torque),
-                        carried: gravity - a,
+                        carried: Self::carried(built, jh)?,
                     })
                 })
                 .collect::<Option<Vec<_>>>()
@@ -1650,12 +1655,8 @@ impl InverseDynamicsModel for MechanismModel {
             let reaction = built.data.reaction(&built.model, jh)?;
             let (force, moment) = (Vector3::from(reaction.force), Vector3::from(reaction.torque));
             let (z_i, z_j) = Self::trunnion_axes(built, jh)?;
-            // What carries the cross with side i at the same state (`PlayLoad::carried`).
-            let joint = built.model.joint(jh)?;
-            let a_i = built
-                .data
-                .point_acceleration(joint.body_i, &joint.frame_i.origin)?;
-            let cross_load = site.cross_mass * (built.model.gravity() - a_i);
+            // What carries the cross with side i, at the same state as the reaction.
+            let cross_load = site.cross_mass * Self::carried(built, jh)?;
             play.push(PlayData {
                 dy_dshift: [
                     dy(&dq[4 * k], 1.0),
