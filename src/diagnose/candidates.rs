@@ -790,6 +790,26 @@ pub type TightRun = std::sync::OnceLock<Vec<Option<PlayResponse>>>;
 /// One [`TightRun`] per play site.
 pub type TightRuns = Vec<TightRun>;
 
+/// The nominal model's linearisations along one recording that [`columns_with`] builds on,
+/// per sample: its output sensitivities, its transmissions' dynamics and its play sites'
+/// dynamics ([`InverseDynamicsModel::play_dynamics`]). They depend on the model, its
+/// nominal parameters and the recording, not on the reference plays or the contact laws
+/// (`LibraryOptions::dynamic_play_clearance`, `play_contact_damping`), so the play-size and
+/// damping searches' refits (`diagnose::play_size::HeldPlay`) walk each recording once: in
+/// their phase of a diagnosis the play sites' dynamics were two thirds of the time (`perf`
+/// on the seed-7 clearance-under-length case, session 65).
+#[derive(Debug, Clone)]
+pub struct NominalWalk {
+    /// What was walked for: outputs recorded, a compliant drive, the play's derivatives.
+    needs: (bool, bool, bool),
+    sens: Vec<Option<OutputSensitivities>>,
+    dynamics: Vec<Option<TransmissionDynamics>>,
+    play_dyn: Vec<Option<Vec<PlayDynamics>>>,
+}
+
+/// A [`NominalWalk`] made on first use (per recording).
+pub type NominalWalkCache = std::sync::OnceLock<NominalWalk>;
+
 /// Regressor columns of every candidate on one recording, with the nominal model's value of
 /// every channel and the play candidates' compressions ([`Columns`]).
 pub fn columns(
@@ -798,7 +818,7 @@ pub fn columns(
     model: &dyn InverseDynamicsModel,
     opts: &LibraryOptions,
 ) -> Columns {
-    columns_with(cands, d, model, opts, None)
+    columns_with(cands, d, model, opts, None, None)
 }
 
 /// [`columns`], taking the reduced play model's runs without play from `tight` (one per play
@@ -808,12 +828,17 @@ pub fn columns(
 /// those runs do not depend on (they read the candidates only for whether the play's
 /// derivatives are needed at all, and are read only where they are). A cache of another
 /// length is not used.
+///
+/// `walk`, where given, keeps the nominal model's linearisations along the recording
+/// ([`NominalWalk`]) for later calls on the same recording and model; a walk made for other
+/// needs (outputs, compliant drives, the play's derivatives) is not used.
 pub fn columns_with(
     cands: &[Candidate],
     d: &MotionData,
     model: &dyn InverseDynamicsModel,
     opts: &LibraryOptions,
     tight: Option<&[TightRun]>,
+    walk: Option<&NominalWalkCache>,
 ) -> Columns {
     let chans = d.channels();
     let nc = chans.len();
@@ -865,9 +890,6 @@ pub fn columns_with(
             && cands
                 .iter()
                 .any(|c| matches!(c.effect, Effect::ContactCompliance { .. })));
-    let mut sens: Vec<Option<OutputSensitivities>> = vec![];
-    let mut dynamics: Vec<Option<TransmissionDynamics>> = vec![];
-    let mut play_dyn: Vec<Option<Vec<PlayDynamics>>> = vec![];
     // The nominal model placed at sample i (it walks the data in time order: its wind-up
     // state is sequential): the encoders' motion there and the nominal outputs.
     let model_at = |i: usize| {
@@ -877,23 +899,42 @@ pub fn columns_with(
         model.evaluate_at(d.t[i], &theta0, &q, &qd, &qdd, &mut tau, &mut yy);
         (q, qd, qdd, y)
     };
-    if !output_rows.is_empty() || compliant {
-        for i in 0..n {
-            let (q, qd, qdd, y) = model_at(i);
-            // (In this order: the play's derivatives perturb the model's cached sample.)
-            sens.push(if output_rows.is_empty() {
-                None
-            } else {
-                model.output_sensitivities(&theta0, &q, &qd, &qdd, &y)
-            });
-            let td = model.transmission_dynamics(&theta0);
-            play_dyn.push(match &td {
-                Some(_) if play_needed => model.play_dynamics(&theta0, &q, &qd, &qdd),
-                _ => None,
-            });
-            dynamics.push(td);
+    let needs = (!output_rows.is_empty(), compliant, play_needed);
+    let walk_now = || {
+        let mut w = NominalWalk {
+            needs,
+            sens: vec![],
+            dynamics: vec![],
+            play_dyn: vec![],
+        };
+        if !output_rows.is_empty() || compliant {
+            for i in 0..n {
+                let (q, qd, qdd, y) = model_at(i);
+                // (In this order: the play's derivatives perturb the model's cached sample.)
+                w.sens.push(if output_rows.is_empty() {
+                    None
+                } else {
+                    model.output_sensitivities(&theta0, &q, &qd, &qdd, &y)
+                });
+                let td = model.transmission_dynamics(&theta0);
+                w.play_dyn.push(match &td {
+                    Some(_) if play_needed => model.play_dynamics(&theta0, &q, &qd, &qdd),
+                    _ => None,
+                });
+                w.dynamics.push(td);
+            }
         }
-    }
+        w
+    };
+    let fresh: NominalWalk;
+    let walked: &NominalWalk = match walk.map(|c| c.get_or_init(walk_now)) {
+        Some(w) if w.needs == needs && (w.sens.is_empty() || w.sens.len() == n) => w,
+        _ => {
+            fresh = walk_now();
+            &fresh
+        }
+    };
+    let (sens, dynamics, play_dyn) = (&walked.sens, &walked.dynamics, &walked.play_dyn);
     // Per play site and direction, the play's effect on the drive torques in the reduced
     // dynamic play model at the reference play along the recording. Radial: its response
     // (the balls' compliance comes with the clearance: a ball that fits its bore is a
@@ -1127,7 +1168,7 @@ pub fn columns_with(
     let joint_torque_with_share = |j: usize, g: &dyn Fn(usize) -> f64, share: f64| {
         let mut c = vec![0.0; nc * n];
         if dynamic {
-            let response: Vec<_> = transmission::joint_torque_response(&d.t, &dynamics, j, g)
+            let response: Vec<_> = transmission::joint_torque_response(&d.t, dynamics, j, g)
                 .into_iter()
                 .enumerate()
                 .map(|(i, x)| x.map(|(w, wd)| (w, wd, share * g(i))))
@@ -1232,7 +1273,7 @@ pub fn columns_with(
                 // The dead zone's secant at the reference backlash: its response there,
                 // integrated through each sample interval, per radian of it.
                 let b = opts.dead_zone_backlash(model, &theta0, j).unwrap_or(1.0);
-                let response = transmission::backlash_response(&d.t, &dynamics, j, b, opts.backlash_place);
+                let response = transmission::backlash_response(&d.t, dynamics, j, b, opts.backlash_place);
                 vec![from_response(j, &response, 1.0 / b)]
             }
             (Effect::Backlash { scale }, Some(j)) if dynamic && model.drive_compliance(&theta0, j) > 0.0 => {
@@ -1957,14 +1998,40 @@ mod tests {
             first.tight_runs_cached() == 0,
             "nothing run before the first refit"
         );
+        assert_eq!(first.walks_cached(), 0, "no walk before the first refit");
         let a0 = first.cv(h0).expect("assembled").expect("one column");
         let cached = first.tight_runs_cached();
         assert_eq!(cached, recordings.len(), "one run without play per recording");
+        assert_eq!(
+            first.walks_cached(),
+            recordings.len(),
+            "one nominal walk per recording"
+        );
         let a1 = first.cv(1.1 * h0).expect("assembled").expect("one column");
         assert_eq!(first.tight_runs_cached(), cached);
         let b1 = held().cv(1.1 * h0).expect("assembled").expect("one column");
         assert!(a0.is_finite() && a1.is_finite() && a0 != a1, "{a0} {a1}");
         assert_eq!(a1.to_bits(), b1.to_bits(), "{a1} against a fresh refit's {b1}");
+        // A refit at another contact damping that shares the first's walks (as the damping
+        // search's do) walks nothing and gets a fresh refit's number.
+        let at = |damping: f64| {
+            let mut o = o.clone();
+            o.library.play_contact_damping = Some(super::ContactDamping {
+                constant: damping,
+                load: 0.0,
+            });
+            held_play(&recordings, &o, &[name.to_string()], name)
+        };
+        let shared = at(50.0).sharing_walks(&first.walks);
+        assert_eq!(shared.walks_cached(), recordings.len());
+        let d_shared = shared.cv(1.1 * h0).expect("assembled").expect("one column");
+        let d_fresh = at(50.0).cv(1.1 * h0).expect("assembled").expect("one column");
+        assert!(d_shared.is_finite() && d_shared != a1, "{d_shared} {a1}");
+        assert_eq!(
+            d_shared.to_bits(),
+            d_fresh.to_bits(),
+            "{d_shared} against {d_fresh}"
+        );
         // With the joint's contact compliance selected beside the play, the assembly of the
         // other columns (the compliance's column is that run) fills the cache, and the
         // refits that follow read it.

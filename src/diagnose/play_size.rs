@@ -7,8 +7,8 @@
 //! whose refit cross-validates best is the one the model explains the data with.
 //! A variable projection: one nonlinear parameter searched, the linear ones solved.
 
-use super::candidates::TightRuns;
 use super::candidates::{library, Candidate};
+use super::candidates::{NominalWalkCache, TightRuns};
 use super::data::MotionData;
 use super::error::DiagnoseError;
 use super::model::InverseDynamicsModel;
@@ -271,6 +271,9 @@ pub(super) struct HeldPlay<'a> {
     /// Per fit recording, the reduced play model's runs without play (the same at every
     /// trial size: computed by the first assembly that needs them).
     tight: Vec<TightRuns>,
+    /// Per fit recording, the nominal model's walk (the same at every trial size and
+    /// damping: shared with [`sharing_walks`](Self::sharing_walks)).
+    pub(super) walks: std::sync::Arc<Vec<NominalWalkCache>>,
 }
 
 impl<'a> HeldPlay<'a> {
@@ -313,7 +316,15 @@ impl<'a> HeldPlay<'a> {
             .iter()
             .map(|_| (0..sites).map(|_| Default::default()).collect())
             .collect();
-        let others = prepare_with(model, fit, &vec![1.0; weights.len()], &cands, &o, Some(&tight))?;
+        let others = prepare_with(
+            model,
+            fit,
+            &vec![1.0; weights.len()],
+            &cands,
+            &o,
+            Some(&tight),
+            None,
+        )?;
         let refitted = (0..cands.len())
             .filter(|&k| cands[k].name != play.name && selected.contains(&cands[k].name))
             .collect();
@@ -327,7 +338,24 @@ impl<'a> HeldPlay<'a> {
             weights: weights.to_vec(),
             floors: floors.to_vec(),
             tight,
+            walks: std::sync::Arc::new(fit.iter().map(|_| NominalWalkCache::new()).collect()),
         }))
+    }
+
+    /// The same refit taking the nominal model's walks along the recordings from `walks`
+    /// (one per fit recording; another length is not used), which refits on the same model
+    /// and recordings at other contact dampings share ([`NominalWalk`](super::candidates::NominalWalk)).
+    pub(super) fn sharing_walks(mut self, walks: &std::sync::Arc<Vec<NominalWalkCache>>) -> Self {
+        if walks.len() == self.fit.len() {
+            self.walks = walks.clone();
+        }
+        self
+    }
+
+    /// Recordings whose nominal walk is in the cache (for tests).
+    #[cfg(test)]
+    pub(super) fn walks_cached(&self) -> usize {
+        self.walks.iter().filter(|c| c.get().is_some()).count()
     }
 
     /// Runs without play in the cache, over the recordings and play sites (for tests).
@@ -383,6 +411,7 @@ impl<'a> HeldPlay<'a> {
             std::slice::from_ref(&self.play),
             &o,
             Some(&self.tight),
+            Some(&self.walks),
         )?;
         let [col] = one.cols_of[0][..] else {
             return Ok(None);

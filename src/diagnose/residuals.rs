@@ -7,7 +7,7 @@
 //! re-linearisation (`DiagnoseOptions::shift`) is undone in the residual, so estimates stay
 //! totals relative to the nominal model.
 
-use super::candidates::{columns_with, Candidate, TightRuns};
+use super::candidates::{columns_with, Candidate, NominalWalkCache, TightRuns};
 use super::data::MotionData;
 use super::error::DiagnoseError;
 use super::model::{on_copies, InverseDynamicsModel};
@@ -93,11 +93,12 @@ pub(super) fn prepare(
     cands: &[Candidate],
     opts: &DiagnoseOptions,
 ) -> Result<Prepared, DiagnoseError> {
-    prepare_with(model, data, sigma, cands, opts, None)
+    prepare_with(model, data, sigma, cands, opts, None, None)
 }
 
 /// [`prepare`], the reduced play model's runs without play taken from `tight` (one
-/// [`TightRuns`] per recording, in the order of `data`) where given
+/// [`TightRuns`] per recording, in the order of `data`) and the nominal model's walks along
+/// the recordings from `walks` (one per recording) where given
 /// ([`columns_with`](super::candidates::columns_with)).
 pub(super) fn prepare_with(
     model: &dyn InverseDynamicsModel,
@@ -106,6 +107,7 @@ pub(super) fn prepare_with(
     cands: &[Candidate],
     opts: &DiagnoseOptions,
     tight: Option<&[TightRuns]>,
+    walks: Option<&[NominalWalkCache]>,
 ) -> Result<Prepared, DiagnoseError> {
     let mut cols_of = vec![];
     let mut blocks = vec![];
@@ -114,7 +116,14 @@ pub(super) fn prepare_with(
     let recordings: Vec<usize> = (0..data.len()).collect();
     let all = on_copies(&recordings, model, &|&r, m| {
         let cache = tight.and_then(|t| t.get(r)).map(Vec::as_slice);
-        columns_with(cands, &data[r], m, &opts.library, cache)
+        columns_with(
+            cands,
+            &data[r],
+            m,
+            &opts.library,
+            cache,
+            walks.and_then(|w| w.get(r)),
+        )
     });
     // The play candidates' compressions over all recordings (RMS, weighted by samples).
     let mut compression_ss: Vec<Option<(f64, usize)>> = vec![None; cands.len()];

@@ -579,12 +579,16 @@ fn search_play_size(
         };
         // (A search that cannot assemble its columns leaves the selection as it is, as
         // the play-dynamics check does.)
+        // The nominal model's walks along the fit recordings, shared by every damping's
+        // refits (they depend on neither the play nor the damping).
+        let walks = std::sync::Arc::new(fit.iter().map(|_| Default::default()).collect());
         let held_at = |damping: ContactDamping| {
             let mut o = o.clone();
             o.library.play_contact_damping = Some(damping);
             HeldPlay::new(shifted, fit, &o, &second.selected, &name, &weights, &floors)
                 .ok()
                 .flatten()
+                .map(|h| h.sharing_walks(&walks))
         };
         let mut log: Vec<(ContactDamping, f64, f64)> = vec![];
         if let Some(held) = held_at(kept) {
