@@ -1825,6 +1825,7 @@ mod tests {
             _qd: &[f64],
             _qdd: &[f64],
         ) -> Option<Vec<PlayDynamics>> {
+            WALKED.with(|c| c.set(c.get() + 1));
             Some(vec![fixtures::hanging_joint(load(q[0]), TAU_PER_M)])
         }
         /// The exact expansion of this mechanism (linear in the play: the same coupling, the
@@ -2007,7 +2008,9 @@ mod tests {
             recordings.len(),
             "one nominal walk per recording"
         );
+        WALKED.with(|c| c.set(0));
         let a1 = first.cv(1.1 * h0).expect("assembled").expect("one column");
+        assert_eq!(WALKED.with(|c| c.get()), 0, "the second refit walks nothing");
         assert_eq!(first.tight_runs_cached(), cached);
         let b1 = held().cv(1.1 * h0).expect("assembled").expect("one column");
         assert!(a0.is_finite() && a1.is_finite() && a0 != a1, "{a0} {a1}");
@@ -2024,8 +2027,15 @@ mod tests {
         };
         let shared = at(50.0).sharing_walks(&first.walks);
         assert_eq!(shared.walks_cached(), recordings.len());
+        WALKED.with(|c| c.set(0));
         let d_shared = shared.cv(1.1 * h0).expect("assembled").expect("one column");
+        assert_eq!(
+            WALKED.with(|c| c.get()),
+            0,
+            "a refit sharing the walks walks nothing"
+        );
         let d_fresh = at(50.0).cv(1.1 * h0).expect("assembled").expect("one column");
+        assert!(WALKED.with(|c| c.get()) > 0, "a fresh refit walks");
         assert!(d_shared.is_finite() && d_shared != a1, "{d_shared} {a1}");
         assert_eq!(
             d_shared.to_bits(),
@@ -2054,6 +2064,9 @@ mod tests {
     thread_local! {
         /// [`Carried::play_dynamics_at`]'s calls on this test's thread.
         static EXPANSIONS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+        /// [`Carried::play_dynamics`]'s calls on this test's thread (`Carried` has no fork:
+        /// its recordings are walked on the caller's thread).
+        static WALKED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
     }
 
     /// The reduced play model is re-linearised about its own motion where its first response
