@@ -338,8 +338,14 @@ impl<'a> HeldPlay<'a> {
             weights: weights.to_vec(),
             floors: floors.to_vec(),
             tight,
-            walks: std::sync::Arc::new(fit.iter().map(|_| NominalWalkCache::new()).collect()),
+            walks: Self::fresh_walks(fit),
         }))
+    }
+
+    /// Empty nominal walks, one per recording of `fit` (filled by the first refit that reads
+    /// them; [`sharing_walks`](Self::sharing_walks) hands them to other refits).
+    pub(super) fn fresh_walks(fit: &[MotionData]) -> std::sync::Arc<Vec<NominalWalkCache>> {
+        std::sync::Arc::new(fit.iter().map(|_| NominalWalkCache::new()).collect())
     }
 
     /// The same refit taking the nominal model's walks along the recordings from `walks`

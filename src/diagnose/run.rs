@@ -577,11 +577,11 @@ fn search_play_size(
             progress("play size", base + share * tried.min(search_shares) as f64);
             tried += 1;
         };
-        // (A search that cannot assemble its columns leaves the selection as it is, as
-        // the play-dynamics check does.)
         // The nominal model's walks along the fit recordings, shared by every damping's
         // refits (they depend on neither the play nor the damping).
-        let walks = std::sync::Arc::new(fit.iter().map(|_| Default::default()).collect());
+        let walks = HeldPlay::fresh_walks(fit);
+        // (A search that cannot assemble its columns leaves the selection as it is, as
+        // the play-dynamics check does.)
         let held_at = |damping: ContactDamping| {
             let mut o = o.clone();
             o.library.play_contact_damping = Some(damping);
