@@ -147,6 +147,13 @@ pub struct Args {
     /// then γ (steps of 50, 22 and 10 %), the size refined at each (also with --suite).
     #[arg(long)]
     play_damping_search: bool,
+    /// No probe for a play the first pass ranked first but could not carry (by default, where
+    /// the first pass selected no play and its best-ranked candidate is a play with an
+    /// estimate outside its bounds, that joint's radial play is refitted with its dynamics at
+    /// 1–20 µm, and the best size, where it refits better, becomes the second pass's
+    /// reference play; also with --suite).
+    #[arg(long)]
+    no_play_probe: bool,
     /// Also try load-proportional contact dampings γ·F in the reduced dynamic play model (γ
     /// in s/m, one or more, comma-separated, each over a small constant damping for the
     /// balls' sliding; cross-validation chooses among the dampings; 250, 500 and 1000 are
@@ -484,6 +491,7 @@ fn play_options(a: &Args, opts: &mut DiagnoseOptions) {
     }
     opts.play_size_search |= a.play_size_search || a.play_damping_search;
     opts.play_damping_search |= a.play_damping_search;
+    opts.play_probe &= !a.no_play_probe;
     for &g in &a.play_load_damping {
         opts.add_contact_damping(ContactDamping::load_proportional(g));
     }

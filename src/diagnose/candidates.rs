@@ -1965,6 +1965,131 @@ mod tests {
         );
     }
 
+    /// The probe for a play the first pass did not see
+    /// ([`probe_play`](crate::diagnose::play_size::probe_play)): on recordings whose channels
+    /// are the nominal model's plus the reduced model's effect at 6.2 µm — between two of the
+    /// grid's sizes — it refits at every size of the grid in order, then refines about the
+    /// best to within the size search's last step, calls its progress once per refit, and
+    /// the refit without the play is worse than the best.
+    #[test]
+    fn the_play_probe_walks_its_grid_then_refines_to_the_size_that_made_the_data() {
+        let truth = 6.2e-6;
+        let opts = |h: f64| LibraryOptions {
+            play_load_scales: vec![5.0],
+            dynamic_play_clearance: Some(h),
+            ..LibraryOptions::default()
+        };
+        let name = "radial clearance in joint F (reduced dynamic model)";
+        let play: Vec<Candidate> = library(&Carried, &opts(truth))
+            .into_iter()
+            .filter(|c| c.name == name)
+            .collect();
+        assert_eq!(play.len(), 1);
+        let recordings: Vec<MotionData> = (0..2)
+            .map(|r| {
+                let mut d = carried_swing(401 + 100 * r);
+                d.name = format!("carried-{r}");
+                let m = d.len();
+                let c = columns(&play, &d, &Carried, &opts(truth));
+                let col = &c.cols[0][0];
+                d.tau[0] = (0..m).map(|i| c.nominal[0][i] + truth * col[i]).collect();
+                d.y[0] = (0..m).map(|i| c.nominal[1][i] + truth * col[m + i]).collect();
+                d
+            })
+            .collect();
+        let o = crate::diagnose::DiagnoseOptions {
+            library: opts(crate::diagnose::PROBE_PLAY_SIZES.0),
+            ..crate::diagnose::DiagnoseOptions::default()
+        };
+        let mut tries = 0;
+        let (without, log) = crate::diagnose::play_size::probe_play(
+            &Carried,
+            &recordings,
+            &o,
+            &[],
+            name,
+            &HELD_WEIGHTS,
+            &HELD_FLOORS,
+            &mut || tries += 1,
+        )
+        .expect("assembled")
+        .expect("the play is a candidate");
+        let grid = crate::diagnose::probe_play_sizes();
+        assert_eq!(tries, log.len());
+        assert!(log.len() > grid.len(), "refined after the grid: {log:?}");
+        for (k, h) in grid.iter().enumerate() {
+            assert_eq!(log[k].0, *h);
+        }
+        let (best, cv) = crate::diagnose::play_size::best_size(&log).expect("a refit");
+        let last = crate::diagnose::PLAY_SIZE_STEPS[crate::diagnose::PLAY_SIZE_STEPS.len() - 1] - 1.0;
+        assert!((best / truth - 1.0).abs() <= last, "{best} from {log:?}");
+        // The grid's nearest sizes are 5.9 and 6.5 µm: the refinement did better than both.
+        let grid_best = crate::diagnose::play_size::best_size(&log[..grid.len()]).expect("a refit");
+        assert!(cv < grid_best.1, "{cv} against the grid's {grid_best:?}");
+        assert!(without > 10.0 * cv, "without the play {without}, with it {cv}");
+    }
+
+    /// The probe runs on one signature only ([`unseen_play`](crate::diagnose::relinearize)):
+    /// a first pass that selected no play, whose best-ranked candidate is a play with an
+    /// estimate outside its bounds that cross-validates better than nothing.
+    #[test]
+    fn the_play_probe_runs_only_where_an_implausible_play_ranked_first_and_none_was_selected() {
+        let recordings = carried_recordings(5e-6);
+        let opts = crate::diagnose::DiagnoseOptions {
+            library: LibraryOptions {
+                play_load_scales: vec![5.0],
+                ..LibraryOptions::default()
+            },
+            relinearize: false,
+            ..crate::diagnose::DiagnoseOptions::default()
+        };
+        let d = crate::diagnose::diagnose(&Carried, &recordings[..3], &recordings[3..], &opts, |_, _| {})
+            .expect("a diagnosis");
+        let cands = library(&Carried, &opts.library);
+        let play = "radial clearance in joint F (load scale 5 N)";
+        assert!(cands.iter().any(|c| c.name == play));
+        let other = cands
+            .iter()
+            .find(|c| !matches!(c.effect, Effect::Play { .. }))
+            .expect("a candidate other than a play")
+            .name
+            .clone();
+        let ranked = |candidate: &str, cv_ratio: f64, plausible: bool| crate::diagnose::Ranked {
+            candidate: candidate.into(),
+            statistic: 100.0,
+            p_value: 0.0,
+            cv_ratio,
+            plausible,
+        };
+        let with = |selected: Vec<String>, ranking: Vec<crate::diagnose::Ranked>| {
+            let mut e = d.clone();
+            (e.selected, e.ranking) = (selected, ranking);
+            crate::diagnose::relinearize::unseen_play(&Carried, &e, &cands)
+        };
+        // The signature: the play first, implausible, better than nothing; nothing selected
+        // or something else selected.
+        let signature = vec![ranked(play, 0.8, false), ranked(&other, 0.9, true)];
+        assert_eq!(with(vec![], signature.clone()), Some((play.to_string(), 0)));
+        assert_eq!(
+            with(vec![other.clone()], signature.clone()),
+            Some((play.to_string(), 0))
+        );
+        // A play selected: the first pass saw one.
+        assert_eq!(with(vec![play.to_string()], signature), None);
+        // The play plausible, or not first, or no better than nothing: no probe.
+        assert_eq!(with(vec![], vec![ranked(play, 0.8, true)]), None);
+        assert_eq!(
+            with(vec![], vec![ranked(play, 0.8, false), ranked(&other, 0.7, true)]),
+            None
+        );
+        assert_eq!(with(vec![], vec![ranked(play, 1.0, false)]), None);
+        // Something other than a play first, implausible: no probe.
+        assert_eq!(
+            with(vec![], vec![ranked(&other, 0.5, false), ranked(play, 0.8, false)]),
+            None
+        );
+    }
+
     /// The size search's refits share the reduced model's runs without play across trial
     /// sizes (they do not depend on it): under Hertz's law, where the play's columns are its
     /// response less that run, a refit after others gives to the last bit what a first refit

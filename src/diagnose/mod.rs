@@ -97,13 +97,13 @@ mod verdict;
 pub use error::DiagnoseError;
 pub use options::{DiagnoseOptions, BEARING_PLAY_LOAD_DAMPINGS};
 pub use outcome::{
-    claimed_name, ChannelFit, Confound, Diagnosis, Estimate, LinearizationStep, Ranked, ResidualTrace, Step,
-    UnresolvedPlay,
+    claimed_name, ChannelFit, Confound, Diagnosis, Estimate, LinearizationStep, PlayProbe, Ranked,
+    ResidualTrace, Step, UnresolvedPlay,
 };
 pub use play_size::{
-    search_constant_damping, search_load_damping, search_play_size, CONSTANT_DAMPING_STEPS,
+    probe_play_sizes, search_constant_damping, search_load_damping, search_play_size, CONSTANT_DAMPING_STEPS,
     LOAD_DAMPING_STEPS, MAX_CONSTANT_DAMPINGS, MAX_LOAD_DAMPINGS, MAX_PLAY_SIZES, PLAY_SIZE_STEPS,
-    PROFILE_SIZES, PROFILE_STEPS,
+    PROBE_PLAY_SIZES, PROFILE_SIZES, PROFILE_STEPS,
 };
 pub use relinearize::{
     CONTINUED_STEP_GAIN, CONVERGED_STEP, MAX_RELINEARIZATIONS, MAX_RESIZES, RESIZE_FACTOR,

@@ -203,6 +203,31 @@ pub struct LinearizationStep {
     pub departures: Vec<(f64, f64, f64)>,
 }
 
+/// A probe for a play the first pass did not see ([`Diagnosis::play_probe`]): the first
+/// pass's quasi-static play columns (tracker rows only) ranked a joint's play first but
+/// with an estimate outside its bounds, and selected no play — the signature of a rattle
+/// that the quasi-static shift cannot carry. The joint's radial play, with its dynamics
+/// (the reduced dynamic play model's response at each size, held, the first pass's
+/// selection refitted), tried at sizes in a geometric grid
+/// ([`PROBE_PLAY_SIZES`](super::PROBE_PLAY_SIZES)) and refined about the best
+/// ([`search_play_size`](super::search_play_size)).
+#[derive(Debug, Clone, Serialize)]
+pub struct PlayProbe {
+    /// The quasi-static play candidate that ranked first with an implausible estimate.
+    pub signature: String,
+    /// The dynamic play candidate probed.
+    pub candidate: String,
+    /// The first pass's selection refitted without the play: leave-one-recording-out RMS,
+    /// noise units (the probe's weights).
+    pub without: f64,
+    /// Each size tried (m) with the refit's leave-one-recording-out RMS (noise units), in
+    /// order: the grid, then the refinement.
+    pub sizes: Vec<(f64, f64)>,
+    /// The size taken as the reference play of the second pass (m): the best, when it
+    /// refits better than [`without`](Self::without); `None` otherwise.
+    pub kept: Option<f64>,
+}
+
 /// The outcome.
 #[derive(Debug, Clone, Serialize)]
 pub struct Diagnosis {
@@ -343,6 +368,10 @@ pub struct Diagnosis {
     /// part and each γ it tried with the sizes refined at it; empty when it did not run.
     /// Where the search ran again after further Gauss–Newton passes, that search's.
     pub dynamic_play_size_cv: Vec<(super::play_dynamics::ContactDamping, f64, f64)>,
+    /// The probe for a play the first pass's quasi-static columns could not carry
+    /// ([`DiagnoseOptions::play_probe`](super::DiagnoseOptions)); `None` when it did not
+    /// run.
+    pub play_probe: Option<PlayProbe>,
     /// The first pass's estimates that moved the model for the second pass, each with the
     /// fraction of its step kept ([`SHIFT_LINEARITY_TOLERANCE`](super::SHIFT_LINEARITY_TOLERANCE));
     /// empty without a second pass.

@@ -29,6 +29,36 @@ pub const PLAY_SIZE_STEPS: [f64; 3] = [1.04, 1.02, 1.01];
 /// kept selection with the reduced dynamic play model run at that size).
 pub const MAX_PLAY_SIZES: usize = 12;
 
+/// The geometric grid of radial plays (m) a probe for a play the first pass did not see
+/// tries ([`probe_play_sizes`], [`PlayProbe`](super::PlayProbe)): (smallest, largest,
+/// ratio). The range is the reference paper's (Table 1): 1 µm, its joints "practically
+/// without" clearance, to 20 µm, the clearance of its adopted universal joints. Why a ratio
+/// of 1.1: the reduced model's rattle near a singular position fits only within a few per
+/// cent of the play that made it (diagnosis log, "A play the first pass did not see":
+/// seed 11's clearance-under-length, recording 1, 6 µm truth, the model's response at
+/// 4.5 / 5.25 / 5.6 / 6 / 6.4 / 6.75 / 8 µm scaled to fit left 4.6 / 3.8 / 2.5 / 0.5 / 2.9
+/// / 3.9 / 4.3 torque-noise units of drive A's 11.1, and 4.9 / 4.7 at 3 / 12 µm), so a grid
+/// point must fall within 5 % of it for the basin to show; the refinement
+/// ([`search_play_size`]) takes it from there.
+pub const PROBE_PLAY_SIZES: (f64, f64, f64) = (1e-6, 20e-6, 1.1);
+
+/// The sizes of [`PROBE_PLAY_SIZES`]' grid, smallest first: the smallest, then each the
+/// ratio above the one before while within the largest (at most one part in a million
+/// above it, for round-off).
+///
+/// ```
+/// let sizes = lash::diagnose::probe_play_sizes();
+/// assert_eq!(sizes.len(), 33);
+/// assert!(sizes.windows(2).all(|w| (w[1] / w[0] - 1.1).abs() < 1e-12));
+/// assert!(sizes[0] == 1e-6 && *sizes.last().unwrap() <= 20e-6);
+/// ```
+pub fn probe_play_sizes() -> Vec<f64> {
+    let (lo, hi, ratio) = PROBE_PLAY_SIZES;
+    std::iter::successors(Some(lo), |h| Some(h * ratio))
+        .take_while(|h| *h <= hi * (1.0 + 1e-6))
+        .collect()
+}
+
 /// A pattern search on a play's size: from `h0` (m), each step of [`PLAY_SIZE_STEPS`]
 /// tried either way from the best size so far, the way that improves followed while it
 /// does, then the next smaller step; at most [`MAX_PLAY_SIZES`] evaluations of `objective`
@@ -252,6 +282,60 @@ fn pattern_search<E>(
     Ok(log)
 }
 
+/// What [`probe_play`] refitted: the refit without the play, then every (size in m,
+/// leave-one-recording-out RMS in noise units) in order.
+pub(super) type ProbeRefits = (f64, Vec<(f64, f64)>);
+
+/// A probe for a radial play the first pass did not see ([`PlayProbe`](super::PlayProbe)):
+/// the candidates named `selected` refitted with the radial play candidate `play` (of
+/// `opts`' library: the reduced dynamic play model's) held at each size of
+/// [`probe_play_sizes`], then the size refined from the best ([`search_play_size`], its
+/// value there known). Returns the refit without the play (at the grid's first size's
+/// samples) and every (size, objective) tried, in order; `None` when `play` is not among
+/// the candidates or no refit ran. `on_try` is called before each refit; a refit that
+/// fails counts as no improvement.
+///
+/// Errors: those of the columns' and residuals' assembly for the other candidates.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn probe_play(
+    model: &dyn InverseDynamicsModel,
+    fit: &[MotionData],
+    opts: &DiagnoseOptions,
+    selected: &[String],
+    play: &str,
+    weights: &[f64],
+    floors: &[f64],
+    on_try: &mut dyn FnMut(),
+) -> Result<Option<ProbeRefits>, DiagnoseError> {
+    let mut with_play = selected.to_vec();
+    with_play.push(play.to_string());
+    let Some(held) = HeldPlay::new(model, fit, opts, &with_play, play, weights, floors)? else {
+        return Ok(None);
+    };
+    let sizes = probe_play_sizes();
+    let mut log = vec![];
+    for &h in &sizes {
+        on_try();
+        log.push((h, held.cv(h).ok().flatten().unwrap_or(f64::NAN)));
+    }
+    let Some(without) = held.cv_without(sizes[0]).ok().flatten() else {
+        return Ok(None);
+    };
+    if let Some((h, cv)) = best_size(&log) {
+        log.extend(held.search(h, Some(cv), on_try).into_iter().skip(1));
+    }
+    Ok(Some((without, log)))
+}
+
+/// The (size, objective) with the smallest finite objective in `log`; `None` when none is
+/// finite.
+pub(super) fn best_size(log: &[(f64, f64)]) -> Option<(f64, f64)> {
+    log.iter()
+        .copied()
+        .filter(|x| x.1.is_finite())
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
 /// The selection refitted with a radial play held at trial sizes ([`HeldPlay::cv`]): the
 /// columns that do not change with the size — every candidate but the play's, at the
 /// selection's reference plays — and the residual, assembled once.
@@ -408,6 +492,21 @@ impl<'a> HeldPlay<'a> {
     ///
     /// Errors: those of the play column's assembly.
     pub(super) fn cv(&self, h: f64) -> Result<Option<f64>, DiagnoseError> {
+        self.refit(h, true)
+    }
+
+    /// The leave-one-recording-out RMS (in noise floors) of the selection refitted without
+    /// the play: as [`cv`](Self::cv) at `h`, on the same samples (those the play's
+    /// assembly at `h` leaves out are left out here too), the play's effect not taken from
+    /// the residual. The baseline a held play must beat.
+    ///
+    /// Errors: those of the play column's assembly.
+    pub(super) fn cv_without(&self, h: f64) -> Result<Option<f64>, DiagnoseError> {
+        self.refit(h, false)
+    }
+
+    /// [`cv`](Self::cv) (`hold`) or [`cv_without`](Self::cv_without) (not).
+    fn refit(&self, h: f64, hold: bool) -> Result<Option<f64>, DiagnoseError> {
         let mut o = self.opts.clone();
         o.library.dynamic_play_clearance = Some(h);
         let one = prepare_with(
@@ -440,8 +539,10 @@ impl<'a> HeldPlay<'a> {
                     }
                 }
             }
-            for (bi, ai) in b.iter_mut().zip(&a) {
-                *bi -= h * ai;
+            if hold {
+                for (bi, ai) in b.iter_mut().zip(&a) {
+                    *bi -= h * ai;
+                }
             }
             cols.push(a);
             blocks.push((cols, b));

@@ -313,6 +313,40 @@ pub(super) fn dynamic_play_references(
     (radial.or(axial), axial.or(radial))
 }
 
+/// The play the first pass `d` ranked first but did not take (the signature of a play its
+/// quasi-static columns cannot carry, [`PlayProbe`](super::PlayProbe)): where `d` selected
+/// no play, the candidate with the smallest cross-validated ratio in its ranking is a play
+/// (either direction) whose estimate lies outside its bounds and which cross-validates
+/// better than no candidate. Returns that candidate's name and play site; `None` otherwise,
+/// or where the model cannot run the reduced dynamic play model.
+pub(super) fn unseen_play(
+    model: &dyn InverseDynamicsModel,
+    d: &Diagnosis,
+    cands: &[Candidate],
+) -> Option<(String, usize)> {
+    let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta, j) != 0.0);
+    if model.play_sites().is_empty() || !compliant {
+        return None;
+    }
+    let play_site = |name: &str| match cands.iter().find(|c| c.name == name)?.effect {
+        Effect::Play { site, .. } => Some(site),
+        _ => None,
+    };
+    if d.selected.iter().any(|n| play_site(n).is_some()) {
+        return None;
+    }
+    let first = d
+        .ranking
+        .iter()
+        .filter(|r| r.cv_ratio.is_finite())
+        .min_by(|a, b| a.cv_ratio.total_cmp(&b.cv_ratio))?;
+    if first.plausible || first.cv_ratio >= 1.0 {
+        return None;
+    }
+    play_site(&first.candidate).map(|site| (first.candidate.clone(), site))
+}
+
 /// How far (as a factor either way) a selected play's estimate may be from the reference
 /// play its candidate's columns were taken at before the selection is repeated at the
 /// estimate ([`Diagnosis::dynamic_play_reference_cv`]).

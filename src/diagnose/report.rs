@@ -203,6 +203,25 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             d.relinearization_passes
         );
     }
+    if let Some(p) = &d.play_probe {
+        let best = super::play_size::best_size(&p.sizes);
+        let _ = writeln!(
+            m,
+            "- A play the first pass ranked first but could not carry ({}, its quasi-static estimate outside its bounds): {} refitted with the first pass's selection at {} sizes, {:.1}–{:.1} µm in steps of {:.0} % and refined (leave-one-recording-out RMS in noise units; without the play {:.3}): {}.",
+            p.signature,
+            p.candidate,
+            p.sizes.len(),
+            super::PROBE_PLAY_SIZES.0 * 1e6,
+            super::PROBE_PLAY_SIZES.1 * 1e6,
+            (super::PROBE_PLAY_SIZES.2 - 1.0) * 100.0,
+            p.without,
+            match (best, p.kept) {
+                (Some((h, cv)), Some(_)) => format!("the best {:.3} µm at {cv:.3}, the reference play of the second pass", h * 1e6),
+                (Some((h, cv)), None) => format!("the best {:.3} µm at {cv:.3}, not better: no play taken to the second pass", h * 1e6),
+                (None, _) => "no refit succeeded".into(),
+            }
+        );
+    }
     if let Some(h) = d.dynamic_play_reference {
         let _ = writeln!(
             m,
@@ -348,8 +367,13 @@ fn reference_source(d: &Diagnosis) -> &'static str {
     {
         return "the size whose refit cross-validated best in a search on it";
     }
+    let probed = d.play_probe.as_ref().and_then(|p| p.kept).is_some();
     match d.dynamic_play_reference_cv.iter().position(kept) {
+        Some(k) if k > 0 && probed => {
+            "the selection's own estimate of a play, after a pass at the probe's best size"
+        }
         Some(k) if k > 0 => "the selection's own estimate of a play, after a pass at the first pass's",
+        _ if probed => "the best size of the probe for a play the first pass did not carry",
         _ => "the first pass's estimate of a play",
     }
 }

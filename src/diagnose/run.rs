@@ -4,13 +4,15 @@
 //! recordings, which first chooses the differentiation window.
 
 use super::adequacy::{self, BasisResidual};
-use super::candidates::library;
+use super::candidates::{library, Effect, PlayDirection};
 use super::data::{Channel, MotionData};
 use super::error::DiagnoseError;
 use super::locate::{locate, tagged_windows, StateScales};
 use super::model::{on_copies, InverseDynamicsModel};
 use super::options::DiagnoseOptions;
-use super::outcome::{ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, ResidualTrace};
+use super::outcome::{
+    ChannelFit, Diagnosis, PlayDynamicsChannel, PlayDynamicsCheck, PlayProbe, ResidualTrace,
+};
 use super::play_dynamics::{ContactDamping, BALL_CONTACT};
 use super::play_size::{
     best_refit, search_constant_damping, search_load_damping, HeldPlay, MAX_CONSTANT_DAMPINGS,
@@ -184,17 +186,66 @@ fn diagnose_folds(
     };
     let (shifted, moved) = relinearize::shift(model, &first.estimates, &cands, &fraction);
     // The plays' dynamics in the selection: the reference plays from the first pass.
-    let references = if opts.dynamic_play_selection {
+    let mut references = if opts.dynamic_play_selection {
         relinearize::dynamic_play_references(model, &first, &cands)
     } else {
         (None, None)
     };
+    // A play the first pass ranked first but could not carry: its dynamics probed, and the
+    // best size, where it refits better, the reference of the second pass's plays.
+    let mut probe = None;
+    if opts.dynamic_play_selection && opts.play_probe && references == (None, None) {
+        if let Some((signature, site)) = relinearize::unseen_play(model, &first, &cands) {
+            let mut o = opts.clone();
+            o.relinearize = false;
+            o.shift = moved.clone();
+            o.library.dynamic_play_clearance = Some(super::PROBE_PLAY_SIZES.0);
+            let radial = library(model, &o.library).into_iter().find(|c| {
+                matches!(c.effect, Effect::Play { site: s, direction: PlayDirection::Radial, .. } if s == site)
+            });
+            if let Some(play) = radial {
+                let floors = measured_floors(fit);
+                let weights: Vec<f64> = first
+                    .channels
+                    .iter()
+                    .map(|c| c.fit_after.max(c.noise_floor))
+                    .collect();
+                let mut on_try = || progress("play probe", 0.5);
+                let found = super::play_size::probe_play(
+                    &shifted,
+                    fit,
+                    &o,
+                    &first.selected,
+                    &play.name,
+                    &weights,
+                    &floors,
+                    &mut on_try,
+                )?;
+                if let Some((without, sizes)) = found {
+                    let kept = super::play_size::best_size(&sizes)
+                        .filter(|&(_, cv)| cv * (1.0 + opts.confound_tolerance) < without)
+                        .map(|(h, _)| h);
+                    if let Some(h) = kept {
+                        references = (Some(h), Some(h));
+                    }
+                    probe = Some(PlayProbe {
+                        signature,
+                        candidate: play.name,
+                        without,
+                        sizes,
+                        kept,
+                    });
+                }
+            }
+        }
+    }
     let dynamic = references.0.is_some() || references.1.is_some();
     // A backlash found: the second pass takes its dead zone's secant.
     let backlash = relinearize::backlash_reference(model, &first, &cands);
     if moved.is_empty() && !dynamic && backlash.is_none() {
         // Nothing to re-linearise; the play-dynamics check still runs.
         let mut d = first;
+        d.play_probe = probe;
         d.relinearization_steps = steps;
         d.play_dynamics = play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, &mut *progress)?;
         d.verdict = verdict_text(model, &d, &cands);
@@ -482,6 +533,7 @@ fn diagnose_folds(
         )?;
     }
     let mut d = relinearize::against_nominal(model, first, second, &cands2);
+    d.play_probe = probe;
     if !selects_backlash(&d) {
         (d.backlash_place, d.backlash_place_identified) = (None, None);
         d.backlash_place_cv.clear();
@@ -994,6 +1046,7 @@ fn diagnose_once(
         dynamic_play_interpolation: dynamic_model.then_some(opts.library.play_interpolation),
         dynamic_play_reference_cv: vec![],
         dynamic_play_size_cv: vec![],
+        play_probe: None,
         relinearization_steps: vec![],
         relinearization_cv: vec![],
         relinearization_passes: 0,
