@@ -147,9 +147,9 @@ pub struct Args {
     /// then γ (steps of 50, 22 and 10 %), the size refined at each (also with --suite).
     #[arg(long)]
     play_damping_search: bool,
-    /// No probe for a play the first pass ranked first but could not carry (by default, where
-    /// the first pass selected no play and its best-ranked candidate is a play with an
-    /// estimate outside its bounds, that joint's radial play is refitted with its dynamics at
+    /// No probe for a play the first pass saw but could not carry (by default, where the
+    /// first pass selected no play and the candidate that cross-validated best alone is a
+    /// play with an estimate outside its bounds, that joint's radial play is refitted with its dynamics at
     /// 1–20 µm, and the best size, where it refits better, becomes the second pass's
     /// reference play; also with --suite).
     #[arg(long)]

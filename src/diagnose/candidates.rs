@@ -1969,8 +1969,8 @@ mod tests {
     /// ([`probe_play`](crate::diagnose::play_size::probe_play)): on recordings whose channels
     /// are the nominal model's plus the reduced model's effect at 6.2 µm — between two of the
     /// grid's sizes — it refits at every size of the grid in order, then refines about the
-    /// best to within the size search's last step, calls its progress once per refit, and
-    /// the refit without the play is worse than the best.
+    /// best to within the size search's last step, calls its progress once per refit with
+    /// the play, and the refit without the play is worse than the best.
     #[test]
     fn the_play_probe_walks_its_grid_then_refines_to_the_size_that_made_the_data() {
         let truth = 6.2e-6;
@@ -1987,7 +1987,7 @@ mod tests {
         assert_eq!(play.len(), 1);
         let recordings: Vec<MotionData> = (0..2)
             .map(|r| {
-                let mut d = carried_swing(401 + 100 * r);
+                let mut d = carried_swing(201 + 50 * r);
                 d.name = format!("carried-{r}");
                 let m = d.len();
                 let c = columns(&play, &d, &Carried, &opts(truth));
@@ -2023,17 +2023,19 @@ mod tests {
         let (best, cv) = crate::diagnose::play_size::best_size(&log).expect("a refit");
         let last = crate::diagnose::PLAY_SIZE_STEPS[crate::diagnose::PLAY_SIZE_STEPS.len() - 1] - 1.0;
         assert!((best / truth - 1.0).abs() <= last, "{best} from {log:?}");
-        // The grid's nearest sizes are 5.9 and 6.5 µm: the refinement did better than both.
+        // The grid's nearest sizes are 6.12 and 6.73 µm: the refinement did better than both.
         let grid_best = crate::diagnose::play_size::best_size(&log[..grid.len()]).expect("a refit");
         assert!(cv < grid_best.1, "{cv} against the grid's {grid_best:?}");
         assert!(without > 10.0 * cv, "without the play {without}, with it {cv}");
     }
 
-    /// The probe runs on one signature only ([`unseen_play`](crate::diagnose::relinearize)):
-    /// a first pass that selected no play, whose best-ranked candidate is a play with an
-    /// estimate outside its bounds that cross-validates better than nothing.
+    /// The probe runs on one signature only
+    /// ([`unseen_play`](crate::diagnose::relinearize::unseen_play)): a first pass that
+    /// selected no play, whose best candidate alone by cross-validation is a play (either
+    /// direction) with an estimate outside its bounds that cross-validates better than
+    /// nothing.
     #[test]
-    fn the_play_probe_runs_only_where_an_implausible_play_ranked_first_and_none_was_selected() {
+    fn the_play_probe_runs_only_where_an_implausible_play_is_best_alone_and_none_was_selected() {
         let recordings = carried_recordings(5e-6);
         let opts = crate::diagnose::DiagnoseOptions {
             library: LibraryOptions {
@@ -2083,6 +2085,35 @@ mod tests {
             None
         );
         assert_eq!(with(vec![], vec![ranked(play, 1.0, false)]), None);
+        // An axial play's signature probes its joint too; a ratio that is not a number is
+        // passed over; an empty ranking or a name the library does not have: no probe.
+        let axial = cands
+            .iter()
+            .find(|c| {
+                matches!(
+                    c.effect,
+                    Effect::Play {
+                        direction: PlayDirection::Axial,
+                        ..
+                    }
+                )
+            })
+            .expect("an axial play candidate")
+            .name
+            .clone();
+        assert_eq!(
+            with(vec![], vec![ranked(&axial, 0.8, false)]),
+            Some((axial.clone(), 0))
+        );
+        assert_eq!(
+            with(
+                vec![],
+                vec![ranked(&other, f64::NAN, true), ranked(play, 0.8, false)]
+            ),
+            Some((play.to_string(), 0))
+        );
+        assert_eq!(with(vec![], vec![]), None);
+        assert_eq!(with(vec![], vec![ranked("no such candidate", 0.5, false)]), None);
         // Something other than a play first, implausible: no probe.
         assert_eq!(
             with(vec![], vec![ranked(&other, 0.5, false), ranked(play, 0.8, false)]),

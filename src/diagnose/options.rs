@@ -153,12 +153,13 @@ pub struct DiagnoseOptions {
     /// evaluations: from 20 N·s/m, where each step down improves, it tries 63.2, 6.32, 2.0
     /// and 0.632 N·s/m, then one value a step of ⁴√10 from the best.
     pub play_damping_search: bool,
-    /// Probe for a play the first pass ranked first but could not carry
-    /// ([`PlayProbe`](super::PlayProbe)): where it selected no play and its best-ranked
-    /// candidate is a play whose quasi-static estimate lies outside its bounds, that joint's
-    /// radial play with its dynamics refitted at each size of
-    /// [`PROBE_PLAY_SIZES`](super::PROBE_PLAY_SIZES)' grid (33 refits) and refined about
-    /// the best (at most [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) more); where the best
+    /// Probe for a play the first pass saw but could not carry
+    /// ([`PlayProbe`](super::PlayProbe)): where it selected no play and, of its candidates
+    /// alone, the one that cross-validated best is a play whose quasi-static estimate lies
+    /// outside its bounds, that joint's radial play with its dynamics refitted at each size
+    /// of [`PROBE_PLAY_SIZES`](super::PROBE_PLAY_SIZES)' grid (32 refits), refined about
+    /// the best (at most [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) − 1 more) and once
+    /// without the play; where the best
     /// refits better than the first pass's selection without it (beyond
     /// [`confound_tolerance`](Self::confound_tolerance)), its size is the second pass's
     /// reference play, as a play the first pass selected would be. Default on; it runs

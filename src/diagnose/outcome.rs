@@ -203,28 +203,34 @@ pub struct LinearizationStep {
     pub departures: Vec<(f64, f64, f64)>,
 }
 
-/// A probe for a play the first pass did not see ([`Diagnosis::play_probe`]): the first
-/// pass's quasi-static play columns (tracker rows only) ranked a joint's play first but
-/// with an estimate outside its bounds, and selected no play — the signature of a rattle
-/// that the quasi-static shift cannot carry. The joint's radial play, with its dynamics
-/// (the reduced dynamic play model's response at each size, held, the first pass's
-/// selection refitted), tried at sizes in a geometric grid
+/// A probe for a play the first pass did not see ([`Diagnosis::play_probe`]): of the first
+/// pass's candidates alone, the one that cross-validated best was a joint's quasi-static play
+/// (tracker rows only) with an estimate outside its bounds, and the pass selected no play —
+/// the signature of a rattle that the quasi-static shift cannot carry. The joint's radial
+/// play, with its dynamics (the reduced dynamic play model's response at each size, held,
+/// the first pass's selection refitted), tried at sizes in a geometric grid
 /// ([`PROBE_PLAY_SIZES`](super::PROBE_PLAY_SIZES)) and refined about the best
-/// ([`search_play_size`](super::search_play_size)).
+/// ([`search_play_size`](super::search_play_size)). Under Hertz's law the held effect is the
+/// response with the play less without, and the joint's contact compliance at zero play is
+/// not among the refitted candidates (the second pass has it): the probe only chooses the
+/// reference play; the second pass's selection decides whether a play is found.
 #[derive(Debug, Clone, Serialize)]
 pub struct PlayProbe {
-    /// The quasi-static play candidate that ranked first with an implausible estimate.
+    /// The quasi-static play candidate that cross-validated best alone, its estimate outside
+    /// its bounds.
     pub signature: String,
     /// The dynamic play candidate probed.
     pub candidate: String,
-    /// The first pass's selection refitted without the play: leave-one-recording-out RMS,
-    /// noise units (the probe's weights).
+    /// The first pass's selection refitted without the play, on the samples of the best
+    /// size's refit: leave-one-recording-out RMS, noise units (the probe's weights); NaN
+    /// where that refit failed.
     pub without: f64,
-    /// Each size tried (m) with the refit's leave-one-recording-out RMS (noise units), in
-    /// order: the grid, then the refinement.
+    /// Each size tried (m) with the refit's leave-one-recording-out RMS (noise units; NaN
+    /// where the refit failed), in order: the grid, then the refinement.
     pub sizes: Vec<(f64, f64)>,
     /// The size taken as the reference play of the second pass (m): the best, when it
-    /// refits better than [`without`](Self::without); `None` otherwise.
+    /// refits better than [`without`](Self::without) beyond the confounding tolerance
+    /// ([`DiagnoseOptions::confound_tolerance`](super::DiagnoseOptions)); `None` otherwise.
     pub kept: Option<f64>,
 }
 
@@ -370,7 +376,7 @@ pub struct Diagnosis {
     pub dynamic_play_size_cv: Vec<(super::play_dynamics::ContactDamping, f64, f64)>,
     /// The probe for a play the first pass's quasi-static columns could not carry
     /// ([`DiagnoseOptions::play_probe`](super::DiagnoseOptions)); `None` when it did not
-    /// run.
+    /// run (or its play had no dynamic candidate, or no refit could be assembled).
     pub play_probe: Option<PlayProbe>,
     /// The first pass's estimates that moved the model for the second pass, each with the
     /// fraction of its step kept ([`SHIFT_LINEARITY_TOLERANCE`](super::SHIFT_LINEARITY_TOLERANCE));

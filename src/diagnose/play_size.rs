@@ -48,7 +48,7 @@ pub const PROBE_PLAY_SIZES: (f64, f64, f64) = (1e-6, 20e-6, 1.1);
 ///
 /// ```
 /// let sizes = lash::diagnose::probe_play_sizes();
-/// assert_eq!(sizes.len(), 33);
+/// assert_eq!(sizes.len(), 32);
 /// assert!(sizes.windows(2).all(|w| (w[1] / w[0] - 1.1).abs() < 1e-12));
 /// assert!(sizes[0] == 1e-6 && *sizes.last().unwrap() <= 20e-6);
 /// ```
@@ -290,10 +290,10 @@ pub(super) type ProbeRefits = (f64, Vec<(f64, f64)>);
 /// the candidates named `selected` refitted with the radial play candidate `play` (of
 /// `opts`' library: the reduced dynamic play model's) held at each size of
 /// [`probe_play_sizes`], then the size refined from the best ([`search_play_size`], its
-/// value there known). Returns the refit without the play (at the grid's first size's
-/// samples) and every (size, objective) tried, in order; `None` when `play` is not among
-/// the candidates or no refit ran. `on_try` is called before each refit; a refit that
-/// fails counts as no improvement.
+/// value there known). Returns the refit without the play (on the best size's samples;
+/// NaN where it fails or no size refitted) and every (size, objective) tried, in order;
+/// `None` when `play` is not among the candidates. `on_try` is called before each refit
+/// with the play; a refit that fails counts as no improvement.
 ///
 /// Errors: those of the columns' and residuals' assembly for the other candidates.
 #[allow(clippy::too_many_arguments)]
@@ -318,12 +318,12 @@ pub(super) fn probe_play(
         on_try();
         log.push((h, held.cv(h).ok().flatten().unwrap_or(f64::NAN)));
     }
-    let Some(without) = held.cv_without(sizes[0]).ok().flatten() else {
-        return Ok(None);
-    };
     if let Some((h, cv)) = best_size(&log) {
         log.extend(held.search(h, Some(cv), on_try).into_iter().skip(1));
     }
+    let without = best_size(&log)
+        .and_then(|(h, _)| held.cv_without(h).ok().flatten())
+        .unwrap_or(f64::NAN);
     Ok(Some((without, log)))
 }
 

@@ -313,9 +313,10 @@ pub(super) fn dynamic_play_references(
     (radial.or(axial), axial.or(radial))
 }
 
-/// The play the first pass `d` ranked first but did not take (the signature of a play its
+/// The play the first pass `d` saw but did not take (the signature of a play its
 /// quasi-static columns cannot carry, [`PlayProbe`](super::PlayProbe)): where `d` selected
-/// no play, the candidate with the smallest cross-validated ratio in its ranking is a play
+/// no play, the candidate with the smallest finite cross-validated ratio in its ranking
+/// (the best alone by cross-validation, not the ranking's first row) is a play
 /// (either direction) whose estimate lies outside its bounds and which cross-validates
 /// better than no candidate. Returns that candidate's name and play site; `None` otherwise,
 /// or where the model cannot run the reduced dynamic play model.

@@ -205,19 +205,32 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
     }
     if let Some(p) = &d.play_probe {
         let best = super::play_size::best_size(&p.sizes);
+        let grid = super::probe_play_sizes();
+        let (lo, hi) = (
+            grid.first().copied().unwrap_or(0.0),
+            grid.last().copied().unwrap_or(0.0),
+        );
+        let without = if p.without.is_finite() {
+            format!("{:.3}", p.without)
+        } else {
+            "its refit failed".into()
+        };
         let _ = writeln!(
             m,
-            "- A play the first pass ranked first but could not carry ({}, its quasi-static estimate outside its bounds): {} refitted with the first pass's selection at {} sizes, {:.1}–{:.1} µm in steps of {:.0} % and refined (leave-one-recording-out RMS in noise units; without the play {:.3}): {}.",
+            "- A play the first pass saw but could not carry ({}: alone the best by cross-validation, its quasi-static estimate outside its bounds): {} refitted with the first pass's selection at {} sizes, {:.2}–{:.2} µm in steps of {:.0} %, then {} about the best (leave-one-recording-out RMS in noise units; without the play {without}): {}.",
             p.signature,
             p.candidate,
-            p.sizes.len(),
-            super::PROBE_PLAY_SIZES.0 * 1e6,
-            super::PROBE_PLAY_SIZES.1 * 1e6,
+            grid.len(),
+            lo * 1e6,
+            hi * 1e6,
             (super::PROBE_PLAY_SIZES.2 - 1.0) * 100.0,
-            p.without,
+            p.sizes.len().saturating_sub(grid.len()),
             match (best, p.kept) {
                 (Some((h, cv)), Some(_)) => format!("the best {:.3} µm at {cv:.3}, the reference play of the second pass", h * 1e6),
-                (Some((h, cv)), None) => format!("the best {:.3} µm at {cv:.3}, not better: no play taken to the second pass", h * 1e6),
+                (Some((h, cv)), None) => format!(
+                    "the best {:.3} µm at {cv:.3}, not better beyond the confounding tolerance: no play taken to the second pass",
+                    h * 1e6
+                ),
                 (None, _) => "no refit succeeded".into(),
             }
         );

@@ -191,7 +191,7 @@ fn diagnose_folds(
     } else {
         (None, None)
     };
-    // A play the first pass ranked first but could not carry: its dynamics probed, and the
+    // A play the first pass saw but could not carry: its dynamics probed, and the
     // best size, where it refits better, the reference of the second pass's plays.
     let mut probe = None;
     if opts.dynamic_play_selection && opts.play_probe && references == (None, None) {
@@ -211,6 +211,8 @@ fn diagnose_folds(
                     .map(|c| c.fit_after.max(c.noise_floor))
                     .collect();
                 let mut on_try = || progress("play probe", 0.5);
+                // (A probe that cannot assemble its columns leaves the first pass's choice,
+                // as the play-size search does.)
                 let found = super::play_size::probe_play(
                     &shifted,
                     fit,
@@ -220,7 +222,9 @@ fn diagnose_folds(
                     &weights,
                     &floors,
                     &mut on_try,
-                )?;
+                )
+                .ok()
+                .flatten();
                 if let Some((without, sizes)) = found {
                     let kept = super::play_size::best_size(&sizes)
                         .filter(|&(_, cv)| cv * (1.0 + opts.confound_tolerance) < without)
