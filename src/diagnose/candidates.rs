@@ -1898,6 +1898,29 @@ mod tests {
         .expect("the play is a candidate")
     }
 
+    /// The held-play tests' library: plays at one load scale, the radial ones with their
+    /// dynamics at a reference play `h` (m).
+    fn held_library(h: f64) -> LibraryOptions {
+        LibraryOptions {
+            play_load_scales: vec![5.0],
+            dynamic_play_clearance: Some(h),
+            ..LibraryOptions::default()
+        }
+    }
+
+    /// The carried joint's radial play with its dynamics (the held-play tests' play).
+    const HELD_PLAY: &str = "radial clearance in joint F (reduced dynamic model)";
+
+    /// [`HELD_PLAY`]'s candidate at reference play `h` (m), alone.
+    fn held_play_candidate(h: f64) -> Vec<Candidate> {
+        let play: Vec<Candidate> = library(&Carried, &held_library(h))
+            .into_iter()
+            .filter(|c| c.name == HELD_PLAY)
+            .collect();
+        assert_eq!(play.len(), 1);
+        play
+    }
+
     /// The play-size search's refit ([`HeldPlay`](crate::diagnose::play_size::HeldPlay))
     /// holds the play's effect at the reduced model's at each trial size: on recordings
     /// whose channels are the nominal model's plus that effect at 5 µm, nothing remains at
@@ -1905,17 +1928,9 @@ mod tests {
     #[test]
     fn a_play_held_at_its_size_leaves_nothing_and_at_another_the_difference_of_the_responses() {
         let h0 = 5e-6;
-        let opts = |h: f64| LibraryOptions {
-            play_load_scales: vec![5.0],
-            dynamic_play_clearance: Some(h),
-            ..LibraryOptions::default()
-        };
-        let name = "radial clearance in joint F (reduced dynamic model)";
-        let play: Vec<Candidate> = library(&Carried, &opts(h0))
-            .into_iter()
-            .filter(|c| c.name == name)
-            .collect();
-        assert_eq!(play.len(), 1);
+        let opts = held_library;
+        let name = HELD_PLAY;
+        let play = held_play_candidate(h0);
         let n = 401;
         // The effect, h·column at reference h, per channel (torque, then output).
         let effect = |d: &MotionData, h: f64| {
@@ -1974,17 +1989,9 @@ mod tests {
     #[test]
     fn the_play_probe_walks_its_grid_then_refines_to_the_size_that_made_the_data() {
         let truth = 6.2e-6;
-        let opts = |h: f64| LibraryOptions {
-            play_load_scales: vec![5.0],
-            dynamic_play_clearance: Some(h),
-            ..LibraryOptions::default()
-        };
-        let name = "radial clearance in joint F (reduced dynamic model)";
-        let play: Vec<Candidate> = library(&Carried, &opts(truth))
-            .into_iter()
-            .filter(|c| c.name == name)
-            .collect();
-        assert_eq!(play.len(), 1);
+        let opts = held_library;
+        let name = HELD_PLAY;
+        let play = held_play_candidate(truth);
         let recordings: Vec<MotionData> = (0..2)
             .map(|r| {
                 let mut d = carried_swing(201 + 50 * r);

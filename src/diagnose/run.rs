@@ -191,57 +191,15 @@ fn diagnose_folds(
     } else {
         (None, None)
     };
-    // A play the first pass saw but could not carry: its dynamics probed, and the
-    // best size, where it refits better, the reference of the second pass's plays.
-    let mut probe = None;
-    if opts.dynamic_play_selection && opts.play_probe && references == (None, None) {
-        if let Some((signature, site)) = relinearize::unseen_play(model, &first, &cands) {
-            let mut o = opts.clone();
-            o.relinearize = false;
-            o.shift = moved.clone();
-            o.library.dynamic_play_clearance = Some(super::PROBE_PLAY_SIZES.0);
-            let radial = library(model, &o.library).into_iter().find(|c| {
-                matches!(c.effect, Effect::Play { site: s, direction: PlayDirection::Radial, .. } if s == site)
-            });
-            if let Some(play) = radial {
-                let floors = measured_floors(fit);
-                let weights: Vec<f64> = first
-                    .channels
-                    .iter()
-                    .map(|c| c.fit_after.max(c.noise_floor))
-                    .collect();
-                let mut on_try = || progress("play probe", 0.5);
-                // (A probe that cannot assemble its columns leaves the first pass's choice,
-                // as the play-size search does.)
-                let found = super::play_size::probe_play(
-                    &shifted,
-                    fit,
-                    &o,
-                    &first.selected,
-                    &play.name,
-                    &weights,
-                    &floors,
-                    &mut on_try,
-                )
-                .ok()
-                .flatten();
-                if let Some((without, sizes)) = found {
-                    let kept = super::play_size::best_size(&sizes)
-                        .filter(|&(_, cv)| cv * (1.0 + opts.confound_tolerance) < without)
-                        .map(|(h, _)| h);
-                    if let Some(h) = kept {
-                        references = (Some(h), Some(h));
-                    }
-                    probe = Some(PlayProbe {
-                        signature,
-                        candidate: play.name,
-                        without,
-                        sizes,
-                        kept,
-                    });
-                }
-            }
-        }
+    // A play the first pass saw but could not carry: its dynamics probed, and the best
+    // size, where it refits better, the reference of the second pass's plays.
+    let probe = if opts.dynamic_play_selection && opts.play_probe && references == (None, None) {
+        probe_unseen_play(model, &shifted, &moved, fit, &first, &cands, opts, &mut *progress)
+    } else {
+        None
+    };
+    if let Some(h) = probe.as_ref().and_then(|p| p.kept) {
+        references = (Some(h), Some(h));
     }
     let dynamic = references.0.is_some() || references.1.is_some();
     // A backlash found: the second pass takes its dead zone's secant.
@@ -572,6 +530,71 @@ fn diagnose_folds(
     Ok(d)
 }
 
+/// The weights and error units of a refit about the selection `d` on `fit`: each channel
+/// weighted by the larger of its noise floor and what `d` leaves of it; errors in the
+/// measured channels' noise floors, as the selection's (both in the channel's unit).
+fn refit_weights(d: &Diagnosis, fit: &[MotionData]) -> (Vec<f64>, Vec<f64>) {
+    let weights = d
+        .channels
+        .iter()
+        .map(|c| c.fit_after.max(c.noise_floor))
+        .collect();
+    (weights, measured_floors(fit))
+}
+
+/// The probe for a play the first pass `first` saw but could not carry
+/// ([`PlayProbe`]): where [`relinearize::unseen_play`] finds the signature, that joint's
+/// radial play with its dynamics refitted beside `first`'s selection on `shifted` (the
+/// model moved by `moved`) at each size of the probe's grid and refined
+/// ([`probe_play`](super::play_size::probe_play)); its best size kept where it refits better
+/// than without the play beyond the confounding tolerance. `None` without the signature, or
+/// where the play has no dynamic candidate or its refits cannot be assembled (the first
+/// pass's choice then stands, as after a play-size search that cannot assemble).
+#[allow(clippy::too_many_arguments)]
+fn probe_unseen_play(
+    model: &dyn InverseDynamicsModel,
+    shifted: &dyn InverseDynamicsModel,
+    moved: &[(String, f64)],
+    fit: &[MotionData],
+    first: &Diagnosis,
+    cands: &[super::candidates::Candidate],
+    opts: &DiagnoseOptions,
+    progress: &mut dyn FnMut(&str, f64),
+) -> Option<PlayProbe> {
+    let (signature, site) = relinearize::unseen_play(model, first, cands)?;
+    let mut o = opts.clone();
+    o.relinearize = false;
+    o.shift = moved.to_vec();
+    o.library.dynamic_play_clearance = Some(super::PROBE_PLAY_SIZES.0);
+    let play = library(model, &o.library).into_iter().find(
+        |c| matches!(c.effect, Effect::Play { site: s, direction: PlayDirection::Radial, .. } if s == site),
+    )?;
+    let (weights, floors) = refit_weights(first, fit);
+    let mut on_try = || progress("play probe", 0.5);
+    let (without, sizes) = super::play_size::probe_play(
+        shifted,
+        fit,
+        &o,
+        &first.selected,
+        &play.name,
+        &weights,
+        &floors,
+        &mut on_try,
+    )
+    .ok()
+    .flatten()?;
+    let kept = super::play_size::best_size(&sizes)
+        .filter(|&(_, cv)| cv * (1.0 + opts.confound_tolerance) < without)
+        .map(|(h, _)| h);
+    Some(PlayProbe {
+        signature,
+        candidate: play.name,
+        without,
+        sizes,
+        kept,
+    })
+}
+
 /// The play-size search's shares of the progress: one per refit, the sizes at the kept
 /// damping and, with the damping search, each damping round's.
 fn search_shares(opts: &DiagnoseOptions) -> usize {
@@ -613,15 +636,7 @@ fn search_play_size(
         o.library.backlash_place = second.backlash_place.unwrap_or(default_place);
         (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) =
             (second.dynamic_play_reference, second.dynamic_axial_play_reference);
-        // Each channel weighted by the larger of its noise floor and what the kept
-        // selection leaves of it; the error in the measured channels' noise floors, as
-        // the selection's.
-        let floors = measured_floors(fit);
-        let weights: Vec<f64> = second
-            .channels
-            .iter()
-            .map(|c| c.fit_after.max(c.noise_floor))
-            .collect();
+        let (weights, floors) = refit_weights(second, fit);
         // The size at the kept damping; then every other damping at the best size, and
         // where one is better there, the size again at it (one round of coordinate
         // descent: the damping was chosen at the reference play, and a rattle's damping
