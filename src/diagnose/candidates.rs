@@ -2009,18 +2009,21 @@ mod tests {
             ..crate::diagnose::DiagnoseOptions::default()
         };
         let mut tries = 0;
-        let (without, log) = crate::diagnose::play_size::probe_play(
+        let refits = crate::diagnose::play_size::probe_play(
             &Carried,
             &recordings,
             &o,
             &[],
             name,
+            &[],
             &HELD_WEIGHTS,
             &HELD_FLOORS,
             &mut || tries += 1,
         )
         .expect("assembled")
         .expect("the play is a candidate");
+        let (without, log) = (refits.without, refits.sizes);
+        assert!(refits.dampings.is_empty());
         let grid = crate::diagnose::probe_play_sizes();
         assert_eq!(tries, log.len());
         assert!(log.len() > grid.len(), "refined after the grid: {log:?}");
@@ -2034,6 +2037,73 @@ mod tests {
         let grid_best = crate::diagnose::play_size::best_size(&log[..grid.len()]).expect("a refit");
         assert!(cv < grid_best.1, "{cv} against the grid's {grid_best:?}");
         assert!(without > 10.0 * cv, "without the play {without}, with it {cv}");
+    }
+
+    /// The probe searches the size at each other contact damping of the grid
+    /// ([`probe_play`](crate::diagnose::play_size::probe_play)): on recordings made with the
+    /// reduced model's effect at 6.2 µm under a load-proportional damping (20 N·s/m +
+    /// 500 s/m × F), the grid at the options' own damping (2000 N·s/m) and its refinement
+    /// are followed by a size search at the load-proportional damping from the grid's best,
+    /// which finds the size within the search's last step and refits better than any size
+    /// at the own damping; the baseline without the play is worse.
+    #[test]
+    fn the_play_probe_searches_the_size_at_each_other_damping_and_keeps_the_best_pair() {
+        use crate::diagnose::play_dynamics::ContactDamping;
+        let truth = 6.2e-6;
+        let made_with = ContactDamping::load_proportional(500.0);
+        let own = ContactDamping::constant(2000.0);
+        let opts = |h: f64, c: ContactDamping| LibraryOptions {
+            play_contact_damping: Some(c),
+            ..held_library(h)
+        };
+        let play: Vec<Candidate> = library(&Carried, &opts(truth, made_with))
+            .into_iter()
+            .filter(|c| c.name == HELD_PLAY)
+            .collect();
+        let recordings: Vec<MotionData> = (0..2)
+            .map(|r| {
+                let mut d = carried_swing(201 + 50 * r);
+                d.name = format!("carried-{r}");
+                let m = d.len();
+                let c = columns(&play, &d, &Carried, &opts(truth, made_with));
+                let col = &c.cols[0][0];
+                d.tau[0] = (0..m).map(|i| c.nominal[0][i] + truth * col[i]).collect();
+                d.y[0] = (0..m).map(|i| c.nominal[1][i] + truth * col[m + i]).collect();
+                d
+            })
+            .collect();
+        let o = crate::diagnose::DiagnoseOptions {
+            library: opts(crate::diagnose::PROBE_PLAY_SIZES.0, own),
+            ..crate::diagnose::DiagnoseOptions::default()
+        };
+        let mut tries = 0;
+        let refits = crate::diagnose::play_size::probe_play(
+            &Carried,
+            &recordings,
+            &o,
+            &[],
+            HELD_PLAY,
+            &[own, made_with],
+            &HELD_WEIGHTS,
+            &HELD_FLOORS,
+            &mut || tries += 1,
+        )
+        .expect("assembled")
+        .expect("the play is a candidate");
+        assert_eq!(tries, refits.sizes.len() + refits.dampings.len());
+        // The own damping is not searched twice.
+        assert!(!refits.dampings.is_empty() && refits.dampings.iter().all(|x| x.0 == made_with));
+        let (_, own_best) = crate::diagnose::play_size::best_size(&refits.sizes).expect("a refit");
+        let (c, h, cv) = refits.best(own).expect("a refit");
+        let last = crate::diagnose::PLAY_SIZE_STEPS[crate::diagnose::PLAY_SIZE_STEPS.len() - 1] - 1.0;
+        assert_eq!(c, made_with, "{refits:?}");
+        assert!((h / truth - 1.0).abs() <= last, "{h} from {:?}", refits.dampings);
+        assert!(cv < own_best, "{cv} against {own_best} at the own damping");
+        assert!(
+            refits.without > 10.0 * cv,
+            "without the play {}, with it {cv}",
+            refits.without
+        );
     }
 
     /// The probe runs on one signature only

@@ -158,11 +158,15 @@ pub struct DiagnoseOptions {
     /// alone, the one that cross-validated best is a play whose quasi-static estimate lies
     /// outside its bounds, that joint's radial play with its dynamics refitted at each size
     /// of [`PROBE_PLAY_SIZES`](super::PROBE_PLAY_SIZES)' grid (32 refits), refined about
-    /// the best (at most [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) − 1 more) and once
-    /// without the play; where the best
-    /// refits better than the first pass's selection without it (beyond
-    /// [`confound_tolerance`](Self::confound_tolerance)), its size is the second pass's
-    /// reference play, as a play the first pass selected would be. Default on; it runs
+    /// the best (at most [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) − 1 more) at the
+    /// library's contact damping, then the size searched from the grid's best at each other
+    /// damping of [`play_contact_dampings`](Self::play_contact_dampings) (at most
+    /// [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) each: a rattle's timing moves with its
+    /// damping, and the size that fits best with it), and once without the play; where the
+    /// best refit (size and damping) refits better than the first pass's selection without
+    /// it (beyond [`confound_tolerance`](Self::confound_tolerance)), its size is the second
+    /// pass's reference play, as a play the first pass selected would be (the second pass
+    /// chooses its damping from the whole grid at that size). Default on; it runs
     /// only on that signature: of the first passes saved from the suite's runs (21 cases at
     /// seed 2026, 22 at seed 11, the two radial-play cases at seed 7) it is seed 11's
     /// clearance-under-length's alone (diagnosis log, "A play the first pass did not see").
@@ -184,7 +188,7 @@ impl DiagnoseOptions {
     /// motion where its response is large (`play_relinearize`), its forces blended within a
     /// sample interval (`play_interpolation`), the load-proportional dampings
     /// [`BEARING_PLAY_LOAD_DAMPINGS`] added to [`play_contact_dampings`](Self::play_contact_dampings),
-    /// and the play's size searched ([`play_size_search`](Self::play_size_search)). What
+    /// and the play's size searched ([`play_size_search`](Self::play_size_search)).
     /// The default since 2026-12-01 (session 60; [`DiagnoseOptions::default`] applies it);
     /// [`without_bearing_play`](Self::without_bearing_play) undoes it (`lash diagnose
     /// --no-bearing-play`). Only a diagnosis that selects a radial or axial play runs any

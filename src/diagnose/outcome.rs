@@ -210,7 +210,8 @@ pub struct LinearizationStep {
 /// play, with its dynamics (the reduced dynamic play model's response at each size, held,
 /// the first pass's selection refitted), tried at sizes in a geometric grid
 /// ([`PROBE_PLAY_SIZES`](super::PROBE_PLAY_SIZES)) and refined about the best
-/// ([`search_play_size`](super::search_play_size)). Under Hertz's law the held effect is the
+/// ([`search_play_size`](super::search_play_size)), at the library's contact damping; then
+/// the size searched from the grid's best at each other damping of the grid. Under Hertz's law the held effect is the
 /// response with the play less without, and the joint's contact compliance at zero play is
 /// not among the refitted candidates (the second pass has it): the probe only chooses the
 /// reference play; the second pass's selection decides whether a play is found.
@@ -225,13 +226,24 @@ pub struct PlayProbe {
     /// size's refit: leave-one-recording-out RMS, noise units (the probe's weights); NaN
     /// where that refit failed.
     pub without: f64,
-    /// Each size tried (m) with the refit's leave-one-recording-out RMS (noise units; NaN
-    /// where the refit failed), in order: the grid, then the refinement.
+    /// The contact damping of the grid and its refinement (the options' own).
+    pub damping: ContactDamping,
+    /// Each size tried (m) at [`damping`](Self::damping) with the refit's
+    /// leave-one-recording-out RMS (noise units; NaN where the refit failed), in order: the
+    /// grid, then the refinement.
     pub sizes: Vec<(f64, f64)>,
-    /// The size taken as the reference play of the second pass (m): the best, when it
-    /// refits better than [`without`](Self::without) beyond the confounding tolerance
+    /// Then, at each other contact damping of the grid
+    /// ([`DiagnoseOptions::play_contact_dampings`](super::DiagnoseOptions)): (damping, size
+    /// in m, RMS in noise units) of the size's search from the grid's best, in order.
+    pub damping_sizes: Vec<(ContactDamping, f64, f64)>,
+    /// The size taken as the reference play of the second pass (m): the best refit's over
+    /// [`sizes`](Self::sizes) and [`damping_sizes`](Self::damping_sizes), when it refits
+    /// better than [`without`](Self::without) beyond the confounding tolerance
     /// ([`DiagnoseOptions::confound_tolerance`](super::DiagnoseOptions)); `None` otherwise.
     pub kept: Option<f64>,
+    /// The contact damping of the best refit, with [`kept`](Self::kept). The second pass
+    /// still chooses its damping from the whole grid, at the kept size.
+    pub kept_damping: Option<ContactDamping>,
 }
 
 /// The outcome.

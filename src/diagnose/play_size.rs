@@ -282,20 +282,44 @@ fn pattern_search<E>(
     Ok(log)
 }
 
-/// What [`probe_play`] refitted: the refit without the play, then every (size in m,
-/// leave-one-recording-out RMS in noise units) in order.
-pub(super) type ProbeRefits = (f64, Vec<(f64, f64)>);
+/// What [`probe_play`] refitted.
+#[derive(Debug)]
+pub(super) struct ProbeRefits {
+    /// The refit without the play, on the samples of the best refit's (NaN where it fails
+    /// or no size refitted): leave-one-recording-out RMS in noise units.
+    pub without: f64,
+    /// At the options' own contact damping: every (size in m, leave-one-recording-out RMS
+    /// in noise units) tried, in order, the grid's first.
+    pub sizes: Vec<(f64, f64)>,
+    /// At each other contact damping given: every (damping, size in m, objective) of the
+    /// size's search from the grid's best, in order.
+    pub dampings: Vec<(ContactDamping, f64, f64)>,
+}
+
+impl ProbeRefits {
+    /// The best refit, (damping, size in m, objective): the smallest finite objective over
+    /// [`sizes`](Self::sizes) (at `own`, the options' damping) and
+    /// [`dampings`](Self::dampings); `None` when none is finite.
+    pub(super) fn best(&self, own: ContactDamping) -> Option<(ContactDamping, f64, f64)> {
+        let at_own: Vec<_> = self.sizes.iter().map(|&(h, cv)| (own, h, cv)).collect();
+        best_refit(at_own.iter().chain(&self.dampings))
+    }
+}
 
 /// A probe for a radial play the first pass did not see ([`PlayProbe`](super::PlayProbe)):
 /// the candidates named `selected` refitted with the radial play candidate `play` (of
 /// `opts`' library: the reduced dynamic play model's) held at each size of
 /// [`probe_play_sizes`], then the size refined from the best ([`search_play_size`], its
-/// value there known). Returns the refit without the play (on the best size's samples;
-/// NaN where it fails or no size refitted) and every (size, objective) tried, in order;
-/// `None` when `play` is not among the candidates. `on_try` is called before each refit
-/// with the play; a refit that fails counts as no improvement.
+/// value there known); then, at each contact damping of `dampings` other than the options'
+/// own, the size searched from the grid's best (a rattle's damping and timing go together:
+/// the size that fits best moves with the damping, by more than the grid's step). Returns
+/// the refits and the refit without the play on the best refit's samples; `None` when
+/// `play` is not among the candidates. `on_try` is called before each refit with the play;
+/// a refit that fails counts as no improvement, a damping whose columns cannot be
+/// assembled is left out.
 ///
-/// Errors: those of the columns' and residuals' assembly for the other candidates.
+/// Errors: those of the columns' and residuals' assembly for the other candidates at the
+/// options' own damping.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn probe_play(
     model: &dyn InverseDynamicsModel,
@@ -303,6 +327,7 @@ pub(super) fn probe_play(
     opts: &DiagnoseOptions,
     selected: &[String],
     play: &str,
+    dampings: &[ContactDamping],
     weights: &[f64],
     floors: &[f64],
     on_try: &mut dyn FnMut(),
@@ -312,19 +337,53 @@ pub(super) fn probe_play(
     let Some(held) = HeldPlay::new(model, fit, opts, &with_play, play, weights, floors)? else {
         return Ok(None);
     };
-    let sizes = probe_play_sizes();
-    let mut log = vec![];
-    for &h in &sizes {
+    let mut sizes = vec![];
+    for &h in &probe_play_sizes() {
         on_try();
-        log.push((h, held.cv(h).ok().flatten().unwrap_or(f64::NAN)));
+        sizes.push((h, held.cv(h).ok().flatten().unwrap_or(f64::NAN)));
     }
-    if let Some((h, cv)) = best_size(&log) {
-        log.extend(held.search(h, Some(cv), on_try).into_iter().skip(1));
+    if let Some((h, cv)) = best_size(&sizes) {
+        sizes.extend(held.search(h, Some(cv), on_try).into_iter().skip(1));
     }
-    let without = best_size(&log)
-        .and_then(|(h, _)| held.cv_without(h).ok().flatten())
-        .unwrap_or(f64::NAN);
-    Ok(Some((without, log)))
+    let own = opts
+        .library
+        .play_contact_damping
+        .unwrap_or(super::play_dynamics::BALL_CONTACT.contact_damping());
+    let mut refits = ProbeRefits {
+        without: f64::NAN,
+        sizes,
+        dampings: vec![],
+    };
+    // The refit whose samples the baseline takes: the best so far's.
+    let mut best_held = None;
+    if let Some((h0, _)) = best_size(&refits.sizes) {
+        let mut best = refits.best(own).map_or(f64::NAN, |b| b.2);
+        for &damping in dampings.iter().filter(|d| **d != own) {
+            let mut o = opts.clone();
+            o.library.play_contact_damping = Some(damping);
+            let Some(at) = HeldPlay::new(model, fit, &o, &with_play, play, weights, floors)
+                .ok()
+                .flatten()
+                .map(|at| at.sharing_walks(&held.walks))
+            else {
+                continue;
+            };
+            let log = at.search(h0, None, on_try);
+            refits
+                .dampings
+                .extend(log.iter().map(|&(h, cv)| (damping, h, cv)));
+            if let Some((_, cv)) = best_size(&log).filter(|b| best.is_nan() || b.1 < best) {
+                (best, best_held) = (cv, Some(at));
+            }
+        }
+    }
+    refits.without = match (refits.best(own), &best_held) {
+        (Some((_, h, _)), Some(at)) => at.cv_without(h).ok().flatten(),
+        (Some((_, h, _)), None) => held.cv_without(h).ok().flatten(),
+        (None, _) => None,
+    }
+    .unwrap_or(f64::NAN);
+    Ok(Some(refits))
 }
 
 /// The (size, objective) with the smallest finite objective in `log`; `None` when none is

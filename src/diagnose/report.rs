@@ -204,7 +204,8 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         );
     }
     if let Some(p) = &d.play_probe {
-        let best = super::play_size::best_size(&p.sizes);
+        let at_own: Vec<_> = p.sizes.iter().map(|&(h, cv)| (p.damping, h, cv)).collect();
+        let best = super::play_size::best_refit(at_own.iter().chain(&p.damping_sizes));
         let grid = super::probe_play_sizes();
         let (lo, hi) = (
             grid.first().copied().unwrap_or(0.0),
@@ -215,9 +216,32 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         } else {
             "its refit failed".into()
         };
+        // Per other damping, in the order tried, its best refit.
+        let mut seen: Vec<super::play_dynamics::ContactDamping> = vec![];
+        for &(damping, _, _) in &p.damping_sizes {
+            if !seen.contains(&damping) {
+                seen.push(damping);
+            }
+        }
+        let others: Vec<String> = seen
+            .iter()
+            .filter_map(|c| {
+                super::play_size::best_refit(p.damping_sizes.iter().filter(|x| x.0 == *c))
+                    .map(|(_, h, cv)| format!("{c}: {:.3} µm at {cv:.3}", h * 1e6))
+            })
+            .collect();
+        let others = if others.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; then the size searched from the grid's best at each other contact damping ({} refits; the best per damping {})",
+                p.damping_sizes.len(),
+                others.join(", ")
+            )
+        };
         let _ = writeln!(
             m,
-            "- A play the first pass saw but could not carry ({}: alone the best by cross-validation, its quasi-static estimate outside its bounds): {} refitted with the first pass's selection at {} sizes, {:.2}–{:.2} µm in steps of {:.0} %, then {} about the best (leave-one-recording-out RMS in noise units; without the play {without}): {}.",
+            "- A play the first pass saw but could not carry ({}: alone the best by cross-validation, its quasi-static estimate outside its bounds): {} refitted with the first pass's selection at {} sizes, {:.2}–{:.2} µm in steps of {:.0} %, then {} about the best, at a contact damping of {}{others} (leave-one-recording-out RMS in noise units; without the play {without}): {}.",
             p.signature,
             p.candidate,
             grid.len(),
@@ -225,10 +249,14 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             hi * 1e6,
             (super::PROBE_PLAY_SIZES.2 - 1.0) * 100.0,
             p.sizes.len().saturating_sub(grid.len()),
+            p.damping,
             match (best, p.kept) {
-                (Some((h, cv)), Some(_)) => format!("the best {:.3} µm at {cv:.3}, the reference play of the second pass", h * 1e6),
-                (Some((h, cv)), None) => format!(
-                    "the best {:.3} µm at {cv:.3}, not better beyond the confounding tolerance: no play taken to the second pass",
+                (Some((c, h, cv)), Some(_)) => format!(
+                    "the best {:.3} µm with {c} at {cv:.3}, the reference play of the second pass",
+                    h * 1e6
+                ),
+                (Some((c, h, cv)), None) => format!(
+                    "the best {:.3} µm with {c} at {cv:.3}, not better beyond the confounding tolerance: no play taken to the second pass",
                     h * 1e6
                 ),
                 (None, _) => "no refit succeeded".into(),

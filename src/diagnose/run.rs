@@ -545,9 +545,10 @@ fn refit_weights(d: &Diagnosis, fit: &[MotionData]) -> (Vec<f64>, Vec<f64>) {
 /// The probe for a play the first pass `first` saw but could not carry
 /// ([`PlayProbe`]): where [`relinearize::unseen_play`] finds the signature, that joint's
 /// radial play with its dynamics refitted beside `first`'s selection on `shifted` (the
-/// model moved by `moved`) at each size of the probe's grid and refined
-/// ([`probe_play`](super::play_size::probe_play)); its best size kept where it refits better
-/// than without the play beyond the confounding tolerance. `None` without the signature, or
+/// model moved by `moved`) at each size of the probe's grid and refined, then searched at
+/// each other contact damping of the grid ([`probe_play`](super::play_size::probe_play));
+/// the best refit's size kept where it refits better than without the play beyond the
+/// confounding tolerance. `None` without the signature, or
 /// where the play has no dynamic candidate or its refits cannot be assembled (the first
 /// pass's choice then stands, as after a play-size search that cannot assemble).
 #[allow(clippy::too_many_arguments)]
@@ -571,27 +572,35 @@ fn probe_unseen_play(
     )?;
     let (weights, floors) = refit_weights(first, fit);
     let mut on_try = || progress("play probe", 0.5);
-    let (without, sizes) = super::play_size::probe_play(
+    let refits = super::play_size::probe_play(
         shifted,
         fit,
         &o,
         &first.selected,
         &play.name,
+        &opts.play_contact_dampings,
         &weights,
         &floors,
         &mut on_try,
     )
     .ok()
     .flatten()?;
-    let kept = super::play_size::best_size(&sizes)
-        .filter(|&(_, cv)| cv * (1.0 + opts.confound_tolerance) < without)
-        .map(|(h, _)| h);
+    let damping = o
+        .library
+        .play_contact_damping
+        .unwrap_or(BALL_CONTACT.contact_damping());
+    let kept = refits
+        .best(damping)
+        .filter(|&(_, _, cv)| cv * (1.0 + opts.confound_tolerance) < refits.without);
     Some(PlayProbe {
         signature,
         candidate: play.name,
-        without,
-        sizes,
-        kept,
+        without: refits.without,
+        damping,
+        sizes: refits.sizes,
+        damping_sizes: refits.dampings,
+        kept: kept.map(|k| k.1),
+        kept_damping: kept.map(|k| k.0),
     })
 }
 
