@@ -150,8 +150,9 @@ pub struct Args {
     /// No probe for a play the first pass saw but could not carry (by default, where the
     /// first pass selected no play and the candidate that cross-validated best alone is a
     /// play with an estimate outside its bounds, that joint's radial play is refitted with its dynamics at
-    /// 1–20 µm, its size searched again at each other contact damping, and the best size,
-    /// where it refits better, becomes the second pass's reference play; also with --suite).
+    /// 1–20 µm at the default contact damping (2000 N·s/m), its size then searched at each
+    /// other contact damping of the grid (up to 12 refits each), and the best size, where
+    /// it refits better, becomes the second pass's reference play; also with --suite).
     #[arg(long)]
     no_play_probe: bool,
     /// Also try load-proportional contact dampings γ·F in the reduced dynamic play model (γ

@@ -2043,7 +2043,7 @@ mod tests {
     /// ([`probe_play`](crate::diagnose::play_size::probe_play)): on recordings made with the
     /// reduced model's effect at 6.2 µm under a load-proportional damping (20 N·s/m +
     /// 500 s/m × F), the grid at the options' own damping (2000 N·s/m) and its refinement
-    /// are followed by a size search at the load-proportional damping from the grid's best,
+    /// are followed by a size search at the load-proportional damping from the best size there,
     /// which finds the size within the search's last step and refits better than any size
     /// at the own damping; the baseline without the play is worse.
     #[test]
@@ -2094,7 +2094,7 @@ mod tests {
         // The own damping is not searched twice.
         assert!(!refits.dampings.is_empty() && refits.dampings.iter().all(|x| x.0 == made_with));
         let (_, own_best) = crate::diagnose::play_size::best_size(&refits.sizes).expect("a refit");
-        let (c, h, cv) = refits.best(own).expect("a refit");
+        let (c, h, cv) = refits.best().expect("a refit");
         let last = crate::diagnose::PLAY_SIZE_STEPS[crate::diagnose::PLAY_SIZE_STEPS.len() - 1] - 1.0;
         assert_eq!(c, made_with, "{refits:?}");
         assert!((h / truth - 1.0).abs() <= last, "{h} from {:?}", refits.dampings);
@@ -2104,6 +2104,16 @@ mod tests {
             "without the play {}, with it {cv}",
             refits.without
         );
+        // The baseline on the best refit's samples: at its damping and size.
+        let at = crate::diagnose::DiagnoseOptions {
+            library: opts(crate::diagnose::PROBE_PLAY_SIZES.0, made_with),
+            ..crate::diagnose::DiagnoseOptions::default()
+        };
+        let baseline = held_play(&recordings, &at, &[HELD_PLAY.to_string()], HELD_PLAY)
+            .cv_without(h)
+            .expect("assembled")
+            .expect("one column");
+        assert_eq!(refits.without, baseline);
     }
 
     /// The probe runs on one signature only

@@ -159,10 +159,12 @@ pub struct DiagnoseOptions {
     /// outside its bounds, that joint's radial play with its dynamics refitted at each size
     /// of [`PROBE_PLAY_SIZES`](super::PROBE_PLAY_SIZES)' grid (32 refits), refined about
     /// the best (at most [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) − 1 more) at the
-    /// library's contact damping, then the size searched from the grid's best at each other
+    /// library's contact damping, then the size searched from the best there at each other
     /// damping of [`play_contact_dampings`](Self::play_contact_dampings) (at most
-    /// [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) each: a rattle's timing moves with its
-    /// damping, and the size that fits best with it), and once without the play; where the
+    /// [`MAX_PLAY_SIZES`](super::MAX_PLAY_SIZES) refits each, the other candidates' columns
+    /// assembled anew at each damping — four dampings by default: a rattle's timing moves
+    /// with its damping, and the size that fits best with it), and once without the play;
+    /// where the
     /// best refit (size and damping) refits better than the first pass's selection without
     /// it (beyond [`confound_tolerance`](Self::confound_tolerance)), its size is the second
     /// pass's reference play, as a play the first pass selected would be (the second pass

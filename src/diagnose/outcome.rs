@@ -211,7 +211,7 @@ pub struct LinearizationStep {
 /// the first pass's selection refitted), tried at sizes in a geometric grid
 /// ([`PROBE_PLAY_SIZES`](super::PROBE_PLAY_SIZES)) and refined about the best
 /// ([`search_play_size`](super::search_play_size)), at the library's contact damping; then
-/// the size searched from the grid's best at each other damping of the grid. Under Hertz's law the held effect is the
+/// the size searched from the best there at each other damping of the grid. Under Hertz's law the held effect is the
 /// response with the play less without, and the joint's contact compliance at zero play is
 /// not among the refitted candidates (the second pass has it): the probe only chooses the
 /// reference play; the second pass's selection decides whether a play is found.
@@ -234,7 +234,7 @@ pub struct PlayProbe {
     pub sizes: Vec<(f64, f64)>,
     /// Then, at each other contact damping of the grid
     /// ([`DiagnoseOptions::play_contact_dampings`](super::DiagnoseOptions)): (damping, size
-    /// in m, RMS in noise units) of the size's search from the grid's best, in order.
+    /// in m, RMS in noise units) of the size's search from the best size at [`damping`](Self::damping), in order.
     pub damping_sizes: Vec<(ContactDamping, f64, f64)>,
     /// The size taken as the reference play of the second pass (m): the best refit's over
     /// [`sizes`](Self::sizes) and [`damping_sizes`](Self::damping_sizes), when it refits
@@ -244,6 +244,26 @@ pub struct PlayProbe {
     /// The contact damping of the best refit, with [`kept`](Self::kept). The second pass
     /// still chooses its damping from the whole grid, at the kept size.
     pub kept_damping: Option<ContactDamping>,
+}
+
+impl PlayProbe {
+    /// Every refit with the play, (contact damping, size in m, leave-one-recording-out RMS
+    /// in noise units), in order: [`sizes`](Self::sizes) at [`damping`](Self::damping),
+    /// then [`damping_sizes`](Self::damping_sizes).
+    pub fn refits(&self) -> impl Iterator<Item = (ContactDamping, f64, f64)> + '_ {
+        self.sizes
+            .iter()
+            .map(|&(h, cv)| (self.damping, h, cv))
+            .chain(self.damping_sizes.iter().copied())
+    }
+
+    /// The best of [`refits`](Self::refits): the smallest finite RMS, the first of equals;
+    /// `None` when none is finite.
+    pub fn best(&self) -> Option<(ContactDamping, f64, f64)> {
+        self.refits()
+            .filter(|x| x.2.is_finite())
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+    }
 }
 
 /// The outcome.

@@ -285,23 +285,25 @@ fn pattern_search<E>(
 /// What [`probe_play`] refitted.
 #[derive(Debug)]
 pub(super) struct ProbeRefits {
+    /// The options' own contact damping, of the grid and its refinement.
+    pub damping: ContactDamping,
     /// The refit without the play, on the samples of the best refit's (NaN where it fails
     /// or no size refitted): leave-one-recording-out RMS in noise units.
     pub without: f64,
-    /// At the options' own contact damping: every (size in m, leave-one-recording-out RMS
-    /// in noise units) tried, in order, the grid's first.
+    /// At [`damping`](Self::damping): every (size in m, leave-one-recording-out RMS in
+    /// noise units) tried, in order, the grid's first.
     pub sizes: Vec<(f64, f64)>,
     /// At each other contact damping given: every (damping, size in m, objective) of the
-    /// size's search from the grid's best, in order.
+    /// size's search from the best of [`sizes`](Self::sizes), in order.
     pub dampings: Vec<(ContactDamping, f64, f64)>,
 }
 
 impl ProbeRefits {
     /// The best refit, (damping, size in m, objective): the smallest finite objective over
-    /// [`sizes`](Self::sizes) (at `own`, the options' damping) and
-    /// [`dampings`](Self::dampings); `None` when none is finite.
-    pub(super) fn best(&self, own: ContactDamping) -> Option<(ContactDamping, f64, f64)> {
-        let at_own: Vec<_> = self.sizes.iter().map(|&(h, cv)| (own, h, cv)).collect();
+    /// [`sizes`](Self::sizes) and [`dampings`](Self::dampings), the first of equals;
+    /// `None` when none is finite.
+    pub(super) fn best(&self) -> Option<(ContactDamping, f64, f64)> {
+        let at_own: Vec<_> = self.sizes.iter().map(|&(h, cv)| (self.damping, h, cv)).collect();
         best_refit(at_own.iter().chain(&self.dampings))
     }
 }
@@ -311,12 +313,13 @@ impl ProbeRefits {
 /// `opts`' library: the reduced dynamic play model's) held at each size of
 /// [`probe_play_sizes`], then the size refined from the best ([`search_play_size`], its
 /// value there known); then, at each contact damping of `dampings` other than the options'
-/// own, the size searched from the grid's best (a rattle's damping and timing go together:
-/// the size that fits best moves with the damping, by more than the grid's step). Returns
-/// the refits and the refit without the play on the best refit's samples; `None` when
-/// `play` is not among the candidates. `on_try` is called before each refit with the play;
-/// a refit that fails counts as no improvement, a damping whose columns cannot be
-/// assembled is left out.
+/// own, the size searched from the best so far at the own damping (a rattle's damping and
+/// timing go together: the size that fits best moves with the damping, by more than the
+/// grid's step). Returns the refits and the refit without the play on the best refit's
+/// samples; `None` when `play` is not among the candidates. `on_try` is called before each
+/// refit with the play; a refit that fails counts as no improvement, a damping whose
+/// columns cannot be assembled is left out, and where no refit at the own damping
+/// succeeded no other damping is tried.
 ///
 /// Errors: those of the columns' and residuals' assembly for the other candidates at the
 /// options' own damping.
@@ -345,44 +348,43 @@ pub(super) fn probe_play(
     if let Some((h, cv)) = best_size(&sizes) {
         sizes.extend(held.search(h, Some(cv), on_try).into_iter().skip(1));
     }
-    let own = opts
-        .library
-        .play_contact_damping
-        .unwrap_or(super::play_dynamics::BALL_CONTACT.contact_damping());
     let mut refits = ProbeRefits {
+        damping: opts
+            .library
+            .play_contact_damping
+            .unwrap_or(super::play_dynamics::BALL_CONTACT.contact_damping()),
         without: f64::NAN,
         sizes,
         dampings: vec![],
     };
-    // The refit whose samples the baseline takes: the best so far's.
-    let mut best_held = None;
+    // Each other damping's refit, for the baseline on the best's samples.
+    let mut others: Vec<(ContactDamping, HeldPlay)> = vec![];
     if let Some((h0, _)) = best_size(&refits.sizes) {
-        let mut best = refits.best(own).map_or(f64::NAN, |b| b.2);
-        for &damping in dampings.iter().filter(|d| **d != own) {
-            let mut o = opts.clone();
-            o.library.play_contact_damping = Some(damping);
-            let Some(at) = HeldPlay::new(model, fit, &o, &with_play, play, weights, floors)
-                .ok()
-                .flatten()
-                .map(|at| at.sharing_walks(&held.walks))
-            else {
+        for &damping in dampings.iter().filter(|d| **d != refits.damping) {
+            let Some(at) = HeldPlay::at_damping(
+                model,
+                fit,
+                opts,
+                damping,
+                &with_play,
+                play,
+                weights,
+                floors,
+                &held.walks,
+            ) else {
                 continue;
             };
             let log = at.search(h0, None, on_try);
             refits
                 .dampings
                 .extend(log.iter().map(|&(h, cv)| (damping, h, cv)));
-            if let Some((_, cv)) = best_size(&log).filter(|b| best.is_nan() || b.1 < best) {
-                (best, best_held) = (cv, Some(at));
-            }
+            others.push((damping, at));
         }
     }
-    refits.without = match (refits.best(own), &best_held) {
-        (Some((_, h, _)), Some(at)) => at.cv_without(h).ok().flatten(),
-        (Some((_, h, _)), None) => held.cv_without(h).ok().flatten(),
-        (None, _) => None,
+    if let Some((damping, h, _)) = refits.best() {
+        let at = others.iter().find(|o| o.0 == damping).map_or(&held, |o| &o.1);
+        refits.without = at.cv_without(h).ok().flatten().unwrap_or(f64::NAN);
     }
-    .unwrap_or(f64::NAN);
     Ok(Some(refits))
 }
 
@@ -483,6 +485,30 @@ impl<'a> HeldPlay<'a> {
             tight,
             walks: Self::fresh_walks(fit),
         }))
+    }
+
+    /// [`new`](Self::new) with the reduced dynamic play model's contact damping set to
+    /// `damping` and the nominal walks shared from `walks`
+    /// ([`sharing_walks`](Self::sharing_walks)); `None` also where the columns cannot be
+    /// assembled (a search at that damping is then left out).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn at_damping(
+        model: &'a dyn InverseDynamicsModel,
+        fit: &'a [MotionData],
+        opts: &DiagnoseOptions,
+        damping: ContactDamping,
+        selected: &[String],
+        play: &str,
+        weights: &[f64],
+        floors: &[f64],
+        walks: &std::sync::Arc<Vec<NominalWalkCache>>,
+    ) -> Option<Self> {
+        let mut o = opts.clone();
+        o.library.play_contact_damping = Some(damping);
+        Self::new(model, fit, &o, selected, play, weights, floors)
+            .ok()
+            .flatten()
+            .map(|h| h.sharing_walks(walks))
     }
 
     /// Empty nominal walks, one per recording of `fit` (filled by the first refit that reads

@@ -204,8 +204,6 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         );
     }
     if let Some(p) = &d.play_probe {
-        let at_own: Vec<_> = p.sizes.iter().map(|&(h, cv)| (p.damping, h, cv)).collect();
-        let best = super::play_size::best_refit(at_own.iter().chain(&p.damping_sizes));
         let grid = super::probe_play_sizes();
         let (lo, hi) = (
             grid.first().copied().unwrap_or(0.0),
@@ -225,23 +223,25 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         }
         let others: Vec<String> = seen
             .iter()
-            .filter_map(|c| {
-                super::play_size::best_refit(p.damping_sizes.iter().filter(|x| x.0 == *c))
-                    .map(|(_, h, cv)| format!("{c}: {:.3} µm at {cv:.3}", h * 1e6))
-            })
+            .map(
+                |c| match super::play_size::best_refit(p.damping_sizes.iter().filter(|x| x.0 == *c)) {
+                    Some((_, h, cv)) => format!("{c}: {:.3} µm at {cv:.3}", h * 1e6),
+                    None => format!("{c}: every refit failed"),
+                },
+            )
             .collect();
         let others = if others.is_empty() {
             String::new()
         } else {
             format!(
-                "; then the size searched from the grid's best at each other contact damping ({} refits; the best per damping {})",
+                "; then the size searched from there at each other contact damping of the grid ({} refits; the best per damping {})",
                 p.damping_sizes.len(),
                 others.join(", ")
             )
         };
         let _ = writeln!(
             m,
-            "- A play the first pass saw but could not carry ({}: alone the best by cross-validation, its quasi-static estimate outside its bounds): {} refitted with the first pass's selection at {} sizes, {:.2}–{:.2} µm in steps of {:.0} %, then {} about the best, at a contact damping of {}{others} (leave-one-recording-out RMS in noise units; without the play {without}): {}.",
+            "- A play the first pass saw but could not carry ({}: alone the best by cross-validation, its quasi-static estimate outside its bounds): {} refitted with the first pass's selection (leave-one-recording-out RMS in noise units; without the play {without}) at {} sizes, {:.2}–{:.2} µm in steps of {:.0} %, then {} about the best, at a contact damping of {}{others}: {}.",
             p.signature,
             p.candidate,
             grid.len(),
@@ -250,9 +250,9 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             (super::PROBE_PLAY_SIZES.2 - 1.0) * 100.0,
             p.sizes.len().saturating_sub(grid.len()),
             p.damping,
-            match (best, p.kept) {
+            match (p.best(), p.kept) {
                 (Some((c, h, cv)), Some(_)) => format!(
-                    "the best {:.3} µm with {c} at {cv:.3}, the reference play of the second pass",
+                    "the best {:.3} µm with {c} at {cv:.3}, its size the reference play of the second pass (which chooses its damping from the grid again)",
                     h * 1e6
                 ),
                 (Some((c, h, cv)), None) => format!(

@@ -585,18 +585,14 @@ fn probe_unseen_play(
     )
     .ok()
     .flatten()?;
-    let damping = o
-        .library
-        .play_contact_damping
-        .unwrap_or(BALL_CONTACT.contact_damping());
     let kept = refits
-        .best(damping)
+        .best()
         .filter(|&(_, _, cv)| cv * (1.0 + opts.confound_tolerance) < refits.without);
     Some(PlayProbe {
         signature,
         candidate: play.name,
         without: refits.without,
-        damping,
+        damping: refits.damping,
         sizes: refits.sizes,
         damping_sizes: refits.dampings,
         kept: kept.map(|k| k.1),
@@ -663,12 +659,17 @@ fn search_play_size(
         // (A search that cannot assemble its columns leaves the selection as it is, as
         // the play-dynamics check does.)
         let held_at = |damping: ContactDamping| {
-            let mut o = o.clone();
-            o.library.play_contact_damping = Some(damping);
-            HeldPlay::new(shifted, fit, &o, &second.selected, &name, &weights, &floors)
-                .ok()
-                .flatten()
-                .map(|h| h.sharing_walks(&walks))
+            HeldPlay::at_damping(
+                shifted,
+                fit,
+                &o,
+                damping,
+                &second.selected,
+                &name,
+                &weights,
+                &floors,
+                &walks,
+            )
         };
         let mut log: Vec<(ContactDamping, f64, f64)> = vec![];
         if let Some(held) = held_at(kept) {
