@@ -1980,6 +1980,23 @@ mod tests {
         );
     }
 
+    /// The probe tests' two recordings: `Carried`'s swings with the nominal channels plus
+    /// `play`'s effect at `truth` (m), its columns taken with `lib`.
+    fn probe_recordings(play: &[Candidate], lib: &LibraryOptions, truth: f64) -> Vec<MotionData> {
+        (0..2)
+            .map(|r| {
+                let mut d = carried_swing(201 + 50 * r);
+                d.name = format!("carried-{r}");
+                let m = d.len();
+                let c = columns(play, &d, &Carried, lib);
+                let col = &c.cols[0][0];
+                d.tau[0] = (0..m).map(|i| c.nominal[0][i] + truth * col[i]).collect();
+                d.y[0] = (0..m).map(|i| c.nominal[1][i] + truth * col[m + i]).collect();
+                d
+            })
+            .collect()
+    }
+
     /// The probe for a play the first pass did not see
     /// ([`probe_play`](crate::diagnose::play_size::probe_play)): on recordings whose channels
     /// are the nominal model's plus the reduced model's effect at 6.2 µm — between two of the
@@ -1992,18 +2009,7 @@ mod tests {
         let opts = held_library;
         let name = HELD_PLAY;
         let play = held_play_candidate(truth);
-        let recordings: Vec<MotionData> = (0..2)
-            .map(|r| {
-                let mut d = carried_swing(201 + 50 * r);
-                d.name = format!("carried-{r}");
-                let m = d.len();
-                let c = columns(&play, &d, &Carried, &opts(truth));
-                let col = &c.cols[0][0];
-                d.tau[0] = (0..m).map(|i| c.nominal[0][i] + truth * col[i]).collect();
-                d.y[0] = (0..m).map(|i| c.nominal[1][i] + truth * col[m + i]).collect();
-                d
-            })
-            .collect();
+        let recordings = probe_recordings(&play, &opts(truth), truth);
         let o = crate::diagnose::DiagnoseOptions {
             library: opts(crate::diagnose::PROBE_PLAY_SIZES.0),
             ..crate::diagnose::DiagnoseOptions::default()
@@ -2060,18 +2066,7 @@ mod tests {
             .into_iter()
             .filter(|c| c.name == HELD_PLAY)
             .collect();
-        let recordings: Vec<MotionData> = (0..2)
-            .map(|r| {
-                let mut d = carried_swing(201 + 50 * r);
-                d.name = format!("carried-{r}");
-                let m = d.len();
-                let c = columns(&play, &d, &Carried, &opts(truth, made_with));
-                let col = &c.cols[0][0];
-                d.tau[0] = (0..m).map(|i| c.nominal[0][i] + truth * col[i]).collect();
-                d.y[0] = (0..m).map(|i| c.nominal[1][i] + truth * col[m + i]).collect();
-                d
-            })
-            .collect();
+        let recordings = probe_recordings(&play, &opts(truth, made_with), truth);
         let o = crate::diagnose::DiagnoseOptions {
             library: opts(crate::diagnose::PROBE_PLAY_SIZES.0, own),
             ..crate::diagnose::DiagnoseOptions::default()
