@@ -1997,6 +1997,34 @@ mod tests {
             .collect()
     }
 
+    /// [`probe_play`](crate::diagnose::play_size::probe_play) of [`HELD_PLAY`] alone on
+    /// `Carried`'s `recordings` with library `lib` and contact dampings `dampings`, `tries`
+    /// counting its refits.
+    fn probe(
+        recordings: &[MotionData],
+        lib: LibraryOptions,
+        dampings: &[crate::diagnose::play_dynamics::ContactDamping],
+        tries: &mut usize,
+    ) -> crate::diagnose::play_size::ProbeRefits {
+        let o = crate::diagnose::DiagnoseOptions {
+            library: lib,
+            ..crate::diagnose::DiagnoseOptions::default()
+        };
+        crate::diagnose::play_size::probe_play(
+            &Carried,
+            recordings,
+            &o,
+            &[],
+            HELD_PLAY,
+            dampings,
+            &HELD_WEIGHTS,
+            &HELD_FLOORS,
+            &mut || *tries += 1,
+        )
+        .expect("assembled")
+        .expect("the play is a candidate")
+    }
+
     /// The probe for a play the first pass did not see
     /// ([`probe_play`](crate::diagnose::play_size::probe_play)): on recordings whose channels
     /// are the nominal model's plus the reduced model's effect at 6.2 µm — between two of the
@@ -2007,27 +2035,15 @@ mod tests {
     fn the_play_probe_walks_its_grid_then_refines_to_the_size_that_made_the_data() {
         let truth = 6.2e-6;
         let opts = held_library;
-        let name = HELD_PLAY;
         let play = held_play_candidate(truth);
         let recordings = probe_recordings(&play, &opts(truth), truth);
-        let o = crate::diagnose::DiagnoseOptions {
-            library: opts(crate::diagnose::PROBE_PLAY_SIZES.0),
-            ..crate::diagnose::DiagnoseOptions::default()
-        };
         let mut tries = 0;
-        let refits = crate::diagnose::play_size::probe_play(
-            &Carried,
+        let refits = probe(
             &recordings,
-            &o,
+            opts(crate::diagnose::PROBE_PLAY_SIZES.0),
             &[],
-            name,
-            &[],
-            &HELD_WEIGHTS,
-            &HELD_FLOORS,
-            &mut || tries += 1,
-        )
-        .expect("assembled")
-        .expect("the play is a candidate");
+            &mut tries,
+        );
         let (without, log) = (refits.without, refits.sizes);
         assert!(refits.dampings.is_empty());
         let grid = crate::diagnose::probe_play_sizes();
@@ -2067,24 +2083,13 @@ mod tests {
             .filter(|c| c.name == HELD_PLAY)
             .collect();
         let recordings = probe_recordings(&play, &opts(truth, made_with), truth);
-        let o = crate::diagnose::DiagnoseOptions {
-            library: opts(crate::diagnose::PROBE_PLAY_SIZES.0, own),
-            ..crate::diagnose::DiagnoseOptions::default()
-        };
         let mut tries = 0;
-        let refits = crate::diagnose::play_size::probe_play(
-            &Carried,
+        let refits = probe(
             &recordings,
-            &o,
-            &[],
-            HELD_PLAY,
+            opts(crate::diagnose::PROBE_PLAY_SIZES.0, own),
             &[own, made_with],
-            &HELD_WEIGHTS,
-            &HELD_FLOORS,
-            &mut || tries += 1,
-        )
-        .expect("assembled")
-        .expect("the play is a candidate");
+            &mut tries,
+        );
         assert_eq!(tries, refits.sizes.len() + refits.dampings.len());
         // The own damping is not searched twice.
         assert!(!refits.dampings.is_empty() && refits.dampings.iter().all(|x| x.0 == made_with));
