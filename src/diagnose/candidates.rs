@@ -2049,6 +2049,8 @@ mod tests {
         let grid = crate::diagnose::probe_play_sizes();
         assert_eq!(tries, log.len());
         assert!(log.len() > grid.len(), "refined after the grid: {log:?}");
+        let own = crate::diagnose::play_dynamics::BALL_CONTACT.contact_damping();
+        assert!(tries <= crate::diagnose::play_size::probe_refits_most(own, &[]));
         for (k, h) in grid.iter().enumerate() {
             assert_eq!(log[k].0, *h);
         }
@@ -2091,6 +2093,8 @@ mod tests {
             &mut tries,
         );
         assert_eq!(tries, refits.sizes.len() + refits.dampings.len());
+        // Within the count the probe's progress label gives as its most.
+        assert!(tries <= crate::diagnose::play_size::probe_refits_most(own, &[own, made_with]));
         // The own damping is not searched twice.
         assert!(!refits.dampings.is_empty() && refits.dampings.iter().all(|x| x.0 == made_with));
         let (_, own_best) = crate::diagnose::play_size::best_size(&refits.sizes).expect("a refit");

@@ -388,6 +388,14 @@ pub(super) fn probe_play(
     Ok(Some(refits))
 }
 
+/// The most refits with the play [`probe_play`] makes with the options' own damping `own`
+/// and the contact dampings `dampings`: the grid's, its refinement's (the best grid size's
+/// objective known) and a size search at each other damping.
+pub(super) fn probe_refits_most(own: ContactDamping, dampings: &[ContactDamping]) -> usize {
+    let others = dampings.iter().filter(|d| **d != own).count();
+    probe_play_sizes().len() + MAX_PLAY_SIZES - 1 + others * MAX_PLAY_SIZES
+}
+
 /// The (size, objective) with the smallest finite objective in `log`; `None` when none is
 /// finite.
 pub(super) fn best_size(log: &[(f64, f64)]) -> Option<(f64, f64)> {

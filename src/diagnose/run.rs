@@ -542,6 +542,12 @@ fn refit_weights(d: &Diagnosis, fit: &[MotionData]) -> (Vec<f64>, Vec<f64>) {
     (weights, measured_floors(fit))
 }
 
+/// The play probe's progress label: its `tried`-th refit of at most `most`
+/// ([`probe_unseen_play`]).
+fn probe_label(tried: usize, most: usize) -> String {
+    format!("play probe, refit {tried} of at most {most}")
+}
+
 /// The probe for a play the first pass `first` saw but could not carry
 /// ([`PlayProbe`]): where [`relinearize::unseen_play`] finds the signature, that joint's
 /// radial play with its dynamics refitted beside `first`'s selection on `shifted` (the
@@ -571,7 +577,18 @@ fn probe_unseen_play(
         |c| matches!(c.effect, Effect::Play { site: s, direction: PlayDirection::Radial, .. } if s == site),
     )?;
     let (weights, floors) = refit_weights(first, fit);
-    let mut on_try = || progress("play probe", 0.5);
+    // (The fraction stays where the first pass ended; the label counts the refits against
+    // their most: the grid's, its refinement's and each other damping's search.)
+    let own = o
+        .library
+        .play_contact_damping
+        .unwrap_or(BALL_CONTACT.contact_damping());
+    let most = super::play_size::probe_refits_most(own, &opts.play_contact_dampings);
+    let mut tried = 0;
+    let mut on_try = || {
+        tried += 1;
+        progress(&probe_label(tried, most), 0.5);
+    };
     let refits = super::play_size::probe_play(
         shifted,
         fit,
