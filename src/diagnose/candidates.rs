@@ -807,8 +807,36 @@ pub struct NominalWalk {
     play_dyn: Vec<Option<Vec<PlayDynamics>>>,
 }
 
-/// A [`NominalWalk`] made on first use (per recording).
-pub type NominalWalkCache = std::sync::OnceLock<NominalWalk>;
+/// The [`NominalWalk`]s of one recording, each made on first use: one with the play sites'
+/// dynamics and one without. An assembly that needs none (no play or contact-compliance
+/// candidate among its columns) does not pay for them, and one that needs them is not handed
+/// a walk made without them.
+#[derive(Debug, Default)]
+pub struct NominalWalkCache {
+    with_play: std::sync::OnceLock<NominalWalk>,
+    without_play: std::sync::OnceLock<NominalWalk>,
+}
+
+impl NominalWalkCache {
+    /// Empty: nothing walked yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The slot for walks with (`play`) or without the play sites' dynamics.
+    fn slot(&self, play: bool) -> &std::sync::OnceLock<NominalWalk> {
+        if play {
+            &self.with_play
+        } else {
+            &self.without_play
+        }
+    }
+
+    /// Whether the walk with the play sites' dynamics is in the cache.
+    pub fn has_play_walk(&self) -> bool {
+        self.with_play.get().is_some()
+    }
+}
 
 /// Regressor columns of every candidate on one recording, with the nominal model's value of
 /// every channel and the play candidates' compressions ([`Columns`]).
@@ -927,7 +955,7 @@ pub fn columns_with(
         w
     };
     let fresh: NominalWalk;
-    let walked: &NominalWalk = match walk.map(|c| c.get_or_init(walk_now)) {
+    let walked: &NominalWalk = match walk.map(|c| c.slot(play_needed).get_or_init(walk_now)) {
         Some(w) if w.needs == needs && (w.sens.is_empty() || w.sens.len() == n) => w,
         _ => {
             fresh = walk_now();
@@ -1893,6 +1921,7 @@ mod tests {
             name,
             &HELD_WEIGHTS,
             &HELD_FLOORS,
+            None,
         )
         .expect("assembled")
         .expect("the play is a candidate")
@@ -2019,6 +2048,7 @@ mod tests {
             dampings,
             &HELD_WEIGHTS,
             &HELD_FLOORS,
+            None,
             &mut || *tries += 1,
         )
         .expect("assembled")
@@ -2246,7 +2276,11 @@ mod tests {
             first.tight_runs_cached() == 0,
             "nothing run before the first refit"
         );
-        assert_eq!(first.walks_cached(), 0, "no walk before the first refit");
+        assert_eq!(
+            first.walks_cached(),
+            0,
+            "no walk with the play's dynamics before the first refit"
+        );
         let a0 = first.cv(h0).expect("assembled").expect("one column");
         let cached = first.tight_runs_cached();
         assert_eq!(cached, recordings.len(), "one run without play per recording");
@@ -2283,6 +2317,33 @@ mod tests {
         );
         let d_fresh = at(50.0).cv(1.1 * h0).expect("assembled").expect("one column");
         assert!(WALKED.with(|c| c.get()) > 0, "a fresh refit walks");
+        // Given the walks when it is made (as the passes on one model share them), the
+        // refit's own assembly of the other columns walks nothing either.
+        WALKED.with(|c| c.set(0));
+        let mut o50 = o.clone();
+        o50.library.play_contact_damping = Some(super::ContactDamping {
+            constant: 50.0,
+            load: 0.0,
+        });
+        let given = crate::diagnose::play_size::HeldPlay::new(
+            &Carried,
+            &recordings,
+            &o50,
+            &[name.to_string()],
+            name,
+            &HELD_WEIGHTS,
+            &HELD_FLOORS,
+            Some(&first.walks),
+        )
+        .expect("assembled")
+        .expect("the play is a candidate");
+        let d_given = given.cv(1.1 * h0).expect("assembled").expect("one column");
+        assert_eq!(
+            WALKED.with(|c| c.get()),
+            0,
+            "made with the walks, it walks nothing"
+        );
+        assert_eq!(d_given.to_bits(), d_fresh.to_bits());
         assert!(d_shared.is_finite() && d_shared != a1, "{d_shared} {a1}");
         assert_eq!(
             d_shared.to_bits(),

@@ -316,7 +316,8 @@ impl ProbeRefits {
 /// own, the size searched from the best so far at the own damping (a rattle's damping and
 /// timing go together: the size that fits best moves with the damping, by more than the
 /// grid's step). Returns the refits and the refit without the play on the best refit's
-/// samples; `None` when `play` is not among the candidates. `on_try` is called before each
+/// samples; `None` when `play` is not among the candidates. `walks`: the nominal model's
+/// walks along `fit` to share ([`HeldPlay::new`]). `on_try` is called before each
 /// refit with the play; a refit that fails counts as no improvement, a damping whose
 /// columns cannot be assembled is left out, and where no refit at the own damping
 /// succeeded no other damping is tried.
@@ -333,11 +334,12 @@ pub(super) fn probe_play(
     dampings: &[ContactDamping],
     weights: &[f64],
     floors: &[f64],
+    walks: Option<&Walks>,
     on_try: &mut dyn FnMut(),
 ) -> Result<Option<ProbeRefits>, DiagnoseError> {
     let mut with_play = selected.to_vec();
     with_play.push(play.to_string());
-    let Some(held) = HeldPlay::new(model, fit, opts, &with_play, play, weights, floors)? else {
+    let Some(held) = HeldPlay::new(model, fit, opts, &with_play, play, weights, floors, walks)? else {
         return Ok(None);
     };
     let mut sizes = vec![];
@@ -425,18 +427,26 @@ pub(super) struct HeldPlay<'a> {
     /// trial size: computed by the first assembly that needs them).
     tight: Vec<TightRuns>,
     /// Per fit recording, the nominal model's walk (the same at every trial size and
-    /// damping: shared with [`sharing_walks`](Self::sharing_walks)).
-    pub(super) walks: std::sync::Arc<Vec<NominalWalkCache>>,
+    /// damping: shared with the refits and passes given them, [`new`](Self::new)).
+    pub(super) walks: Walks,
 }
+
+/// The nominal model's walks along a set of recordings, one per recording, filled on first
+/// use and shared by the assemblies on the same model ([`NominalWalk`](super::candidates::NominalWalk)).
+pub(super) type Walks = std::sync::Arc<Vec<NominalWalkCache>>;
 
 impl<'a> HeldPlay<'a> {
     /// For the candidates named `selected` on `fit` (the library and linearisation point of
     /// `opts`), the radial play candidate `play` among them to be held; channel j weighted
     /// by `weights[j]`, errors in units of `floors[j]` (both in the channel's unit). Effects
     /// the linearisation point moved (`opts.shift`) that are not in `selected` are taken
-    /// back, as in the selection. `None` when `play` is not among the candidates.
+    /// back, as in the selection. `None` when `play` is not among the candidates. `walks`,
+    /// where given (one per fit recording of the same model; another length is not used),
+    /// are the nominal model's walks along the recordings this refit and its assembly share
+    /// with others on that model ([`NominalWalk`](super::candidates::NominalWalk)).
     ///
     /// Errors: those of the columns' and residuals' assembly.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn new(
         model: &'a dyn InverseDynamicsModel,
         fit: &'a [MotionData],
@@ -445,7 +455,12 @@ impl<'a> HeldPlay<'a> {
         play: &str,
         weights: &[f64],
         floors: &[f64],
+        walks: Option<&Walks>,
     ) -> Result<Option<Self>, DiagnoseError> {
+        let walks = walks
+            .filter(|w| w.len() == fit.len())
+            .cloned()
+            .unwrap_or_else(|| Self::fresh_walks(fit));
         let mut o = opts.clone();
         o.library.only = selected.iter().filter(|n| *n != play).cloned().collect();
         o.library.only.extend(
@@ -476,7 +491,7 @@ impl<'a> HeldPlay<'a> {
             &cands,
             &o,
             Some(&tight),
-            None,
+            Some(&walks),
         )?;
         let refitted = (0..cands.len())
             .filter(|&k| cands[k].name != play.name && selected.contains(&cands[k].name))
@@ -491,13 +506,12 @@ impl<'a> HeldPlay<'a> {
             weights: weights.to_vec(),
             floors: floors.to_vec(),
             tight,
-            walks: Self::fresh_walks(fit),
+            walks,
         }))
     }
 
     /// [`new`](Self::new) with the reduced dynamic play model's contact damping set to
-    /// `damping` and the nominal walks shared from `walks`
-    /// ([`sharing_walks`](Self::sharing_walks)); `None` also where the columns cannot be
+    /// `damping` and the nominal walks shared from `walks`; `None` also where the columns cannot be
     /// assembled (a search at that damping is then left out).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn at_damping(
@@ -509,36 +523,36 @@ impl<'a> HeldPlay<'a> {
         play: &str,
         weights: &[f64],
         floors: &[f64],
-        walks: &std::sync::Arc<Vec<NominalWalkCache>>,
+        walks: &Walks,
     ) -> Option<Self> {
         let mut o = opts.clone();
         o.library.play_contact_damping = Some(damping);
-        Self::new(model, fit, &o, selected, play, weights, floors)
+        Self::new(model, fit, &o, selected, play, weights, floors, Some(walks))
             .ok()
             .flatten()
-            .map(|h| h.sharing_walks(walks))
     }
 
     /// Empty nominal walks, one per recording of `fit` (filled by the first refit that reads
-    /// them; [`sharing_walks`](Self::sharing_walks) hands them to other refits).
-    pub(super) fn fresh_walks(fit: &[MotionData]) -> std::sync::Arc<Vec<NominalWalkCache>> {
+    /// them; [`new`](Self::new) hands them to other refits).
+    pub(super) fn fresh_walks(fit: &[MotionData]) -> Walks {
         std::sync::Arc::new(fit.iter().map(|_| NominalWalkCache::new()).collect())
     }
 
     /// The same refit taking the nominal model's walks along the recordings from `walks`
-    /// (one per fit recording; another length is not used), which refits on the same model
-    /// and recordings at other contact dampings share ([`NominalWalk`](super::candidates::NominalWalk)).
-    pub(super) fn sharing_walks(mut self, walks: &std::sync::Arc<Vec<NominalWalkCache>>) -> Self {
+    /// (one per fit recording; another length is not used), as [`new`](Self::new) takes
+    /// them (for tests: a refit made before it shares them).
+    #[cfg(test)]
+    pub(super) fn sharing_walks(mut self, walks: &Walks) -> Self {
         if walks.len() == self.fit.len() {
             self.walks = walks.clone();
         }
         self
     }
 
-    /// Recordings whose nominal walk is in the cache (for tests).
+    /// Recordings whose nominal walk with the play sites' dynamics is in the cache (for tests).
     #[cfg(test)]
     pub(super) fn walks_cached(&self) -> usize {
-        self.walks.iter().filter(|c| c.get().is_some()).count()
+        self.walks.iter().filter(|c| c.has_play_walk()).count()
     }
 
     /// Runs without play in the cache, over the recordings and play sites (for tests).

@@ -20,7 +20,7 @@ use super::play_size::{
 };
 use super::recording::{Recording, MIN_SAMPLES};
 use super::relinearize;
-use super::residuals::{prepare, Prepared};
+use super::residuals::{prepare_with, Prepared};
 use super::selection::{confounded, estimate, select, Estimates, Selection};
 use super::signal::{noise_floor, rms};
 use super::transmission::PlayPlace;
@@ -167,7 +167,7 @@ fn diagnose_folds(
         filled.library.speed_scales = speed_scales(model, fit);
     }
     let opts = &filled;
-    let first = diagnose_once(model, fit, holdout, opts, &mut |s, f| progress(s, 0.5 * f))?;
+    let first = diagnose_once(model, fit, holdout, opts, None, &mut |s, f| progress(s, 0.5 * f))?;
     if !opts.relinearize {
         progress("done", 1.0);
         return Ok(first);
@@ -185,6 +185,10 @@ fn diagnose_folds(
             .map_or(1.0, |s| s.fraction)
     };
     let (shifted, moved) = relinearize::shift(model, &first.estimates, &cands, &fraction);
+    // The nominal model's walks along the recordings at this point, shared by every pass
+    // and refit made on it (the probe, the dampings, stiffnesses and places, the resized
+    // references, the size search).
+    let mut walks = PassWalks::new(fit, holdout);
     // The plays' dynamics in the selection: the reference plays from the first pass.
     let mut references = if opts.dynamic_play_selection {
         relinearize::dynamic_play_references(model, &first, &cands)
@@ -194,7 +198,17 @@ fn diagnose_folds(
     // A play the first pass saw but could not carry: its dynamics probed, and the best
     // size, where it refits better, the reference of the second pass's plays.
     let probe = if opts.dynamic_play_selection && opts.play_probe && references == (None, None) {
-        probe_unseen_play(model, &shifted, &moved, fit, &first, &cands, opts, &mut *progress)
+        probe_unseen_play(
+            model,
+            &shifted,
+            &moved,
+            fit,
+            &first,
+            &cands,
+            opts,
+            &walks,
+            &mut *progress,
+        )
     } else {
         None
     };
@@ -209,7 +223,8 @@ fn diagnose_folds(
         let mut d = first;
         d.play_probe = probe;
         d.relinearization_steps = steps;
-        d.play_dynamics = play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, &mut *progress)?;
+        d.play_dynamics =
+            play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, None, &mut *progress)?;
         d.verdict = verdict_text(model, &d, &cands);
         progress("done", 1.0);
         return Ok(d);
@@ -262,7 +277,7 @@ fn diagnose_folds(
         o.library.play_axial_stiffness = stiffness;
         o.library.backlash_place = place;
         (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) = refs;
-        diagnose_once(&shifted, fit, holdout, &o, &mut |s, f| {
+        diagnose_once(&shifted, fit, holdout, &o, Some(&walks), &mut |s, f| {
             progress(s, 0.5 + share * (k as f64 + f))
         })
     };
@@ -413,6 +428,7 @@ fn diagnose_folds(
             &cands2,
             &dampings,
             places[0],
+            &walks,
             &mut second,
             (0.5 + share * size_share as f64, share),
             &mut *progress,
@@ -460,7 +476,8 @@ fn diagnose_folds(
             o.library.play_axial_stiffness = kept_stiffness;
             (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) = kept_refs;
         }
-        let mut d = diagnose_once(&shifted_k, fit, holdout, &o, &mut |s, f| {
+        let walks_k = PassWalks::new(fit, holdout);
+        let mut d = diagnose_once(&shifted_k, fit, holdout, &o, Some(&walks_k), &mut |s, f| {
             progress(s, 0.9 + 0.05 * f)
         })?;
         cv_log.push(d.cv_rms_noise_units);
@@ -468,7 +485,7 @@ fn diagnose_folds(
             break;
         }
         carry_choices(&mut second, &mut d);
-        (second, shifted, base, moved_kept) = (d, shifted_k, point, o.shift);
+        (second, shifted, base, moved_kept, walks) = (d, shifted_k, point, o.shift, walks_k);
         passes += 1;
     }
     // The further passes kept moved the point the play's columns are computed about, and a
@@ -489,6 +506,7 @@ fn diagnose_folds(
             &cands2,
             &dampings,
             places[0],
+            &walks,
             &mut second,
             (0.95, 0.04 / (search_shares + 1) as f64),
             &mut *progress,
@@ -522,12 +540,41 @@ fn diagnose_folds(
     if d.dynamic_play_reference.is_none() && d.dynamic_axial_play_reference.is_none() {
         let mut o3 = o2.clone();
         o3.library.backlash_place = d.backlash_place.unwrap_or(o3.library.backlash_place);
-        d.play_dynamics =
-            play_dynamics_check(model, &shifted, &d, fit, holdout, &o3, &cands2, &mut *progress)?;
+        d.play_dynamics = play_dynamics_check(
+            model,
+            &shifted,
+            &d,
+            fit,
+            holdout,
+            &o3,
+            &cands2,
+            Some(&walks),
+            &mut *progress,
+        )?;
     }
     d.verdict = verdict_text(model, &d, &cands2);
     progress("done", 1.0);
     Ok(d)
+}
+
+/// The nominal model's walks along the fit and the held-out recordings at one linearisation
+/// point ([`NominalWalk`](super::candidates::NominalWalk), one per recording, filled on first
+/// use): every pass and refit made on the model moved to that point shares them, so each
+/// recording is walked once per point, not once per contact damping, end-face stiffness,
+/// backlash place, reference play and size search.
+struct PassWalks {
+    fit: super::play_size::Walks,
+    holdout: super::play_size::Walks,
+}
+
+impl PassWalks {
+    /// Empty walks for `fit` and `holdout`.
+    fn new(fit: &[MotionData], holdout: &[MotionData]) -> Self {
+        Self {
+            fit: HeldPlay::fresh_walks(fit),
+            holdout: HeldPlay::fresh_walks(holdout),
+        }
+    }
 }
 
 /// The weights and error units of a refit about the selection `d` on `fit`: each channel
@@ -566,6 +613,7 @@ fn probe_unseen_play(
     first: &Diagnosis,
     cands: &[super::candidates::Candidate],
     opts: &DiagnoseOptions,
+    walks: &PassWalks,
     progress: &mut dyn FnMut(&str, f64),
 ) -> Option<PlayProbe> {
     let (signature, site) = relinearize::unseen_play(model, first, cands)?;
@@ -598,6 +646,7 @@ fn probe_unseen_play(
         &opts.play_contact_dampings,
         &weights,
         &floors,
+        Some(&walks.fit),
         &mut on_try,
     )
     .ok()
@@ -646,6 +695,7 @@ fn search_play_size(
     cands2: &[super::candidates::Candidate],
     dampings: &[Option<ContactDamping>],
     default_place: PlayPlace,
+    pass_walks: &PassWalks,
     second: &mut Diagnosis,
     (base, share): (f64, f64),
     progress: &mut dyn FnMut(&str, f64),
@@ -671,8 +721,9 @@ fn search_play_size(
             tried += 1;
         };
         // The nominal model's walks along the fit recordings, shared by every damping's
-        // refits (they depend on neither the play nor the damping).
-        let walks = HeldPlay::fresh_walks(fit);
+        // refits (they depend on neither the play nor the damping) and with the passes on
+        // the same model.
+        let walks = pass_walks.fit.clone();
         // (A search that cannot assemble its columns leaves the selection as it is, as
         // the play-dynamics check does.)
         let held_at = |damping: ContactDamping| {
@@ -756,7 +807,7 @@ fn search_play_size(
             let mut o = o.clone();
             o.library.play_contact_damping = Some(damping);
             o.library.dynamic_play_clearance = Some(h);
-            let mut d = diagnose_once(shifted, fit, holdout, &o, &mut |s, f| {
+            let mut d = diagnose_once(shifted, fit, holdout, &o, Some(pass_walks), &mut |s, f| {
                 progress(s, base + share * (search_shares as f64 + f))
             })?;
             if d.cv_rms_noise_units < second.cv_rms_noise_units {
@@ -799,6 +850,7 @@ fn play_dynamics_check(
     holdout: &[MotionData],
     opts: &DiagnoseOptions,
     cands: &[super::candidates::Candidate],
+    walks: Option<&PassWalks>,
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<Option<PlayDynamicsCheck>, DiagnoseError> {
     if !opts.play_dynamics {
@@ -816,7 +868,7 @@ fn play_dynamics_check(
     // (The check refits the same candidates, their quasi-static tracker rows included.)
     o3.library.dynamic_play_tracker = false;
     // A check that cannot run (a refit the data do not support) leaves the diagnosis as it is.
-    let Ok(refit) = diagnose_once(moved, fit, holdout, &o3, &mut |_, _| {}) else {
+    let Ok(refit) = diagnose_once(moved, fit, holdout, &o3, walks, &mut |_, _| {}) else {
         return Ok(None);
     };
     let refit_clearance = refit
@@ -929,6 +981,7 @@ fn diagnose_once(
     fit: &[MotionData],
     holdout: &[MotionData],
     opts: &DiagnoseOptions,
+    walks: Option<&PassWalks>,
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<Diagnosis, DiagnoseError> {
     let chans = fit.first().map(MotionData::channels).unwrap_or_default();
@@ -952,7 +1005,15 @@ fn diagnose_once(
     let cands = library(model, &opts.library);
     progress("candidate regressors", 0.2);
     let lens: Vec<usize> = fit.iter().map(MotionData::len).collect();
-    let raw = prepare(model, fit, &vec![1.0; nj], &cands, opts)?;
+    let raw = prepare_with(
+        model,
+        fit,
+        &vec![1.0; nj],
+        &cands,
+        opts,
+        None,
+        walks.map(|w| w.fit.as_slice()),
+    )?;
     let compliance = super::candidates::compliance_of(model, &cands);
     let sel = select(&raw, &cands, &compliance, &lens, &sigma, opts, &mut *progress)?;
     progress("estimates", 0.85);
@@ -985,8 +1046,18 @@ fn diagnose_once(
         })
         .collect();
     progress("held-out check", 0.9);
-    let (mut channels, traces, fit_after) =
-        channel_fits(model, fit, holdout, &prep, &set, &x, &weight_scale, &sigma, opts)?;
+    let (mut channels, traces, fit_after) = channel_fits(
+        model,
+        fit,
+        holdout,
+        &prep,
+        &set,
+        &x,
+        &weight_scale,
+        &sigma,
+        opts,
+        walks,
+    )?;
     // In units of the measured channels' own noise floors: comparable between
     // differentiation windows (whose acceleration noise the total floor would excuse).
     let factor: Vec<f64> = (0..nj).map(|j| weight_scale[j] / measured[j]).collect();
@@ -1199,6 +1270,7 @@ fn channel_fits(
     sigma: &[f64],
     noise: &[f64],
     opts: &DiagnoseOptions,
+    walks: Option<&PassWalks>,
 ) -> Result<(Vec<ChannelFit>, Vec<ResidualTrace>, Vec<Vec<Vec<f64>>>), DiagnoseError> {
     let chans = fit.first().map(MotionData::channels).unwrap_or_default();
     let nj = chans.len();
@@ -1228,7 +1300,15 @@ fn channel_fits(
     let mut ho_a = vec![vec![]; nj];
     let mut traces = vec![];
     if !holdout.is_empty() {
-        let hp = prepare(model, holdout, sigma, &prep.cands, opts)?;
+        let hp = prepare_with(
+            model,
+            holdout,
+            sigma,
+            &prep.cands,
+            opts,
+            None,
+            walks.map(|w| w.holdout.as_slice()),
+        )?;
         for r in 0..holdout.len() {
             let n = holdout[r].len();
             let before = &hp.blocks[r].1;
