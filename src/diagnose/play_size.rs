@@ -538,17 +538,6 @@ impl<'a> HeldPlay<'a> {
         std::sync::Arc::new(fit.iter().map(|_| NominalWalkCache::new()).collect())
     }
 
-    /// The same refit taking the nominal model's walks along the recordings from `walks`
-    /// (one per fit recording; another length is not used), as [`new`](Self::new) takes
-    /// them (for tests: a refit made before it shares them).
-    #[cfg(test)]
-    pub(super) fn sharing_walks(mut self, walks: &Walks) -> Self {
-        if walks.len() == self.fit.len() {
-            self.walks = walks.clone();
-        }
-        self
-    }
-
     /// Recordings whose nominal walk with the play sites' dynamics is in the cache (for tests).
     #[cfg(test)]
     pub(super) fn walks_cached(&self) -> usize {
