@@ -144,9 +144,15 @@ pub struct Args {
     play_size_search: bool,
     /// With the size search (implies --play-size-search), the balls' damping searched too
     /// where a load-proportional one refits best: its constant part (steps of √10 and ⁴√10),
-    /// then γ (steps of 50, 22 and 10 %), the size refined at each (also with --suite).
+    /// then γ (steps of 50, 22 and 10 %), the size refined at each (the default since
+    /// 2026-12-06; the flag stays for the commands written before, and turns the size
+    /// search on with --no-bearing-play; also with --suite).
     #[arg(long)]
     play_damping_search: bool,
+    /// The balls' damping chosen from the grid of contact dampings only, not searched
+    /// (the behaviour before 2026-12-06; also with --suite).
+    #[arg(long, conflicts_with = "play_damping_search")]
+    no_play_damping_search: bool,
     /// No probe for a play the first pass saw but could not carry (by default, where the
     /// first pass selected no play and the candidate that cross-validated best alone is a
     /// play with an estimate outside its bounds, that joint's radial play is refitted with its dynamics at
@@ -491,7 +497,8 @@ fn play_options(a: &Args, opts: &mut DiagnoseOptions) {
         opts.library.play_interpolation = Interpolation::Linear;
     }
     opts.play_size_search |= a.play_size_search || a.play_damping_search;
-    opts.play_damping_search |= a.play_damping_search;
+    opts.play_damping_search =
+        (opts.play_damping_search || a.play_damping_search) && !a.no_play_damping_search;
     opts.play_probe &= !a.no_play_probe;
     for &g in &a.play_load_damping {
         opts.add_contact_damping(ContactDamping::load_proportional(g));
@@ -513,4 +520,45 @@ fn backlash_place(a: &Args) -> Option<PlayPlace> {
         "spring" => PlayPlace::Spring,
         _ => PlayPlace::Output,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    /// `lash diagnose`'s flags alone, as the binary parses them.
+    #[derive(Parser)]
+    struct Cmd {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn options(flags: &[&str]) -> DiagnoseOptions {
+        let cmd = Cmd::try_parse_from(std::iter::once("diagnose").chain(flags.iter().copied()))
+            .expect("the flags parse");
+        let mut opts = DiagnoseOptions::default();
+        play_options(&cmd.args, &mut opts);
+        opts
+    }
+
+    #[test]
+    fn the_damping_search_is_the_default_and_a_flag_turns_it_off() {
+        let d = options(&[]);
+        assert!(d.play_size_search && d.play_damping_search);
+        let grid = options(&["--no-play-damping-search"]);
+        assert!(grid.play_size_search && !grid.play_damping_search);
+        // The old flag still parses and changes nothing in the default.
+        assert_eq!(options(&["--play-damping-search"]), d);
+        // On the fast path the size search is off, so the search does not act; the flag
+        // turns both on there, as before.
+        let fast = options(&["--no-bearing-play"]);
+        assert!(!fast.play_size_search);
+        let fast_searched = options(&["--no-bearing-play", "--play-damping-search"]);
+        assert!(fast_searched.play_size_search && fast_searched.play_damping_search);
+        // Both at once are refused.
+        assert!(
+            Cmd::try_parse_from(["diagnose", "--play-damping-search", "--no-play-damping-search"]).is_err()
+        );
+    }
 }
