@@ -5,9 +5,9 @@
 //! better than what the diagnosis chose, had its search path reached it?".
 //!
 //! The recordings are those `lash diagnose --suite --keep-recordings DIR` writes
-//! (`DIR/<case>/recording-01.csv`, …): the fit recordings first, then the held-out ones
-//! (three and one for a folder of four, as the reduced suite; four and two otherwise). The
-//! differentiation half-width is the suite's, 8 samples.
+//! (`DIR/<case>/recording-01.csv`, …): the fit recordings first, then the held-out ones, split
+//! as the suite's design that has that many recordings (the reduced suite's three and one, the
+//! full design's four and two). The differentiation half-width is the suite's.
 //!
 //! ```text
 //! cargo run --release --example play_reference_run -- DIR/axial-D 4 "in joint E,in joint Q" out/ref-run
@@ -20,7 +20,9 @@
 
 use lash::diagnose::columns::{csv_header, resolve_columns};
 use lash::diagnose::recording::read_csv;
+use lash::diagnose::suite::SuiteOptions;
 use lash::diagnose::{diagnose_recordings, DiagnoseOptions};
+use lash::mechanisms::mr2120::record::recording_file;
 use std::error::Error;
 use std::path::{Path, PathBuf};
 
@@ -46,24 +48,32 @@ fn main() -> Result<(), Box<dyn Error>> {
         &lash::mechanisms::mr2120::Geometry::default(),
         &lash::mechanisms::mr2120::MassProperties::default(),
     )?;
-    let file = |k: usize| PathBuf::from(format!("{dir}/recording-{k:02}.csv"));
-    let n = (1..).take_while(|&k| file(k).exists()).count();
-    if n < 2 {
-        return Err(format!("{dir}: fewer than two recordings (recording-01.csv, …)").into());
-    }
-    let header = csv_header(&file(1))?;
+    // (Recordings counted from 0, as the suite writes them.)
+    let file = |r: usize| Path::new(dir).join(recording_file(r));
+    let n = (0..).take_while(|&r| file(r).exists()).count();
+    let designs = [SuiteOptions::reduced(), SuiteOptions::default()];
+    let total = |s: &SuiteOptions| s.fit_recordings + s.holdout_recordings;
+    let design = designs.iter().find(|s| total(s) == n).ok_or_else(|| {
+        format!(
+            "{dir}: {n} recordings; the suite's designs have {} (reduced) or {}",
+            total(&designs[0]),
+            total(&designs[1])
+        )
+    })?;
+    let header = csv_header(&file(0))?;
     let mapping = resolve_columns(&model, None, &header)?;
-    let load = |ks: std::ops::RangeInclusive<usize>| -> Result<Vec<_>, Box<dyn Error>> {
-        ks.map(|k| read_csv(&file(k), "time", &mapping).map_err(Into::into))
+    let load = |rs: std::ops::Range<usize>| -> Result<Vec<_>, Box<dyn Error>> {
+        rs.map(|r| read_csv(&file(r), "time", &mapping).map_err(Into::into))
             .collect()
     };
-    let nfit = if n == 4 { 3 } else { n - n / 3 };
-    let (fit, held) = (load(1..=nfit)?, load(nfit + 1..=n)?);
+    let nfit = design.fit_recordings;
+    let (fit, held) = (load(0..nfit)?, load(nfit..n)?);
     let mut opts = DiagnoseOptions::default();
     opts.library.exclude = exclude;
     opts.library.dynamic_play_clearance = Some(h);
     opts.library.dynamic_axial_play = Some(h);
-    let d = diagnose_recordings(&model, &fit, &held, &[8], &opts, |_, _| {})?;
+    let window = [design.derivative_window];
+    let d = diagnose_recordings(&model, &fit, &held, &window, &opts, |_, _| {})?;
     lash::diagnose::report::write_report(&d, Path::new(&report))?;
     println!(
         "fit recordings 1–{nfit}, held out {}–{n}; reference play {um} µm",
