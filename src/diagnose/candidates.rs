@@ -2242,6 +2242,95 @@ mod tests {
         );
     }
 
+    /// The probe's second signature
+    /// ([`play_behind_backlash`](crate::diagnose::relinearize::play_behind_backlash)): a
+    /// first pass that selected a drive backlash and no play probes the play that
+    /// cross-validated best alone among the plays below 1, in its own direction, whatever
+    /// ranks above it and however plausible it is.
+    #[test]
+    fn a_backlash_selected_without_a_play_probes_the_best_play_alone_in_its_direction() {
+        let recordings = carried_recordings(5e-6);
+        let opts = crate::diagnose::DiagnoseOptions {
+            library: LibraryOptions {
+                play_load_scales: vec![5.0],
+                ..LibraryOptions::default()
+            },
+            relinearize: false,
+            ..crate::diagnose::DiagnoseOptions::default()
+        };
+        let d = crate::diagnose::diagnose(&Carried, &recordings[..3], &recordings[3..], &opts, |_, _| {})
+            .expect("a diagnosis");
+        let cands = library(&Carried, &opts.library);
+        let name_of = |f: &dyn Fn(&Effect) -> bool| {
+            cands
+                .iter()
+                .find(|c| f(&c.effect))
+                .map(|c| c.name.clone())
+                .expect("the candidate")
+        };
+        let backlash = name_of(&|e| matches!(e, Effect::Backlash { .. }));
+        let radial = name_of(&|e| {
+            matches!(
+                e,
+                Effect::Play {
+                    direction: PlayDirection::Radial,
+                    ..
+                }
+            )
+        });
+        let axial = name_of(&|e| {
+            matches!(
+                e,
+                Effect::Play {
+                    direction: PlayDirection::Axial,
+                    ..
+                }
+            )
+        });
+        let other = name_of(&|e| !matches!(e, Effect::Play { .. } | Effect::Backlash { .. }));
+        let ranked = |candidate: &str, cv_ratio: f64| crate::diagnose::Ranked {
+            candidate: candidate.into(),
+            statistic: 100.0,
+            p_value: 0.0,
+            cv_ratio,
+            plausible: true,
+        };
+        let with = |selected: Vec<String>, ranking: Vec<crate::diagnose::Ranked>| {
+            let mut e = d.clone();
+            (e.selected, e.ranking) = (selected, ranking);
+            crate::diagnose::relinearize::play_behind_backlash(&Carried, &e, &cands)
+        };
+        // Backlash and a compliance ahead of the plays; the axial play the best of them.
+        let ranking = vec![
+            ranked(&other, 0.6),
+            ranked(&backlash, 0.7),
+            ranked(&radial, 0.95),
+            ranked(&axial, 0.9),
+        ];
+        assert_eq!(
+            with(vec![backlash.clone(), other.clone()], ranking.clone()),
+            Some((backlash.clone(), axial.clone(), 0, PlayDirection::Axial))
+        );
+        // The radial one the best: probed radially.
+        let radial_best = vec![ranked(&radial, 0.8), ranked(&axial, 0.9)];
+        assert_eq!(
+            with(vec![backlash.clone()], radial_best),
+            Some((backlash.clone(), radial.clone(), 0, PlayDirection::Radial))
+        );
+        // No backlash selected, or a play selected beside it: no probe on this signature.
+        assert_eq!(with(vec![other.clone()], ranking.clone()), None);
+        assert_eq!(with(vec![backlash.clone(), axial.clone()], ranking.clone()), None);
+        // No play better than nothing, or none with a number: no probe.
+        assert_eq!(
+            with(
+                vec![backlash.clone()],
+                vec![ranked(&axial, 1.0), ranked(&radial, f64::NAN)]
+            ),
+            None
+        );
+        assert_eq!(with(vec![backlash.clone()], vec![]), None);
+    }
+
     /// The size search's refits share the reduced model's runs without play across trial
     /// sizes (they do not depend on it): under Hertz's law, where the play's columns are its
     /// response less that run, a refit after others gives to the last bit what a first refit

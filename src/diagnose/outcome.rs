@@ -206,8 +206,12 @@ pub struct LinearizationStep {
 /// A probe for a play the first pass did not see ([`Diagnosis::play_probe`]): of the first
 /// pass's candidates alone, the one that cross-validated best was a joint's quasi-static play
 /// (tracker rows only) with an estimate outside its bounds, and the pass selected no play —
-/// the signature of a rattle that the quasi-static shift cannot carry. The joint's radial
-/// play, with its dynamics (the reduced dynamic play model's response at each size, held,
+/// the signature of a rattle that the quasi-static shift cannot carry; or (the second
+/// signature, since 2026-12-06) the pass selected a drive backlash and no play: near a
+/// singular position a joint's rattle shows in the drive torques, which a backlash carries
+/// and the play's quasi-static columns do not. The joint's radial play (on the second
+/// signature: the play of the joint and direction that cross-validated best alone among the
+/// plays), with its dynamics (the reduced dynamic play model's response at each size, held,
 /// the first pass's selection refitted), tried at sizes in a geometric grid
 /// ([`PROBE_PLAY_SIZES`](super::PROBE_PLAY_SIZES)) and refined about the best
 /// ([`search_play_size`](super::search_play_size)), at the library's contact damping; then
@@ -218,8 +222,15 @@ pub struct LinearizationStep {
 #[derive(Debug, Clone, Serialize)]
 pub struct PlayProbe {
     /// The quasi-static play candidate that cross-validated best alone, its estimate outside
-    /// its bounds.
+    /// its bounds; or, where the first pass selected a drive backlash and no play
+    /// ([`backlash`](Self::backlash)), the play that cross-validated best alone among the
+    /// plays.
     pub signature: String,
+    /// The drive backlash the first pass selected where it selected no play (the second
+    /// signature): the
+    /// probe then tries the play of [`signature`](Self::signature)'s joint and direction;
+    /// `None` on the first signature.
+    pub backlash: Option<String>,
     /// The dynamic play candidate probed.
     pub candidate: String,
     /// The first pass's selection refitted without the play, on the samples of the best

@@ -7,7 +7,7 @@
 //! whose refit cross-validates best is the one the model explains the data with.
 //! A variable projection: one nonlinear parameter searched, the linear ones solved.
 
-use super::candidates::{library, Candidate};
+use super::candidates::{library, Candidate, Effect, PlayDirection};
 use super::candidates::{NominalWalkCache, TightRuns};
 use super::data::MotionData;
 use super::error::DiagnoseError;
@@ -604,7 +604,15 @@ impl<'a> HeldPlay<'a> {
     /// [`cv`](Self::cv) (`hold`) or [`cv_without`](Self::cv_without) (not).
     fn refit(&self, h: f64, hold: bool) -> Result<Option<f64>, DiagnoseError> {
         let mut o = self.opts.clone();
-        o.library.dynamic_play_clearance = Some(h);
+        // The reference of the play's own direction (the probe's second signature holds an
+        // axial play).
+        match self.play.effect {
+            Effect::Play {
+                direction: PlayDirection::Axial,
+                ..
+            } => o.library.dynamic_axial_play = Some(h),
+            _ => o.library.dynamic_play_clearance = Some(h),
+        }
         let one = prepare_with(
             self.model,
             self.fit,

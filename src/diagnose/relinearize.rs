@@ -348,6 +348,47 @@ pub(super) fn unseen_play(
     play_site(&first.candidate).map(|site| (first.candidate.clone(), site))
 }
 
+/// The play the first pass `d` may have read as a drive backlash (the second signature of a
+/// play its quasi-static columns cannot carry, [`PlayProbe`](super::PlayProbe)): where `d`
+/// selected a drive backlash and no play, of the play candidates in its ranking the one with
+/// the smallest finite cross-validated ratio below 1 (either direction). Near a singular
+/// position a joint's play rattles, and the first pass's play columns carry only its
+/// quasi-static shift, while a backlash in the drive carries torques: measured on seed 11's
+/// axial-D (diagnosis log, "Seed 11's axial-D"), where a backlash in drive A stood for joint
+/// D's axial play. Returns the backlash's name, the play's name, its site and direction;
+/// `None` otherwise, or where the model cannot run the reduced dynamic play model.
+pub(super) fn play_behind_backlash(
+    model: &dyn InverseDynamicsModel,
+    d: &Diagnosis,
+    cands: &[Candidate],
+) -> Option<(String, String, usize, super::candidates::PlayDirection)> {
+    let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta, j) != 0.0);
+    if model.play_sites().is_empty() || !compliant {
+        return None;
+    }
+    let effect = |name: &str| cands.iter().find(|c| c.name == name).map(|c| c.effect);
+    if d.selected
+        .iter()
+        .any(|n| matches!(effect(n), Some(Effect::Play { .. })))
+    {
+        return None;
+    }
+    let backlash = d
+        .selected
+        .iter()
+        .find(|n| matches!(effect(n), Some(Effect::Backlash { .. })))?;
+    d.ranking
+        .iter()
+        .filter(|r| r.cv_ratio.is_finite() && r.cv_ratio < 1.0)
+        .filter_map(|r| match effect(&r.candidate) {
+            Some(Effect::Play { site, direction, .. }) => Some((r, site, direction)),
+            _ => None,
+        })
+        .min_by(|a, b| a.0.cv_ratio.total_cmp(&b.0.cv_ratio))
+        .map(|(r, site, direction)| (backlash.clone(), r.candidate.clone(), site, direction))
+}
+
 /// How far (as a factor either way) a selected play's estimate may be from the reference
 /// play its candidate's columns were taken at before the selection is repeated at the
 /// estimate ([`Diagnosis::dynamic_play_reference_cv`]).

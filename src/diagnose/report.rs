@@ -239,10 +239,19 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
                 others.join(", ")
             )
         };
+        let why = match &p.backlash {
+            None => format!(
+                "A play the first pass saw but could not carry ({}: alone the best by cross-validation, its quasi-static estimate outside its bounds)",
+                p.signature
+            ),
+            Some(b) => format!(
+                "A play the first pass may have read as a drive backlash ({b} selected, no play; of the plays alone {} cross-validated best)",
+                p.signature
+            ),
+        };
         let _ = writeln!(
             m,
-            "- A play the first pass saw but could not carry ({}: alone the best by cross-validation, its quasi-static estimate outside its bounds): {} refitted with the first pass's selection (leave-one-recording-out RMS in noise units; without the play {without}) at {} sizes, {:.2}–{:.2} µm in steps of {:.0} %, then {} about the best, at a contact damping of {}{others}: {}.",
-            p.signature,
+            "- {why}: {} refitted with the first pass's selection (leave-one-recording-out RMS in noise units; without the play {without}) at {} sizes, {:.2}–{:.2} µm in steps of {:.0} %, then {} about the best, at a contact damping of {}{others}: {}.",
             p.candidate,
             grid.len(),
             lo * 1e6,

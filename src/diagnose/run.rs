@@ -616,13 +616,23 @@ fn probe_unseen_play(
     walks: &PassWalks,
     progress: &mut dyn FnMut(&str, f64),
 ) -> Option<PlayProbe> {
-    let (signature, site) = relinearize::unseen_play(model, first, cands)?;
+    // The first signature probes the joint's radial play; the second (a backlash in the
+    // play's place) the play of the direction that cross-validated best.
+    let (signature, site, direction, backlash) = match relinearize::unseen_play(model, first, cands) {
+        Some((signature, site)) => (signature, site, PlayDirection::Radial, None),
+        None => {
+            let (backlash, signature, site, direction) =
+                relinearize::play_behind_backlash(model, first, cands)?;
+            (signature, site, direction, Some(backlash))
+        }
+    };
     let mut o = opts.clone();
     o.relinearize = false;
     o.shift = moved.to_vec();
     o.library.dynamic_play_clearance = Some(super::PROBE_PLAY_SIZES.0);
+    o.library.dynamic_axial_play = Some(super::PROBE_PLAY_SIZES.0);
     let play = library(model, &o.library).into_iter().find(
-        |c| matches!(c.effect, Effect::Play { site: s, direction: PlayDirection::Radial, .. } if s == site),
+        |c| matches!(c.effect, Effect::Play { site: s, direction: d, .. } if s == site && d == direction),
     )?;
     let (weights, floors) = refit_weights(first, fit);
     // (The fraction stays where the first pass ended; the label counts the refits against
@@ -656,6 +666,7 @@ fn probe_unseen_play(
         .filter(|&(_, _, cv)| cv * (1.0 + opts.confound_tolerance) < refits.without);
     Some(PlayProbe {
         signature,
+        backlash,
         candidate: play.name,
         without: refits.without,
         damping: refits.damping,
