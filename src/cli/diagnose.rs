@@ -159,8 +159,9 @@ pub struct Args {
     /// 1–20 µm at the default contact damping (2000 N·s/m), its size then searched at each
     /// other contact damping of the grid (up to 12 refits each), and the best size, where
     /// it refits better, becomes the second pass's reference play; likewise where the first
-    /// pass selected a drive backlash and no play, for the play that cross-validated best
-    /// alone among the plays, in its own direction; also with --suite).
+    /// pass selected a drive backlash and no play beside an unstable estimate, for the play
+    /// that cross-validated best alone among the plays, in its own direction; also with
+    /// --suite).
     #[arg(long)]
     no_play_probe: bool,
     /// Also try load-proportional contact dampings γ·F in the reduced dynamic play model (γ

@@ -2244,9 +2244,10 @@ mod tests {
 
     /// The probe's second signature
     /// ([`play_behind_backlash`](crate::diagnose::relinearize::play_behind_backlash)): a
-    /// first pass that selected a drive backlash and no play probes the play that
-    /// cross-validated best alone among the plays below 1, in its own direction, whatever
-    /// ranks above it and however plausible it is.
+    /// first pass that selected a drive backlash and no play, beside an unstable estimate,
+    /// probes the play that cross-validated best alone among the plays below 1, in its own
+    /// direction, whatever ranks above it and however plausible it is; with every estimate
+    /// stable it does not.
     #[test]
     fn a_backlash_selected_without_a_play_probes_the_best_play_alone_in_its_direction() {
         let recordings = carried_recordings(5e-6);
@@ -2295,11 +2296,31 @@ mod tests {
             cv_ratio,
             plausible: true,
         };
-        let with = |selected: Vec<String>, ranking: Vec<crate::diagnose::Ranked>| {
+        // Estimates of the selection: the last selected effect's `stable` as given.
+        let estimates = |selected: &[String], last_stable: bool| -> Vec<crate::diagnose::Estimate> {
+            selected
+                .iter()
+                .enumerate()
+                .map(|(i, n)| crate::diagnose::Estimate {
+                    candidate: n.clone(),
+                    parameter: "p [1]".into(),
+                    value: 1.0,
+                    std: 0.1,
+                    std_noise_only: 0.1,
+                    std_jackknife: None,
+                    inflation: 1.0,
+                    folds: vec![],
+                    stable: last_stable || i + 1 < selected.len(),
+                })
+                .collect()
+        };
+        let judged = |selected: Vec<String>, ranking: Vec<crate::diagnose::Ranked>, stable: bool| {
             let mut e = d.clone();
+            e.estimates = estimates(&selected, stable);
             (e.selected, e.ranking) = (selected, ranking);
             crate::diagnose::relinearize::play_behind_backlash(&Carried, &e, &cands)
         };
+        let with = |selected, ranking| judged(selected, ranking, false);
         // Backlash and a compliance ahead of the plays; the axial play the best of them.
         let ranking = vec![
             ranked(&other, 0.6),
@@ -2316,6 +2337,11 @@ mod tests {
         assert_eq!(
             with(vec![backlash.clone()], radial_best),
             Some((backlash.clone(), radial.clone(), 0, PlayDirection::Radial))
+        );
+        // Every selected estimate stable: no sign of a missing effect, no probe.
+        assert_eq!(
+            judged(vec![backlash.clone(), other.clone()], ranking.clone(), true),
+            None
         );
         // No backlash selected, or a play selected beside it: no probe on this signature.
         assert_eq!(with(vec![other.clone()], ranking.clone()), None);

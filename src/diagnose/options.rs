@@ -180,12 +180,14 @@ pub struct DiagnoseOptions {
     /// seed 2026, 22 at seed 11, the two radial-play cases at seed 7) it is seed 11's
     /// clearance-under-length's alone (diagnosis log, "A play the first pass did not see").
     /// Since 2026-12-06 also on a second signature: the first pass selected a drive
-    /// backlash and no play; the play probed is then the one (joint and direction) that
+    /// backlash and no play, and an estimate of its selection is unstable (it soaks up model
+    /// error); the play probed is then the one (joint and direction) that
     /// cross-validated best alone among the plays — near a singular position a joint's
     /// rattle shows in the drive torques, which a backlash carries and the play's
     /// quasi-static columns do not (seed 11's axial-D: a backlash in drive A for joint D's
-    /// axial play; diagnosis log, "Seed 11's axial-D"). The suite's backlash case shows that
-    /// signature too; there the true backlash stays (measured in the log).
+    /// axial play, beside an unstable backlash in drive C; diagnosis log, "Seed 11's
+    /// axial-D"). The suite's backlash case selects its true backlash with a stable estimate
+    /// and is not probed.
     pub play_probe: bool,
 }
 

@@ -207,7 +207,8 @@ pub struct LinearizationStep {
 /// pass's candidates alone, the one that cross-validated best was a joint's quasi-static play
 /// (tracker rows only) with an estimate outside its bounds, and the pass selected no play —
 /// the signature of a rattle that the quasi-static shift cannot carry; or (the second
-/// signature, since 2026-12-06) the pass selected a drive backlash and no play: near a
+/// signature, since 2026-12-06) the pass selected a drive backlash and no play, beside an
+/// unstable estimate (one that soaks up model error): near a
 /// singular position a joint's rattle shows in the drive torques, which a backlash carries
 /// and the play's quasi-static columns do not. The joint's radial play (on the second
 /// signature: the play of the joint and direction that cross-validated best alone among the

@@ -245,7 +245,7 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
                 p.signature
             ),
             Some(b) => format!(
-                "A play the first pass may have read as a drive backlash ({b} selected, no play; of the plays alone {} cross-validated best)",
+                "A play the first pass may have read as a drive backlash ({b} selected, no play, an estimate unstable; of the plays alone {} cross-validated best)",
                 p.signature
             ),
         };
