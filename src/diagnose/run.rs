@@ -196,7 +196,9 @@ fn diagnose_folds(
         (None, None)
     };
     // A play the first pass saw but could not carry: its dynamics probed, and the best
-    // size, where it refits better, the reference of the second pass's plays.
+    // size, where it refits better, the reference of the second pass's plays. (`start`: the
+    // furthest fraction its refits reached, where the second passes start.)
+    let mut start: f64 = 0.5;
     let probe = if opts.dynamic_play_selection && opts.play_probe && references == (None, None) {
         probe_unseen_play(
             model,
@@ -207,7 +209,10 @@ fn diagnose_folds(
             &cands,
             opts,
             &walks,
-            &mut *progress,
+            &mut |s, f| {
+                start = start.max(f);
+                progress(s, f)
+            },
         )
     } else {
         None
@@ -265,7 +270,8 @@ fn diagnose_folds(
         + if dynamic { relinearize::MAX_RESIZES } else { 0 };
     let search_shares = search_shares(opts);
     let passes = size_share + if search { search_shares + 1 } else { 0 };
-    let share = 0.4 / passes as f64;
+    // (The passes share what the probe, if it ran, left of the second pass's range.)
+    let share = (0.9 - start) / passes as f64;
     let pass = |k: usize,
                 damping: Option<ContactDamping>,
                 stiffness: Option<f64>,
@@ -278,7 +284,7 @@ fn diagnose_folds(
         o.library.backlash_place = place;
         (o.library.dynamic_play_clearance, o.library.dynamic_axial_play) = refs;
         diagnose_once(&shifted, fit, holdout, &o, Some(&walks), &mut |s, f| {
-            progress(s, 0.5 + share * (k as f64 + f))
+            progress(s, start + share * (k as f64 + f))
         })
     };
     let mut second = pass(
@@ -430,7 +436,7 @@ fn diagnose_folds(
             places[0],
             &walks,
             &mut second,
-            (0.5 + share * size_share as f64, share),
+            (start + share * size_share as f64, share),
             &mut *progress,
         )?;
     }
@@ -589,6 +595,20 @@ fn refit_weights(d: &Diagnosis, fit: &[MotionData]) -> (Vec<f64>, Vec<f64>) {
     (weights, measured_floors(fit))
 }
 
+/// The share of a diagnosis's progress the play probe takes where it runs
+/// ([`probe_unseen_play`]): after the first pass's half, before the second passes, which
+/// share what is left up to 0.9. A probe is tens of refits of the reduced play model (on seed
+/// 11's axial-D most of the diagnosis's time), so its refits move the fraction.
+const PROBE_SHARE: f64 = 0.1;
+// The second passes keep a range after the probe's.
+const _: () = assert!(0.5 + PROBE_SHARE < 0.9);
+
+/// The diagnosis's progress fraction at the play probe's `tried`-th refit of at most `most`:
+/// from the first pass's end (0.5) by [`PROBE_SHARE`] in proportion, never beyond it.
+fn probe_fraction(tried: usize, most: usize) -> f64 {
+    0.5 + PROBE_SHARE * tried.min(most) as f64 / most.max(1) as f64
+}
+
 /// The play probe's progress label: its `tried`-th refit of at most `most`
 /// ([`probe_unseen_play`]).
 fn probe_label(tried: usize, most: usize) -> String {
@@ -635,8 +655,9 @@ fn probe_unseen_play(
         |c| matches!(c.effect, Effect::Play { site: s, direction: d, .. } if s == site && d == direction),
     )?;
     let (weights, floors) = refit_weights(first, fit);
-    // (The fraction stays where the first pass ended; the label counts the refits against
-    // their most: the grid's, its refinement's and each other damping's search.)
+    // (The fraction moves from where the first pass ended by `PROBE_SHARE` over the refits'
+    // most — the grid's, its refinement's and each other damping's search — which the label
+    // counts against.)
     let own = o
         .library
         .play_contact_damping
@@ -645,7 +666,7 @@ fn probe_unseen_play(
     let mut tried = 0;
     let mut on_try = || {
         tried += 1;
-        progress(&probe_label(tried, most), 0.5);
+        progress(&probe_label(tried, most), probe_fraction(tried, most));
     };
     let refits = super::play_size::probe_play(
         shifted,
@@ -1372,4 +1393,24 @@ fn channel_fits(
 /// every column exactly 0, so the fitted residual is exactly 0 too).
 fn masked(before: f64, after: f64) -> bool {
     before == 0.0 && after == 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{probe_fraction, probe_label, PROBE_SHARE};
+
+    /// The play probe moves the diagnosis's progress from the first pass's end by its share,
+    /// one step per refit, never back and never beyond its share (a probe that stops early
+    /// leaves the second passes to start where it reached).
+    #[test]
+    fn the_play_probe_moves_the_progress_by_its_share_one_refit_at_a_time() {
+        let most = 79;
+        let fractions: Vec<f64> = (0..=most + 3).map(|k| probe_fraction(k, most)).collect();
+        assert_eq!(fractions[0], 0.5);
+        assert!((fractions[most] - (0.5 + PROBE_SHARE)).abs() < 1e-15);
+        assert!(fractions.windows(2).take(most).all(|w| w[1] > w[0]));
+        assert!(fractions[most..].iter().all(|f| *f == fractions[most]));
+        assert_eq!(probe_fraction(0, 0), 0.5);
+        assert_eq!(probe_label(3, most), "play probe, refit 3 of at most 79");
+    }
 }
