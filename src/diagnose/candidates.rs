@@ -2150,13 +2150,9 @@ mod tests {
         assert_eq!(refits.without, baseline);
     }
 
-    /// The probe runs on one signature only
-    /// ([`unseen_play`](crate::diagnose::relinearize::unseen_play)): a first pass that
-    /// selected no play, whose best candidate alone by cross-validation is a play (either
-    /// direction) with an estimate outside its bounds that cross-validates better than
-    /// nothing.
-    #[test]
-    fn the_play_probe_runs_only_where_an_implausible_play_is_best_alone_and_none_was_selected() {
+    /// A first pass (no re-linearisation) on the carried joint's recordings of a 5 µm play,
+    /// one load scale, and its candidate library: the diagnosis the probe's gate tests edit.
+    fn carried_first_pass() -> (crate::diagnose::Diagnosis, Vec<Candidate>) {
         let recordings = carried_recordings(5e-6);
         let opts = crate::diagnose::DiagnoseOptions {
             library: LibraryOptions {
@@ -2168,7 +2164,17 @@ mod tests {
         };
         let d = crate::diagnose::diagnose(&Carried, &recordings[..3], &recordings[3..], &opts, |_, _| {})
             .expect("a diagnosis");
-        let cands = library(&Carried, &opts.library);
+        (d, library(&Carried, &opts.library))
+    }
+
+    /// The probe runs on one signature only
+    /// ([`unseen_play`](crate::diagnose::relinearize::unseen_play)): a first pass that
+    /// selected no play, whose best candidate alone by cross-validation is a play (either
+    /// direction) with an estimate outside its bounds that cross-validates better than
+    /// nothing.
+    #[test]
+    fn the_play_probe_runs_only_where_an_implausible_play_is_best_alone_and_none_was_selected() {
+        let (d, cands) = carried_first_pass();
         let play = "radial clearance in joint F (load scale 5 N)";
         assert!(cands.iter().any(|c| c.name == play));
         let other = cands
@@ -2250,18 +2256,7 @@ mod tests {
     /// stable it does not.
     #[test]
     fn a_backlash_selected_without_a_play_probes_the_best_play_alone_in_its_direction() {
-        let recordings = carried_recordings(5e-6);
-        let opts = crate::diagnose::DiagnoseOptions {
-            library: LibraryOptions {
-                play_load_scales: vec![5.0],
-                ..LibraryOptions::default()
-            },
-            relinearize: false,
-            ..crate::diagnose::DiagnoseOptions::default()
-        };
-        let d = crate::diagnose::diagnose(&Carried, &recordings[..3], &recordings[3..], &opts, |_, _| {})
-            .expect("a diagnosis");
-        let cands = library(&Carried, &opts.library);
+        let (d, cands) = carried_first_pass();
         let name_of = |f: &dyn Fn(&Effect) -> bool| {
             cands
                 .iter()
