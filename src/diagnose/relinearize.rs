@@ -313,6 +313,22 @@ pub(super) fn dynamic_play_references(
     (radial.or(axial), axial.or(radial))
 }
 
+/// Whether `model` can run the reduced dynamic play model: it declares play sites and a
+/// compliant drive (the probes and the plays' reference sizes need both).
+fn runs_play_dynamics(model: &dyn InverseDynamicsModel) -> bool {
+    let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+    !model.play_sites().is_empty() && (0..model.joints()).any(|j| model.drive_compliance(&theta, j) != 0.0)
+}
+
+/// Whether `d` selected a play (either direction) among `cands`.
+fn selects_play(d: &Diagnosis, cands: &[Candidate]) -> bool {
+    d.selected.iter().any(|n| {
+        cands
+            .iter()
+            .any(|c| c.name == *n && matches!(c.effect, Effect::Play { .. }))
+    })
+}
+
 /// The play the first pass `d` saw but did not take (the signature of a play its
 /// quasi-static columns cannot carry, [`PlayProbe`](super::PlayProbe)): where `d` selected
 /// no play, the candidate with the smallest finite cross-validated ratio in its ranking
@@ -325,16 +341,14 @@ pub(super) fn unseen_play(
     d: &Diagnosis,
     cands: &[Candidate],
 ) -> Option<(String, usize)> {
-    let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
-    let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta, j) != 0.0);
-    if model.play_sites().is_empty() || !compliant {
+    if !runs_play_dynamics(model) {
         return None;
     }
     let play_site = |name: &str| match cands.iter().find(|c| c.name == name)?.effect {
         Effect::Play { site, .. } => Some(site),
         _ => None,
     };
-    if d.selected.iter().any(|n| play_site(n).is_some()) {
+    if selects_play(d, cands) {
         return None;
     }
     let first = d
@@ -366,16 +380,11 @@ pub(super) fn play_behind_backlash(
     d: &Diagnosis,
     cands: &[Candidate],
 ) -> Option<(String, String, usize, super::candidates::PlayDirection)> {
-    let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
-    let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta, j) != 0.0);
-    if model.play_sites().is_empty() || !compliant {
+    if !runs_play_dynamics(model) {
         return None;
     }
     let effect = |name: &str| cands.iter().find(|c| c.name == name).map(|c| c.effect);
-    if d.selected
-        .iter()
-        .any(|n| matches!(effect(n), Some(Effect::Play { .. })))
-    {
+    if selects_play(d, cands) {
         return None;
     }
     let backlash = d
@@ -466,9 +475,7 @@ fn first_play(
     cands: &[Candidate],
     direction: super::candidates::PlayDirection,
 ) -> Option<(String, f64)> {
-    let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
-    let compliant = (0..model.joints()).any(|j| model.drive_compliance(&theta, j) != 0.0);
-    if model.play_sites().is_empty() || !compliant {
+    if !runs_play_dynamics(model) {
         return None;
     }
     first_selected(
