@@ -11,8 +11,12 @@
 //! torques and play coordinates (the sum of their bit patterns): two builds whose arithmetic
 //! is the same print the same checksum.
 //!
+//! The contact damping may be given too (constant N·s/m, then s/m per newton of the ball's
+//! load; default 20 and 500): lighter dampings (say 1 and 50) let the substeps take them
+//! explicitly, the path most of a diagnosis's damping searches take.
+//!
 //! ```text
-//! cargo run --release --example play_model_run -- [REPETITIONS]
+//! cargo run --release --example play_model_run -- [REPETITIONS [DAMPING LOAD_DAMPING]]
 //! perf record -g target/release/examples/play_model_run 3
 //! ```
 
@@ -70,7 +74,9 @@ fn joint(t: f64, design: &BearingDesign) -> PlayDynamics {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let repetitions: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(1);
+    let arg = |k: usize| std::env::args().nth(k).and_then(|s| s.parse::<f64>().ok());
+    let repetitions = arg(1).map_or(1, |r| r as usize);
+    let (damping, load_damping) = (arg(2).unwrap_or(20.0), arg(3).unwrap_or(500.0));
     let transmission = TransmissionDynamics {
         mass: DMatrix::from_diagonal_element(3, 3, 0.01),
         compliance: vec![1e-4; 3],
@@ -98,8 +104,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let hertz = HertzBalls::from_design(&design)?;
     let contact = BallContact {
         hertz: Some(hertz),
-        damping: 20.0,
-        load_damping: 500.0,
+        damping,
+        load_damping,
         ..BALL_CONTACT
     };
     for rep in 0..repetitions {
