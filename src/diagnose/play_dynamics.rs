@@ -255,13 +255,17 @@ impl BallContact {
         }
     }
 
-    /// The normal damping (N·s/m) of a penetration `d` (m) of a bore's wall (`radial`) or of
-    /// its end face: [`damping`](Self::damping) + γ·F(δ).
-    fn damping_at(&self, radial: bool, d: f64) -> f64 {
-        if self.load_damping == 0.0 {
-            return self.damping;
-        }
-        self.damping + self.load_damping * self.spring(radial, d)
+    /// The normal force without the damping ([`spring`](Self::spring), N) and the normal
+    /// damping (N·s/m) of a penetration `d` (m) of a bore's wall (`radial`) or of its end
+    /// face: [`damping`](Self::damping) + γ·F(δ).
+    fn spring_and_damping(&self, radial: bool, d: f64) -> (f64, f64) {
+        let spring = self.spring(radial, d);
+        let damping = if self.load_damping == 0.0 {
+            self.damping
+        } else {
+            self.damping + self.load_damping * spring
+        };
+        (spring, damping)
     }
 
     /// The largest penetration (m) a normal force `force` (N) makes, either direction.
@@ -522,8 +526,47 @@ fn cross_frame(p: &PlayDynamics) -> Option<[Vector3<f64>; 3]> {
 /// bore's axis in the bore's plane) or axial (one row: its travel towards the bore's end).
 #[derive(Debug, Clone, Copy)]
 enum Contact {
-    Radial([[f64; NP]; 2]),
-    Axial([f64; NP]),
+    Radial([[f64; NP]; 2], Support),
+    Axial([f64; NP], Support),
+}
+
+/// The coordinates a contact's rows act on (where one of them is not zero): its damping's
+/// outer products touch only those (a side-i ball's rows leave out the play coordinates), the
+/// zeros they skip adding nothing to the sums (so the numbers are the same to the bit).
+#[derive(Debug, Clone, Copy)]
+struct Support {
+    index: [usize; NP],
+    len: usize,
+}
+
+impl Support {
+    fn of(rows: &[&[f64; NP]]) -> Self {
+        let mut s = Support {
+            index: [0; NP],
+            len: 0,
+        };
+        for k in 0..NP {
+            if rows.iter().any(|r| r[k] != 0.0) {
+                s.index[s.len] = k;
+                s.len += 1;
+            }
+        }
+        s
+    }
+
+    fn indices(&self) -> &[usize] {
+        &self.index[..self.len]
+    }
+}
+
+impl Contact {
+    fn radial(rows: [[f64; NP]; 2]) -> Self {
+        Contact::Radial(rows, Support::of(&[&rows[0], &rows[1]]))
+    }
+
+    fn axial(row: [f64; NP]) -> Self {
+        Contact::Axial(row, Support::of(&[&row]))
+    }
 }
 
 /// The balls' contacts as linear maps of the coordinates (play, then cross). The cross frame
@@ -546,20 +589,20 @@ fn contacts(p: &PlayDynamics) -> Option<[Contact; 8]> {
         r
     };
     let z = Vector3::zeros();
-    let mut out = [Contact::Axial([0.0; NP]); 8];
+    let mut out = [Contact::axial([0.0; NP]); 8];
     for (b, sign) in [1.0, -1.0].into_iter().enumerate() {
         // Side i: (c·u2 ± q·ω·u3, c·u3 ∓ q·ω·u2); axial ±c·u1.
-        out[b] = Contact::Radial([
+        out[b] = Contact::radial([
             row(&z, 0.0, &u2, &(u3 * (sign * q))),
             row(&z, 0.0, &u3, &(u2 * (-sign * q))),
         ]);
-        out[4 + b] = Contact::Axial(row(&z, 0.0, &(u1 * sign), &z));
+        out[4 + b] = Contact::axial(row(&z, 0.0, &(u1 * sign), &z));
         // Side j: ((c−e)·u1 ∓ q·(ω·u3 − φ), (c−e)·u3 ± q·ω·u1); axial ±(c−e)·u2.
-        out[2 + b] = Contact::Radial([
+        out[2 + b] = Contact::radial([
             row(&(-u1), sign * q, &u1, &(u3 * (-sign * q))),
             row(&(-u3), 0.0, &u3, &(u1 * (sign * q))),
         ]);
-        out[6 + b] = Contact::Axial(row(&(u2 * -sign), 0.0, &(u2 * sign), &z));
+        out[6 + b] = Contact::axial(row(&(u2 * -sign), 0.0, &(u2 * sign), &z));
     }
     Some(out)
 }
@@ -593,17 +636,19 @@ fn contact_load_one(
     damp: Option<&mut Damping>,
 ) -> f64 {
     let h = play.radial;
-    let add_outer = |damp: &mut Damping, w: f64, u: &[f64; NP]| {
+    let add_outer = |damp: &mut Damping, w: f64, u: &[f64; NP], support: &Support| {
         damp.added = true;
-        for (row, &ur) in damp.matrix.iter_mut().zip(u) {
-            let wr = w * ur;
-            for (v, &uc) in row.iter_mut().zip(u) {
-                *v += wr * uc;
+        let on = support.indices();
+        for &r in on {
+            let wr = w * u[r];
+            let row = &mut damp.matrix[r];
+            for &cc in on {
+                row[cc] += wr * u[cc];
             }
         }
     };
     match k {
-        Contact::Radial(jb) => {
+        Contact::Radial(jb, support) => {
             let (b, bd) = dots([&jb[0], &jb[1]], x, xd);
             // A ball well inside its bore is free, decided on the squared distance (the
             // margin far above its rounding, so the decision is `hypot`'s); `hypot` only
@@ -620,8 +665,8 @@ fn contact_load_one(
             // (the rates there, the force back through the two rows): the contact is
             // evaluated at every substep of the play model, most of its time.
             let (nb, tb) = ([b[0] / r, b[1] / r], [-b[1] / r, b[0] / r]);
-            let cd = c.damping_at(true, r - h);
-            let f = (-c.spring(true, r - h) - cd * (nb[0] * bd[0] + nb[1] * bd[1])).min(0.0);
+            let (spring, cd) = c.spring_and_damping(true, r - h);
+            let f = (-spring - cd * (nb[0] * bd[0] + nb[1] * bd[1])).min(0.0);
             let ft = -c.damping * (tb[0] * bd[0] + tb[1] * bd[1]);
             let g = [f * nb[0] + ft * tb[0], f * nb[1] + ft * tb[1]];
             for (kk, o) in out.iter_mut().enumerate() {
@@ -631,25 +676,25 @@ fn contact_load_one(
                 let un: [f64; NP] = std::array::from_fn(|kk| nb[0] * jb[0][kk] + nb[1] * jb[1][kk]);
                 let ut: [f64; NP] = std::array::from_fn(|kk| tb[0] * jb[0][kk] + tb[1] * jb[1][kk]);
                 if f < 0.0 {
-                    add_outer(damp, cd, &un);
+                    add_outer(damp, cd, &un, support);
                 }
-                add_outer(damp, c.damping, &ut);
+                add_outer(damp, c.damping, &ut, support);
             }
             -f
         }
-        Contact::Axial(row) => {
+        Contact::Axial(row, support) => {
             let ([rx], [rxd]) = dots([row], x, xd);
             let d = rx - 0.5 * play.axial;
             if d <= 0.0 {
                 return 0.0;
             }
-            let cd = c.damping_at(false, d);
-            let f = (-c.spring(false, d) - cd * rxd).min(0.0);
+            let (spring, cd) = c.spring_and_damping(false, d);
+            let f = (-spring - cd * rxd).min(0.0);
             for (kk, o) in out.iter_mut().enumerate() {
                 *o += f * row[kk];
             }
             if let (Some(damp), true) = (damp, f < 0.0) {
-                add_outer(damp, cd, row);
+                add_outer(damp, cd, row, support);
             }
             -f
         }
@@ -923,8 +968,8 @@ fn contact_gram(ks: &[Contact; 8], n: usize) -> DMatrix<f64> {
     };
     for k in ks {
         match k {
-            Contact::Radial(jb) => jb.iter().for_each(&mut add),
-            Contact::Axial(row) => add(row),
+            Contact::Radial(jb, _) => jb.iter().for_each(&mut add),
+            Contact::Axial(row, _) => add(row),
         }
     }
     jtj
