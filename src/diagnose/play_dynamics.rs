@@ -717,23 +717,33 @@ struct Damping {
     added: bool,
 }
 
-/// [`contact_load`] and the contacts' damping there.
+impl Damping {
+    fn zero() -> Self {
+        Damping {
+            matrix: [[0.0; NP]; NP],
+            added: false,
+        }
+    }
+}
+
+/// [`contact_load`], and the contacts' damping there into `damp` (reused from substep to
+/// substep: cleared only when a contact had added to it).
 fn contact_load_and_damping(
     ks: &[Contact; 8],
     x: &[f64],
     xd: &[f64],
     play: &JointPlay,
     c: &BallContact,
-) -> ([f64; NP], Damping) {
-    let mut out = [0.0; NP];
-    let mut damp = Damping {
-        matrix: [[0.0; NP]; NP],
-        added: false,
-    };
-    for k in ks {
-        contact_load_one(k, x, xd, play, c, &mut out, Some(&mut damp));
+    damp: &mut Damping,
+) -> [f64; NP] {
+    if damp.added {
+        *damp = Damping::zero();
     }
-    (out, damp)
+    let mut out = [0.0; NP];
+    for k in ks {
+        contact_load_one(k, x, xd, play, c, &mut out, Some(damp));
+    }
+    out
 }
 
 /// y ← α·A·x + β·y for the column-major `a` (rows: y's length), with nalgebra's `gemv`'s
@@ -1234,11 +1244,19 @@ fn advance(
     let bblock = two_blocks(&base_inv);
     // Built at the first substep in contact (an interval without contact never needs it).
     let mut schur: Option<PlaySchur> = None;
+    // The contacts' damping, reused across the substeps.
+    let mut damp = Damping::zero();
     // In place, as above: dt·(g − K·x − C·v + loads), then Δv.
     let (mut rhs, mut dv) = (DVector::zeros(x.len()), DVector::zeros(x.len()));
     for j in 0..steps.n {
-        let (lc, damp) =
-            contact_load_and_damping(ks, &x.as_slice()[nj..], &v.as_slice()[nj..], play, contact);
+        let lc = contact_load_and_damping(
+            ks,
+            &x.as_slice()[nj..],
+            &v.as_slice()[nj..],
+            play,
+            contact,
+            &mut damp,
+        );
         let cc = &damp.matrix;
         forces_into(&mut rhs, sys, prev, (j, steps.n), x, v, &lc);
         rhs.as_mut_slice().iter_mut().for_each(|r| *r *= dt);
