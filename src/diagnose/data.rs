@@ -361,6 +361,35 @@ impl MotionData {
         self.t.len()
     }
 
+    /// This recording without its first and last `k` samples (fewer when that would leave
+    /// less than [`MIN_SAMPLES`]): where the rates were differentiated over ±k samples, the
+    /// accelerations there come from one-sided fits, whose error is neither the noise floor
+    /// the diagnosis assumes nor physics (and where a run starts with a step of torque, the
+    /// fit smears it across the window).
+    pub fn without_ends(mut self, k: usize) -> Self {
+        let n = self.len();
+        let k = k.min(n.saturating_sub(MIN_SAMPLES) / 2);
+        if k == 0 {
+            return self;
+        }
+        let cut = |x: &mut Vec<f64>| {
+            x.truncate(n - k);
+            x.drain(..k);
+        };
+        cut(&mut self.t);
+        for x in self
+            .q
+            .iter_mut()
+            .chain(&mut self.qd)
+            .chain(&mut self.qdd)
+            .chain(&mut self.tau)
+            .chain(&mut self.y)
+        {
+            cut(x);
+        }
+        self
+    }
+
     /// This recording cut into `k` contiguous parts of (nearly) equal length, named
     /// "`name` [part i/k]", for cross-validation when only one recording is fitted.
     /// Derivatives were taken on the whole recording, so no part has edge effects of its own.
@@ -399,6 +428,51 @@ impl MotionData {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The ends go from every series alike, never below the samples a recording needs.
+    #[test]
+    fn without_ends_drops_the_same_samples_from_every_series_and_keeps_enough() {
+        let n = 200;
+        let series = |c: f64| (0..n).map(|i| c + i as f64).collect::<Vec<f64>>();
+        let d = MotionData {
+            name: "r".into(),
+            t: series(0.0),
+            q: vec![series(1.0), series(2.0)],
+            qd: vec![series(3.0), series(4.0)],
+            qdd: vec![series(5.0), series(6.0)],
+            qdd_noise: vec![0.1, 0.2],
+            tau: vec![series(7.0), series(8.0)],
+            y: vec![series(9.0)],
+        };
+        let cut = d.clone().without_ends(16);
+        assert_eq!(cut.len(), n - 32);
+        for (c, x) in [
+            (0.0, &cut.t),
+            (1.0, &cut.q[0]),
+            (4.0, &cut.qd[1]),
+            (5.0, &cut.qdd[0]),
+        ]
+        .into_iter()
+        .chain([(8.0, &cut.tau[1]), (9.0, &cut.y[0])])
+        {
+            assert_eq!((x[0], x[x.len() - 1], x.len()), (c + 16.0, c + 183.0, n - 32));
+        }
+        assert_eq!(cut.qdd_noise, d.qdd_noise);
+        // 60 samples leave 5 to drop at each end: the rest is MIN_SAMPLES.
+        let short = MotionData {
+            t: series(0.0)[..60].to_vec(),
+            q: vec![series(1.0)[..60].to_vec()],
+            qd: vec![series(2.0)[..60].to_vec()],
+            qdd: vec![series(3.0)[..60].to_vec()],
+            qdd_noise: vec![],
+            tau: vec![series(4.0)[..60].to_vec()],
+            y: vec![],
+            ..d.clone()
+        };
+        let cut = short.without_ends(16);
+        assert_eq!((cut.len(), cut.t[0], cut.tau[0][0]), (MIN_SAMPLES, 5.0, 9.0));
+        assert_eq!(d.clone().without_ends(0), d);
+    }
     use std::path::PathBuf;
 
     fn recording(with_qdd: bool) -> Recording {

@@ -444,6 +444,12 @@ pub struct Diagnosis {
     /// Half-width (samples) of the rate differentiation, and the cross-validated RMS of each
     /// half-width tried (empty if it was given).
     pub derivative_window: (usize, Vec<(usize, f64)>),
+    /// Samples at each end of every recording that carry no weight (fit, cross-validation
+    /// and held-out check alike): there the rates were differentiated over a one-sided
+    /// window (the widest tried), an extrapolation whose error is neither the noise floor
+    /// nor physics. 0 when the accelerations were recorded or the data came without
+    /// differentiation windows.
+    pub ends_dropped: usize,
     /// Held-out residual traces.
     #[serde(skip)]
     pub traces: Vec<ResidualTrace>,

@@ -479,6 +479,13 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
                 .join(", ")
         );
     }
+    if d.ends_dropped > 0 {
+        let _ = writeln!(
+            m,
+            "The first and last {} samples of each recording carry no weight: their accelerations come from one-sided fits of the widest differentiation window tried.\n",
+            d.ends_dropped
+        );
+    }
     let _ = writeln!(m, "## Before and after, per channel\n");
     let _ = writeln!(
         m,

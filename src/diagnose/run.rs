@@ -18,7 +18,7 @@ use super::play_size::{
     best_refit, search_constant_damping, search_load_damping, HeldPlay, MAX_CONSTANT_DAMPINGS,
     MAX_LOAD_DAMPINGS, MAX_PLAY_SIZES, PROFILE_SIZES,
 };
-use super::recording::{Recording, MIN_SAMPLES};
+use super::recording::{Recording, RecordingError, MIN_SAMPLES};
 use super::relinearize;
 use super::residuals::{prepare_with, Prepared};
 use super::selection::{confounded, estimate, select, Estimates, Selection};
@@ -1210,6 +1210,7 @@ fn diagnose_once(
         verdict,
         cv_rms_noise_units,
         derivative_window: (0, vec![]),
+        ends_dropped: 0,
         traces,
     })
 }
@@ -1249,14 +1250,23 @@ fn diagnose_recordings_dyn(
         });
     }
     let nj = model.joints();
+    // Every window is scored on the same samples: the ends the widest window of the grid
+    // differentiates one-sidedly carry no weight for any of them (nor in the held-out check).
+    let ends = windows.iter().copied().max().unwrap_or(0);
+    let differentiated = |r: &Recording| (1..=nj).any(|j| r.channel(&format!("qdd{j}")).is_none());
     let load = |recs: &[Recording], w: usize| -> Result<Vec<MotionData>, _> {
         recs.iter()
             .map(|r| {
-                if model.outputs() > 0 {
+                let d = if model.outputs() > 0 {
                     MotionData::from_recording_with_outputs(r, model, w)
                 } else {
                     MotionData::from_recording(r, nj, w)
-                }
+                }?;
+                Ok::<_, RecordingError>(if differentiated(r) {
+                    d.without_ends(ends)
+                } else {
+                    d
+                })
             })
             .collect()
     };
@@ -1285,6 +1295,14 @@ fn diagnose_recordings_dyn(
         progress(s, 0.5 + 0.5 * f)
     })?;
     d.derivative_window = (w, scores);
+    // What the shortest recording allowed (`MotionData::without_ends`).
+    d.ends_dropped = fit
+        .iter()
+        .chain(holdout)
+        .filter(|r| differentiated(r))
+        .map(|r| ends.min(r.time.len().saturating_sub(MIN_SAMPLES) / 2))
+        .min()
+        .unwrap_or(0);
     Ok(d)
 }
 

@@ -452,7 +452,8 @@ pub(crate) fn keep(opts: &SuiteOptions, case: &str, r: usize, rec: &Recorded) ->
 }
 
 /// A recording as the diagnosis reads it (accelerations by local cubics over ±`window`
-/// samples).
+/// samples; the first and last `window` samples, differentiated one-sidedly, left out as
+/// `lash diagnose` leaves them out: [`MotionData::without_ends`]).
 pub(crate) fn motion(rec: &Recorded, name: String, window: usize, torques: bool) -> MotionData {
     let q: Vec<Vec<f64>> = rec.q.to_vec();
     let qd: Vec<Vec<f64>> = rec.qd.to_vec();
@@ -475,6 +476,7 @@ pub(crate) fn motion(rec: &Recorded, name: String, window: usize, torques: bool)
             rec.pose.to_vec()
         },
     }
+    .without_ends(window)
 }
 
 /// How concealed a case's hidden effect is.
@@ -560,13 +562,15 @@ pub(crate) fn diagnose_and_score(
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<(CaseResult, Diagnosis), SuiteError> {
     let noise = &opts.record.noise;
-    let d = super::diagnose(model, fit, held, &opts.diagnose, |s, f| {
+    let mut d = super::diagnose(model, fit, held, &opts.diagnose, |s, f| {
         progress(s, TRUTH_SHARE + (1.0 - TRUTH_SHARE) * f)
     })
     .map_err(|source| SuiteError::Diagnose {
         case: spec.name.into(),
         source: Box::new(source),
     })?;
+    // (`motion` left these out.)
+    d.ends_dropped = opts.derivative_window;
     let res = score(
         spec.name,
         spec.kind,
