@@ -120,7 +120,8 @@ fn mapped(rec: &Recording, role: String) -> Result<Vec<f64>, RecordingError> {
 
 impl MotionData {
     /// From a recording with the roles of [`roles`]; accelerations by local least-squares
-    /// lines over ±`half_window` samples of the rates.
+    /// cubics over ±`half_window` samples of the rates (one-sided within `half_window` of
+    /// either end: [`without_ends`](Self::without_ends) leaves those samples out).
     pub fn from_recording(
         rec: &Recording,
         joints: usize,
