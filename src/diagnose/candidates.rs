@@ -1899,6 +1899,7 @@ mod tests {
             qdd_noise: vec![],
             tau: vec![vec![0.0; n]],
             y: vec![q],
+            ends_dropped: 0,
         }
     }
 
@@ -2549,6 +2550,7 @@ mod tests {
             qdd_noise: vec![],
             tau: vec![vec![0.0; n]],
             y: vec![vec![0.0; n]],
+            ends_dropped: 0,
         };
         let opts = LibraryOptions::default();
         let cands = library(&Carried, &opts);
@@ -2826,6 +2828,7 @@ mod tests {
                         .map(|i| 0.1 * qdd[i] + TAU_PER_M * shift[i] + noise(0.002))
                         .collect()],
                     y: vec![(0..n).map(|i| q[i] + shift[i] + noise(2e-7)).collect()],
+                    ends_dropped: 0,
                     q: vec![q],
                     qdd: vec![qdd],
                     qdd_noise: vec![],

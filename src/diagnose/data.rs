@@ -32,6 +32,9 @@ pub struct MotionData {
     pub tau: Vec<Vec<f64>>,
     /// Measured outputs per output channel (empty: none recorded), in the model's units.
     pub y: Vec<Vec<f64>>,
+    /// Samples left out at each end of the recording ([`without_ends`](Self::without_ends);
+    /// 0 when none were).
+    pub ends_dropped: usize,
 }
 
 /// Roles a recording must map for an n-joint model: q1.., qd1.., tau1.. (1-based).
@@ -151,6 +154,7 @@ impl MotionData {
             qdd_noise: vec![],
             tau: vec![],
             y: vec![],
+            ends_dropped: 0,
         };
         for j in 1..=joints {
             d.q.push(mapped(rec, format!("q{j}"))?);
@@ -362,15 +366,26 @@ impl MotionData {
         self.t.len()
     }
 
-    /// This recording without its first and last `k` samples (fewer when that would leave
-    /// less than [`MIN_SAMPLES`]): where the rates were differentiated over ±k samples, the
-    /// accelerations there come from one-sided fits, whose error is neither the noise floor
-    /// the diagnosis assumes nor physics (and where a run starts with a step of torque, the
-    /// fit smears it across the window).
-    pub fn without_ends(mut self, k: usize) -> Self {
+    /// This recording without its first and last `k` samples, fewer where that would leave
+    /// less than `keep` (at least [`MIN_SAMPLES`]): where the rates were differentiated over
+    /// ±k samples, the accelerations there come from fits that reach past the recording's
+    /// ends — one-sided, an extrapolation whose error is neither the noise floor the
+    /// diagnosis assumes nor physics (and where a run starts with a step of torque, the fit
+    /// smears it across the window). Adds what it left out to
+    /// [`ends_dropped`](Self::ends_dropped). A recording whose series differ in length from
+    /// its time column is returned whole, for the diagnosis's check to name.
+    pub fn without_ends(mut self, k: usize, keep: usize) -> Self {
         let n = self.len();
-        let k = k.min(n.saturating_sub(MIN_SAMPLES) / 2);
-        if k == 0 {
+        let k = k.min(n.saturating_sub(keep.max(MIN_SAMPLES)) / 2);
+        let series = || {
+            self.q
+                .iter()
+                .chain(&self.qd)
+                .chain(&self.qdd)
+                .chain(&self.tau)
+                .chain(&self.y)
+        };
+        if k == 0 || series().any(|x| x.len() != n) {
             return self;
         }
         let cut = |x: &mut Vec<f64>| {
@@ -388,6 +403,7 @@ impl MotionData {
         {
             cut(x);
         }
+        self.ends_dropped += k;
         self
     }
 
@@ -410,6 +426,7 @@ impl MotionData {
                     qdd_noise: self.qdd_noise.clone(),
                     tau: part(&self.tau),
                     y: part(&self.y),
+                    ends_dropped: self.ends_dropped,
                 }
             })
             .collect()
@@ -430,7 +447,8 @@ impl MotionData {
 mod tests {
     use super::*;
 
-    /// The ends go from every series alike, never below the samples a recording needs.
+    /// The ends go from every series alike, never below the samples a recording needs (or
+    /// the caller asks to keep), and the count is kept; mismatched series stay whole.
     #[test]
     fn without_ends_drops_the_same_samples_from_every_series_and_keeps_enough() {
         let n = 200;
@@ -444,9 +462,10 @@ mod tests {
             qdd_noise: vec![0.1, 0.2],
             tau: vec![series(7.0), series(8.0)],
             y: vec![series(9.0)],
+            ends_dropped: 0,
         };
-        let cut = d.clone().without_ends(16);
-        assert_eq!(cut.len(), n - 32);
+        let cut = d.clone().without_ends(16, 0);
+        assert_eq!((cut.len(), cut.ends_dropped), (n - 32, 16));
         for (c, x) in [
             (0.0, &cut.t),
             (1.0, &cut.q[0]),
@@ -459,6 +478,9 @@ mod tests {
             assert_eq!((x[0], x[x.len() - 1], x.len()), (c + 16.0, c + 183.0, n - 32));
         }
         assert_eq!(cut.qdd_noise, d.qdd_noise);
+        // Asked to keep 150 of 200: 25 go from each end.
+        let kept = d.clone().without_ends(50, 150);
+        assert_eq!((kept.len(), kept.ends_dropped, kept.t[0]), (150, 25, 25.0));
         // 60 samples leave 5 to drop at each end: the rest is MIN_SAMPLES.
         let short = MotionData {
             t: series(0.0)[..60].to_vec(),
@@ -470,9 +492,14 @@ mod tests {
             y: vec![],
             ..d.clone()
         };
-        let cut = short.without_ends(16);
+        let cut = short.clone().without_ends(16, 0);
         assert_eq!((cut.len(), cut.t[0], cut.tau[0][0]), (MIN_SAMPLES, 5.0, 9.0));
-        assert_eq!(d.clone().without_ends(0), d);
+        assert_eq!(cut.ends_dropped, 5);
+        assert_eq!(d.clone().without_ends(0, 0), d);
+        // A series shorter than the time column: left whole for the check to name.
+        let mut bad = short;
+        bad.tau[0].truncate(10);
+        assert_eq!(bad.clone().without_ends(16, 0), bad);
     }
     use std::path::PathBuf;
 

@@ -56,9 +56,9 @@
 //!     .iter().map(|(a, b)| (a.to_string(), b.to_string())).collect();
 //! let load = |f: &str| -> Result<MotionData, Box<dyn std::error::Error>> {
 //!     let rec = read_csv(Path::new(f), "time", &map)?;
-//!     // Rates differentiated over ±5 samples; the 5 at each end, differentiated one-sidedly,
-//!     // left out (as `lash diagnose` leaves them out).
-//!     Ok(MotionData::from_recording(&rec, 2, 5)?.without_ends(5))
+//!     // Rates differentiated over ±5 samples; the 5 at each end, where the fit is
+//!     // one-sided, left out (as `lash diagnose` leaves out its widest window's).
+//!     Ok(MotionData::from_recording(&rec, 2, 5)?.without_ends(5, 0))
 //! };
 //! let dir = "../shared/data/dfki-double-pendulum/recordings";
 //! let fit = vec![load(&format!("{dir}/trajectory_00.csv"))?, load(&format!("{dir}/trajectory_01.csv"))?];

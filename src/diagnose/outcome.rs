@@ -444,11 +444,12 @@ pub struct Diagnosis {
     /// Half-width (samples) of the rate differentiation, and the cross-validated RMS of each
     /// half-width tried (empty if it was given).
     pub derivative_window: (usize, Vec<(usize, f64)>),
-    /// Samples at each end of every recording that carry no weight (fit, cross-validation
-    /// and held-out check alike): there the rates were differentiated over a one-sided
-    /// window (the widest tried), an extrapolation whose error is neither the noise floor
-    /// nor physics. 0 when the accelerations were recorded or the data came without
-    /// differentiation windows.
+    /// The most samples left out at either end of any recording (fit, cross-validation and
+    /// held-out check alike; [`MotionData::without_ends`](super::data::MotionData::without_ends)):
+    /// `lash diagnose` leaves out the widest differentiation window tried, whose fit is
+    /// one-sided there, from every window's evaluation, so the cross-validation compares
+    /// windows on the same samples (fewer from a recording too short to spare them). 0 when
+    /// the accelerations were recorded.
     pub ends_dropped: usize,
     /// Held-out residual traces.
     #[serde(skip)]

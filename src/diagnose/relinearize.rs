@@ -844,6 +844,7 @@ mod tests {
             qdd_noise: vec![],
             tau: vec![vec![0.0; t.len()]; 2],
             y: vec![],
+            ends_dropped: 0,
         };
         let cands = library(&model, &LibraryOptions::default());
         let name = |part: &str| {

@@ -482,7 +482,7 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<PathBuf, ReportError> {
     if d.ends_dropped > 0 {
         let _ = writeln!(
             m,
-            "The first and last {} samples of each recording carry no weight: their accelerations come from one-sided fits of the widest differentiation window tried.\n",
+            "Up to the first and last {} samples of each recording carry no weight: there the widest differentiation window tried reaches past the recording's ends (its fit is one-sided), and every window is scored on the same samples.\n",
             d.ends_dropped
         );
     }

@@ -396,6 +396,7 @@ mod tests {
             qdd_noise: vec![],
             tau: vec![t.iter().map(|t| 0.3 * (3.0 * t).cos()).collect()],
             y: vec![],
+            ends_dropped: 0,
         };
         let pair = |m: &dyn InverseDynamicsModel| -> Vec<Candidate> {
             library(m, &LibraryOptions::default())

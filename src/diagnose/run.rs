@@ -92,6 +92,12 @@ fn diagnose_dyn(
         _ => (fit, None),
     };
     let mut d = diagnose_folds(model, fit, holdout, opts, progress)?;
+    d.ends_dropped = fit
+        .iter()
+        .chain(holdout)
+        .map(|m| m.ends_dropped)
+        .max()
+        .unwrap_or(0);
     if let Some(note) = folds {
         d.verdict = format!("{} {note}", d.verdict);
         d.folds = Some(note);
@@ -1254,6 +1260,12 @@ fn diagnose_recordings_dyn(
     // differentiates one-sidedly carry no weight for any of them (nor in the held-out check).
     let ends = windows.iter().copied().max().unwrap_or(0);
     let differentiated = |r: &Recording| (1..=nj).any(|j| r.channel(&format!("qdd{j}")).is_none());
+    // A recording fitted alone keeps what its cross-validation folds need.
+    let keep = if fit.len() == 1 {
+        FOLDS_FROM_ONE_RECORDING * MIN_SAMPLES
+    } else {
+        MIN_SAMPLES
+    };
     let load = |recs: &[Recording], w: usize| -> Result<Vec<MotionData>, _> {
         recs.iter()
             .map(|r| {
@@ -1263,7 +1275,7 @@ fn diagnose_recordings_dyn(
                     MotionData::from_recording(r, nj, w)
                 }?;
                 Ok::<_, RecordingError>(if differentiated(r) {
-                    d.without_ends(ends)
+                    d.without_ends(ends, keep)
                 } else {
                     d
                 })
@@ -1295,14 +1307,6 @@ fn diagnose_recordings_dyn(
         progress(s, 0.5 + 0.5 * f)
     })?;
     d.derivative_window = (w, scores);
-    // What the shortest recording allowed (`MotionData::without_ends`).
-    d.ends_dropped = fit
-        .iter()
-        .chain(holdout)
-        .filter(|r| differentiated(r))
-        .map(|r| ends.min(r.time.len().saturating_sub(MIN_SAMPLES) / 2))
-        .min()
-        .unwrap_or(0);
     Ok(d)
 }
 

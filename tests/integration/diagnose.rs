@@ -52,6 +52,7 @@ fn run_with(seed: u64, f: [f64; 2], extra: &dyn Fn(usize, f64, f64, f64) -> f64,
     let n = 5000;
     let mut d = MotionData {
         y: vec![],
+        ends_dropped: 0,
         name: format!("synthetic-{seed}"),
         t: vec![],
         q: vec![vec![]; 2],
@@ -524,6 +525,14 @@ fn dfki_real_recordings_joint_2_held_out_residual_falls_by_40_percent() {
     );
     // Every estimate is physically plausible and reported with its uncertainty.
     assert!(d.estimates.iter().all(|e| e.std > 0.0 && e.std.is_finite()));
+    // The widest window's one-sided ends (±50 samples) carry no weight, held out too.
+    assert_eq!(d.ends_dropped, 50);
+    let n = held[0].time.len();
+    let trace = &d.traces[0];
+    assert_eq!(
+        (trace.t.len(), trace.t[0], trace.t[trace.t.len() - 1]),
+        (n - 100, held[0].time[50], held[0].time[n - 51])
+    );
 }
 
 /// The test pendulum built with the multibody API: links along −z at q = 0, joints about +y;
@@ -1145,6 +1154,7 @@ mod declared_sensors {
             } else {
                 vec![]
             },
+            ends_dropped: 0,
             t,
             q: vec![q],
             qd: vec![qd],

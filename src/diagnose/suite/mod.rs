@@ -475,8 +475,9 @@ pub(crate) fn motion(rec: &Recorded, name: String, window: usize, torques: bool)
         } else {
             rec.pose.to_vec()
         },
+        ends_dropped: 0,
     }
-    .without_ends(window)
+    .without_ends(window, 0)
 }
 
 /// How concealed a case's hidden effect is.
@@ -562,15 +563,13 @@ pub(crate) fn diagnose_and_score(
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<(CaseResult, Diagnosis), SuiteError> {
     let noise = &opts.record.noise;
-    let mut d = super::diagnose(model, fit, held, &opts.diagnose, |s, f| {
+    let d = super::diagnose(model, fit, held, &opts.diagnose, |s, f| {
         progress(s, TRUTH_SHARE + (1.0 - TRUTH_SHARE) * f)
     })
     .map_err(|source| SuiteError::Diagnose {
         case: spec.name.into(),
         source: Box::new(source),
     })?;
-    // (`motion` left these out.)
-    d.ends_dropped = opts.derivative_window;
     let res = score(
         spec.name,
         spec.kind,
