@@ -75,6 +75,7 @@ pub mod data;
 pub mod equivalents;
 mod error;
 pub mod format;
+pub mod impulses;
 pub mod locate;
 pub mod mechanism;
 pub mod model;

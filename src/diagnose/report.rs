@@ -159,6 +159,9 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
                 super::locate::windows_phrase(&st.tag)
             ));
         }
+        if let Some(text) = super::adequacy::impulses_text(c) {
+            line.push_str(&format!("; {text}"));
+        }
         let _ = writeln!(m, "{line}.");
     }
     if !a.unstable.is_empty() {

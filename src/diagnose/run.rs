@@ -1123,6 +1123,13 @@ fn diagnose_once(
                 fit_after[r].clone()
             },
             windows: tagged_windows(model, d, &theta, values, &sigma, &scales, &opts.locate),
+            rates: chans
+                .iter()
+                .map(|c| match c {
+                    Channel::Torque(j) => d.qd.get(*j).map(Vec::as_slice),
+                    Channel::Output(_) => None,
+                })
+                .collect(),
         })
         .collect();
     let mut adequacy = adequacy::assess(

@@ -558,6 +558,7 @@ mod tests {
                 far_from_white: true,
                 windows: 20,
                 significant_windows: 3,
+                impulsive_events: Default::default(),
                 worst_window: None,
                 strongest_state: Some(StateExcess {
                     tag: tag.into(),
