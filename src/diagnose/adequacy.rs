@@ -199,6 +199,8 @@ pub(super) struct BasisResidual<'a> {
     pub after: Vec<Vec<f64>>,
     /// Windows as sample ranges with their state tags.
     pub windows: Vec<(usize, usize, Vec<String>)>,
+    /// Per channel, the measured series the residual was taken from.
+    pub measured: Vec<&'a [f64]>,
     /// Per channel, the rate of the joint a torque channel belongs to (None for an output).
     pub rates: Vec<Option<&'a [f64]>>,
 }
@@ -279,7 +281,12 @@ pub(super) fn assess(
         let significant = wins.iter().filter(|w| w.0 > window.1 * sigma).count();
         let segments: Vec<Segment> = basis
             .iter()
-            .map(|b| (b.t, b.after[j].as_slice(), b.rates.get(j).copied().flatten()))
+            .map(|b| Segment {
+                t: b.t,
+                residual: &b.after[j],
+                measured: b.measured.get(j).copied(),
+                rate: b.rates.get(j).copied().flatten(),
+            })
             .collect();
         let impulsive_events = summarise(&segments, sigma);
         let worst = wins
@@ -594,34 +601,58 @@ pub(super) fn opening(a: &Adequacy, selected_any: bool) -> String {
     s
 }
 
-/// The impulsive events of a channel in words ("33 impulsive events (jumps within one
-/// sample of median 0.4583 N m, lasting a median 10 ms, 91 % against the joint's motion; no
-/// candidate models them) carry 24 % of the residual's power; without them 3.1× the noise
-/// floor"), or None without events.
+/// The impulsive events of a channel in words ("33 impulsive events (one-sample jumps of
+/// median size 0.4583 N m falling back over a median 10 ms, 91 % of them against the joint's
+/// motion) that no candidate models carry 24 % of the residual's power, the rest being 3.1×
+/// the noise floor"), or None without events.
 pub fn impulses_text(c: &ChannelAdequacy) -> Option<String> {
     let e = &c.impulsive_events;
     if e.count == 0 {
         return None;
     }
-    let mut shape = format!(
-        "jumps within one sample of median {} {}",
-        super::format::number(e.median_jump.unwrap_or(0.0)),
-        c.unit
-    );
-    if let Some(d) = e.median_duration_s {
-        shape.push_str(&format!(", lasting a median {:.0} ms", 1e3 * d));
-    }
-    if let Some(f) = e.against_motion_share {
-        shape.push_str(&format!(", {} % against the joint's motion", percent_text(f)));
-    }
-    let (noun, verb, them) = if e.count == 1 {
-        ("event", "carries", "it")
+    let size = super::format::number(e.median_jump.unwrap_or(0.0));
+    let ms = |d: f64| {
+        let v = 1e3 * d;
+        if v < 1.0 {
+            format!("{v:.1}")
+        } else {
+            format!("{v:.0}")
+        }
+    };
+    let (head, verb) = if e.count == 1 {
+        let mut h = format!("a one-sample jump of {size} {}", c.unit);
+        if let Some(d) = e.median_duration_s {
+            h.push_str(&format!(" falling back over {} ms", ms(d)));
+        }
+        if let Some(f) = e.against_motion_share {
+            h.push_str(if f > 0.5 {
+                ", against the joint's motion"
+            } else {
+                ", with the joint's motion"
+            });
+        }
+        (
+            format!("1 impulsive event ({h}) that no candidate models"),
+            "carries",
+        )
     } else {
-        ("events", "carry", "them")
+        let mut h = format!("one-sample jumps of median size {size} {}", c.unit);
+        if let Some(d) = e.median_duration_s {
+            h.push_str(&format!(" falling back over a median {} ms", ms(d)));
+        }
+        if let Some(f) = e.against_motion_share {
+            h.push_str(&format!(
+                ", {} % of them against the joint's motion",
+                percent_text(f)
+            ));
+        }
+        (
+            format!("{} impulsive events ({h}) that no candidate models", e.count),
+            "carry",
+        )
     };
     Some(format!(
-        "{} impulsive {noun} ({shape}; no candidate models {them}) {verb} {} % of the residual's power; without {them} {:.1}× the noise floor",
-        e.count,
+        "{head} {verb} {} % of the residual's power, the rest being {:.1}× the noise floor",
         percent_text(e.power_share),
         e.noise_ratio_without
     ))

@@ -1123,6 +1123,13 @@ fn diagnose_once(
                 fit_after[r].clone()
             },
             windows: tagged_windows(model, d, &theta, values, &sigma, &scales, &opts.locate),
+            measured: chans
+                .iter()
+                .map(|c| match c {
+                    Channel::Torque(j) => d.tau[*j].as_slice(),
+                    Channel::Output(k) => d.y[*k].as_slice(),
+                })
+                .collect(),
             rates: chans
                 .iter()
                 .map(|c| match c {

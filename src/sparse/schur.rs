@@ -62,8 +62,8 @@ pub const MAX_GROUP: usize = 32;
 /// How many blocks ahead a solve asks the memory for the numbers it will read (a hint,
 /// [`prefetch`]; the results are the same to the bit). At large N a solve streams each
 /// block's A_EE⁻¹ and U (forward) and W and y (back) from beyond the caches, and `perf`
-/// put half its time on the first loads of each block's dot products (chain of 1 000 links,
-/// session 73). Measured with `lash bench scaling` (session 73, one binary, the distance
+/// put half its time on the first loads of each block's dot products (the profiling build,
+/// chain of 1 000 links, session 73). Measured with `lash bench scaling` (session 73, one binary, the distance
 /// alternated, the machine otherwise idle; medians of per-step times): N = 1 000 7.57 ms at
 /// 4 against 7.95 ms without (5 runs each), N = 10 000 119.2 against 123.0 ms (3 runs each;
 /// 8 blocks ahead 119.6 ms), N = 100 0.644 against 0.646 ms. The same hint in the
@@ -611,12 +611,15 @@ fn prefetch<T>(v: &[T]) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // Every 64-byte line the slice touches, from the line its first byte lies in.
         let p = v.as_ptr() as *const i8;
-        let bytes = std::mem::size_of_val(v);
+        let lead = p as usize % 64;
+        let bytes = std::mem::size_of_val(v) + lead;
+        let first = p.wrapping_sub(lead);
         let mut o = 0;
         while o < bytes {
             // SAFETY: a prefetch never faults and reads nothing the program sees.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(o)) };
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(first.wrapping_add(o)) };
             o += 64;
         }
     }
