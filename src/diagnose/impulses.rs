@@ -29,6 +29,7 @@
 //! start no event and count in no share. With Gaussian noise a difference beyond 8 σ_d occurs
 //! about once in 10¹⁵ samples.
 
+use super::signal::upper_median;
 use serde::Serialize;
 
 /// A first difference beyond this many robust standard deviations of the first differences
@@ -115,16 +116,12 @@ pub fn find_impulses(t: &[f64], r: &[f64], measured: Option<&[f64]>) -> Found {
 
 /// 1.4826 × the median absolute deviation from the median (σ for Gaussian samples).
 fn robust_sd(x: &[f64]) -> f64 {
-    let median = |mut v: Vec<f64>| -> f64 {
-        let mid = v.len() / 2;
-        let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
-        *m
-    };
     if x.is_empty() {
         return 0.0;
     }
-    let m = median(x.to_vec());
-    1.4826 * median(x.iter().map(|v| (v - m).abs()).collect())
+    let m = upper_median(&mut x.to_vec());
+    let mut dev: Vec<f64> = x.iter().map(|v| (v - m).abs()).collect();
+    1.4826 * upper_median(&mut dev)
 }
 
 /// The impulsive events of one channel's residual over the basis recordings. Medians are
@@ -200,13 +197,7 @@ pub fn summarise(segments: &[Segment], sigma: f64) -> ImpulseSummary {
         }
     }
     let outside_power = total - inside;
-    let median = |v: &mut Vec<f64>| -> Option<f64> {
-        if v.is_empty() {
-            return None;
-        }
-        v.sort_by(f64::total_cmp);
-        Some(v[v.len() / 2])
-    };
+    let median = |v: &mut Vec<f64>| (!v.is_empty()).then(|| upper_median(v));
     ImpulseSummary {
         count: jumps.len(),
         median_jump: median(&mut jumps),

@@ -9,11 +9,7 @@ pub fn noise_floor(x: &[f64]) -> f64 {
     if x.len() < 3 {
         return 0.0;
     }
-    let median_abs = |mut d: Vec<f64>| {
-        let mid = d.len() / 2;
-        let (_, m, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
-        *m
-    };
+    let median_abs = |mut d: Vec<f64>| upper_median(&mut d);
     let d2: Vec<f64> = x.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs()).collect();
     let mad = median_abs(d2);
     if mad > 0.0 {
@@ -155,9 +151,18 @@ pub fn derivative_noise_measured(t: &[f64], x: &[f64], half: usize) -> f64 {
     if diff.is_empty() {
         return 0.0;
     }
-    let mid = diff.len() / 2;
-    let (_, m, _) = diff.select_nth_unstable_by(mid, f64::total_cmp);
-    1.4826 * *m / 2.0
+    1.4826 * upper_median(&mut diff) / 2.0
+}
+
+/// The upper median of `v` (the middle value; of an even count's two middle values the
+/// larger), reordering `v`. NaN for an empty slice.
+pub fn upper_median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
+    *m
 }
 
 /// Root mean square.
