@@ -651,11 +651,25 @@ pub fn impulses_text(c: &ChannelAdequacy) -> Option<String> {
             "carry",
         )
     };
-    Some(format!(
+    let mut text = format!(
         "{head} {verb} {} % of the residual's power, the rest being {:.1}× the noise floor",
         percent_text(e.power_share),
         e.noise_ratio_without
-    ))
+    );
+    if e.unsettled > 0 {
+        let which = if e.count == 1 {
+            "it is".to_string()
+        } else if e.unsettled == e.count {
+            "all are".to_string()
+        } else {
+            format!("{} of them are", e.unsettled)
+        };
+        text.push_str(&format!(
+            "; {which} still beyond a quarter of the jump {} ms on (a slow return or swing, not a glitch that is over)",
+            (1e3 * super::impulses::IMPULSE_RECOVERY_S).round()
+        ));
+    }
+    Some(text)
 }
 
 /// A fraction as a percentage without the % sign: whole per cent, but never rounded up to
@@ -725,6 +739,53 @@ mod tests {
         let e = overall_explained_fraction(&[(10.0, 5.0), (2.0, 1.0)]);
         assert!((e - (1.0 - 24.0 / 102.0)).abs() < 1e-12, "{e}");
         assert_eq!(overall_explained_fraction(&[(1.0, 1.0), (1.1, 1.0)]), 1.0);
+    }
+
+    #[test]
+    fn the_impulses_sentence_says_how_many_events_did_not_settle() {
+        let mut c = ChannelAdequacy {
+            channel: "joint 2 (elbow) torque".into(),
+            unit: "N m".into(),
+            noise_floor: 0.02,
+            rms_before: 0.2,
+            rms_after: 0.07,
+            noise_ratio_before: 10.0,
+            noise_ratio_after: 3.5,
+            explained_fraction: 0.9,
+            autocorrelation: vec![0.5],
+            ljung_box: 1e3,
+            whiteness_p: 0.0,
+            far_from_white: true,
+            windows: 10,
+            significant_windows: 4,
+            impulsive_events: ImpulseSummary::default(),
+            worst_window: None,
+            strongest_state: None,
+            unexplained: true,
+        };
+        assert_eq!(impulses_text(&c), None);
+        c.impulsive_events = ImpulseSummary {
+            count: 3,
+            median_jump: Some(0.45),
+            median_duration_s: Some(0.01),
+            power_share: 0.24,
+            noise_ratio_without: 3.1,
+            against_motion_share: Some(0.9),
+            model_jumps: 0,
+            unsettled: 0,
+        };
+        let settled = impulses_text(&c).unwrap();
+        assert!(settled.starts_with("3 impulsive events"), "{settled}");
+        assert!(!settled.contains("still beyond"), "{settled}");
+        c.impulsive_events.unsettled = 2;
+        let two = impulses_text(&c).unwrap();
+        assert!(
+            two.ends_with("; 2 of them are still beyond a quarter of the jump 50 ms on (a slow return or swing, not a glitch that is over)"),
+            "{two}"
+        );
+        c.impulsive_events.count = 1;
+        c.impulsive_events.unsettled = 1;
+        assert!(impulses_text(&c).unwrap().contains("; it is still beyond"));
     }
 
     fn estimate(value: f64, std: f64, folds: Vec<f64>) -> Estimate {

@@ -24,7 +24,9 @@
 //!   its level before it (r_(k−1)); a jump that does not come back is a step, not counted.
 //!
 //! The event ends at its first sample whose deviation from that level is below
-//! [`IMPULSE_SETTLED`] of the jump (or at the recovery limit), and the search goes on from
+//! [`IMPULSE_SETTLED`] of the jump, or at the recovery limit — then it is *unsettled*: a
+//! residual that came back past half the jump but is still beyond a quarter of it 50 ms on
+//! (a slow return or a slow swing, not a glitch that is over) — and the search goes on from
 //! there, so events never overlap. Samples the model could not evaluate (residual exactly 0)
 //! start no event and count in no share. With Gaussian noise a difference beyond 8 σ_d occurs
 //! about once in 10¹⁵ samples.
@@ -50,6 +52,9 @@ pub struct Impulse {
     pub end: usize,
     /// r_start − r_(start−1).
     pub jump: f64,
+    /// Whether its deviation fell below [`IMPULSE_SETTLED`] of the jump within
+    /// [`IMPULSE_RECOVERY_S`] (false: the event was cut at the recovery limit).
+    pub settled: bool,
 }
 
 /// What [`find_impulses`] found in one series.
@@ -108,7 +113,13 @@ pub fn find_impulses(t: &[f64], r: &[f64], measured: Option<&[f64]>) -> Found {
         while end < n && t[end] <= horizon && deviation(end) >= IMPULSE_SETTLED * size {
             end += 1;
         }
-        found.events.push(Impulse { start: k, end, jump });
+        let settled = end < n && t[end] <= horizon;
+        found.events.push(Impulse {
+            start: k,
+            end,
+            jump,
+            settled,
+        });
         k = end;
     }
     found
@@ -149,6 +160,9 @@ pub struct ImpulseSummary {
     /// (for example a friction law changing sign where the recorded rate does), not counted
     /// as events.
     pub model_jumps: usize,
+    /// Events cut at the recovery limit, still beyond [`IMPULSE_SETTLED`] of their jump: a
+    /// slow return or swing rather than a glitch that is over.
+    pub unsettled: usize,
 }
 
 /// One recording's series for [`summarise`].
@@ -168,7 +182,7 @@ pub struct Segment<'a> {
 pub fn summarise(segments: &[Segment], sigma: f64) -> ImpulseSummary {
     let (mut jumps, mut durations) = (vec![], vec![]);
     let (mut inside, mut total, mut outside_n) = (0.0, 0.0, 0usize);
-    let (mut against, mut with_rate, mut model_jumps) = (0usize, 0usize, 0usize);
+    let (mut against, mut with_rate, mut model_jumps, mut unsettled) = (0usize, 0usize, 0usize, 0usize);
     for s in segments {
         let (t, r) = (s.t, s.residual);
         let found = find_impulses(t, r, s.measured);
@@ -176,6 +190,7 @@ pub fn summarise(segments: &[Segment], sigma: f64) -> ImpulseSummary {
         let mut in_event = vec![false; r.len()];
         for e in &found.events {
             jumps.push(e.jump.abs());
+            unsettled += usize::from(!e.settled);
             durations.push(t[e.end - 1] - t[e.start - 1]);
             in_event[e.start..e.end].iter_mut().for_each(|v| *v = true);
             if let Some(q) = s.rate.and_then(|q| q.get(e.start)) {
@@ -206,6 +221,7 @@ pub fn summarise(segments: &[Segment], sigma: f64) -> ImpulseSummary {
         noise_ratio_without: (outside_power / outside_n.max(1) as f64).sqrt() / sigma.max(1e-300),
         against_motion_share: (with_rate > 0).then(|| against as f64 / with_rate as f64),
         model_jumps,
+        unsettled,
     }
 }
 
@@ -281,10 +297,11 @@ mod tests {
         for e in &found {
             assert!((e.jump + 0.5).abs() < 0.1, "{e:?}");
             assert!(e.end > e.start + 3 && e.end <= e.start + 9, "{e:?}");
+            assert!(e.settled, "{e:?}");
         }
         let rate: Vec<f64> = t.iter().map(|t| if *t < 5.0 { 1.0 } else { -1.0 }).collect();
         let s = summarise(&[segment(&t, &r[..4400], None, Some(&rate))], 0.02);
-        assert_eq!(s.count, 3);
+        assert_eq!((s.count, s.unsettled), (3, 0));
         assert!(s.power_share > 0.3 && s.power_share < 0.9, "{s:?}");
         assert!(s.noise_ratio_without < 1.1, "{s:?}");
         // Drops at t = 2.0 and 4.4 s while moving forward (against), at 7.0 s while moving
@@ -325,5 +342,24 @@ mod tests {
         assert_eq!(find_impulses(&t, &r, None).events.len(), 3);
         let s = summarise(&[segment(&t, &r, Some(&measured_with_drop), None)], 0.01);
         assert_eq!((s.count, s.model_jumps), (1, 4));
+    }
+
+    #[test]
+    fn a_slow_return_is_counted_unsettled() {
+        // A kick of 0.5 that decays with a 50 ms time constant: back past half after 35 ms,
+        // still beyond a quarter at the 50 ms limit (until 69 ms).
+        let t: Vec<f64> = (0..3000).map(|i| i as f64 * 0.002).collect();
+        let mut r = noise(3000, 0.01, 5);
+        for (i, v) in r.iter_mut().enumerate().skip(1000) {
+            *v += 0.5 * (-(t[i] - t[1000]) / 0.05).exp();
+        }
+        let found = find_impulses(&t, &r[..1100], None).events;
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!(!found[0].settled, "{:?}", found[0]);
+        // It is cut at the recovery limit: its last sample is the last within 50 ms of the jump.
+        let e = found[0];
+        assert_eq!((e.start, e.end), (1000, 1026), "{e:?}");
+        let s = summarise(&[segment(&t, &r[..1100], None, None)], 0.01);
+        assert_eq!((s.count, s.unsettled), (1, 1));
     }
 }
