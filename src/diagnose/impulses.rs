@@ -53,7 +53,8 @@ pub struct Impulse {
     /// r_start − r_(start−1).
     pub jump: f64,
     /// Whether its deviation fell below [`IMPULSE_SETTLED`] of the jump within
-    /// [`IMPULSE_RECOVERY_S`] (false: the event was cut at the recovery limit).
+    /// [`IMPULSE_RECOVERY_S`] (false: the event was cut at the recovery limit, or at the
+    /// series' end before it).
     pub settled: bool,
 }
 
@@ -160,8 +161,8 @@ pub struct ImpulseSummary {
     /// (for example a friction law changing sign where the recorded rate does), not counted
     /// as events.
     pub model_jumps: usize,
-    /// Events cut at the recovery limit, still beyond [`IMPULSE_SETTLED`] of their jump: a
-    /// slow return or swing rather than a glitch that is over.
+    /// Events cut at the recovery limit (or the series' end) still beyond [`IMPULSE_SETTLED`]
+    /// of their jump: a slow return or swing rather than a glitch that is over.
     pub unsettled: usize,
 }
 
