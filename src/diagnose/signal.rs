@@ -9,17 +9,16 @@ pub fn noise_floor(x: &[f64]) -> f64 {
     if x.len() < 3 {
         return 0.0;
     }
-    let median_abs = |mut d: Vec<f64>| upper_median(&mut d);
-    let d2: Vec<f64> = x.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs()).collect();
-    let mad = median_abs(d2);
+    let mut d2: Vec<f64> = x.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs()).collect();
+    let mad = upper_median(&mut d2);
     if mad > 0.0 {
         let est2 = 1.4826 * mad / 6f64.sqrt();
         if x.len() >= 5 {
-            let d4: Vec<f64> = x
+            let mut d4: Vec<f64> = x
                 .windows(5)
                 .map(|w| (w[4] - 4.0 * w[3] + 6.0 * w[2] - 4.0 * w[1] + w[0]).abs())
                 .collect();
-            let mad4 = median_abs(d4);
+            let mad4 = upper_median(&mut d4);
             if mad4 > 0.0 {
                 return est2.min(1.4826 * mad4 / 70f64.sqrt());
             }
