@@ -164,6 +164,12 @@ pub struct Args {
     /// --suite).
     #[arg(long)]
     no_play_probe: bool,
+    /// Keep a contact compliance at the joint the selection held where the data cannot
+    /// tell it from the compliance of the joint in series with it whose play was found (by
+    /// default it is named at that joint after the last pass, the fit's numbers unchanged;
+    /// also with --suite).
+    #[arg(long)]
+    keep_selected_compliance: bool,
     /// Also try load-proportional contact dampings γ·F in the reduced dynamic play model (γ
     /// in s/m, one or more, comma-separated, each over a small constant damping for the
     /// balls' sliding; cross-validation chooses among the dampings; 250, 500 and 1000 are
@@ -503,6 +509,7 @@ fn play_options(a: &Args, opts: &mut DiagnoseOptions) {
     opts.play_damping_search =
         (opts.play_damping_search || a.play_damping_search) && !a.no_play_damping_search;
     opts.play_probe &= !a.no_play_probe;
+    opts.name_compliance_at_play &= !a.keep_selected_compliance;
     for &g in &a.play_load_damping {
         opts.add_contact_damping(ContactDamping::load_proportional(g));
     }

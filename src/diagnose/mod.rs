@@ -23,6 +23,7 @@
 //! | `error.rs` | [`DiagnoseError`]: why a diagnosis cannot run |
 //! | `residuals.rs` | residual assembly for both residual modes: weighted residuals, candidate columns, Gram matrices |
 //! | `selection.rs` | ranking, greedy selection by cross-validation and BIC (Occam tie-break), estimates, confounding; its module doc states the statistics (effective samples, tests, the rules for joining) |
+//! | `series_joints.rs` | after the last pass, which of two joints in series a contact compliance the data cannot tell apart is named at: the joint whose play is selected |
 //! | `play_size.rs` | the found radial play's size, searched with the reduced dynamic play model run at each size |
 //! | `equivalents.rs` | selected effects read together (one joint's friction laws summed, Coulomb asymmetry with a sensor offset) |
 //! | `relinearize.rs` | the Gauss–Newton re-linearisation around the first estimates |
@@ -91,6 +92,7 @@ pub mod report;
 mod residuals;
 mod run;
 mod selection;
+mod series_joints;
 pub mod signal;
 pub mod stats;
 pub mod suite;
@@ -101,7 +103,7 @@ pub use error::DiagnoseError;
 pub use options::{DiagnoseOptions, BEARING_PLAY_LOAD_DAMPINGS};
 pub use outcome::{
     claimed_name, ChannelFit, Confound, Diagnosis, Estimate, LinearizationStep, PlayProbe, Ranked,
-    ResidualTrace, Step, UnresolvedPlay,
+    ResidualTrace, SeriesNaming, Step, UnresolvedPlay,
 };
 pub use play_size::{
     probe_play_sizes, search_constant_damping, search_load_damping, search_play_size, CONSTANT_DAMPING_STEPS,

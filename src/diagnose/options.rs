@@ -189,6 +189,14 @@ pub struct DiagnoseOptions {
     /// axial-D"). The suite's backlash case selects its true backlash with a stable estimate
     /// and is not probed.
     pub play_probe: bool,
+    /// After the last pass, where the selection holds a joint's contact compliance that the
+    /// data cannot tell from the compliance of the joint in series with it whose play is
+    /// selected, name the compliance at that joint (one joint's bearings explain both; the
+    /// fit's numbers unchanged, the estimate read in that joint's terms, the other kept as a
+    /// confound; `series_joints` module, [`Diagnosis::series_naming`](super::Diagnosis)). Off,
+    /// the name is the selection's, a draw of the noise between joints in series (diagnosis
+    /// log, "A leg's two joints"). Default on.
+    pub name_compliance_at_play: bool,
 }
 
 /// The load-proportional contact dampings γ (s/m, each over
@@ -279,6 +287,7 @@ impl Default for DiagnoseOptions {
             play_size_search: false,
             play_damping_search: true,
             play_probe: true,
+            name_compliance_at_play: true,
         }
         .with_bearing_play()
     }

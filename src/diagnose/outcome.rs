@@ -121,6 +121,22 @@ pub fn claimed_name(name: &str, unresolved: &[UnresolvedPlay]) -> String {
         .unwrap_or_else(|| name.to_string())
 }
 
+/// Which of two joints in series a contact compliance is named at. The joints of a leg carry
+/// the same force, so their contact compliances lengthen the leg alike and the
+/// cross-validated choice between them follows the noise; after the fit, the compliance is
+/// named at the joint whose play the selection found (one joint's bearings explain both),
+/// with its estimate read in that joint's terms and the other joint's kept as a confound.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SeriesNaming {
+    /// The compliance named, at the joint whose play is selected.
+    pub named: String,
+    /// The compliance the selection held, at the other joint.
+    pub instead_of: String,
+    /// Cross-validated RMS with `named` / with `instead_of` (within the confounding
+    /// tolerance).
+    pub cv_ratio: f64,
+}
+
 /// A pair of effects the data cannot tell apart.
 #[derive(Debug, Clone, Serialize)]
 pub struct Confound {
@@ -135,6 +151,8 @@ pub struct Confound {
     /// The selected estimate expressed as the alternative's parameter, where both have one
     /// (e.g. a force-sensor scale error as a mass error), e.g. "delta \[kg\] = -0.3016".
     pub equivalent: Option<String>,
+    /// The number in `equivalent`, in the alternative's parameter's unit.
+    pub equivalent_value: Option<f64>,
 }
 
 /// Residual of one torque channel before and after the fit.
@@ -317,6 +335,10 @@ pub struct Diagnosis {
     /// Plays the selection chose whose estimates fell below their balls' compression: the
     /// joints' contact compliance, not play ([`UnresolvedPlay`]).
     pub unresolved_play: Vec<UnresolvedPlay>,
+    /// A contact compliance named at the joint whose play is selected rather than at the
+    /// joint in series with it that fitted as well ([`SeriesNaming`]); `None` where the
+    /// selection needed no such choice.
+    pub series_naming: Option<SeriesNaming>,
     /// Per joint with selected Coulomb-type friction: the laws summed into the friction at
     /// speed, and an asymmetry read together with an offset ([`super::equivalents`]).
     pub friction: Vec<super::equivalents::JointFriction>,

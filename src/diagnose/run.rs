@@ -22,6 +22,7 @@ use super::recording::{Recording, RecordingError, MIN_SAMPLES};
 use super::relinearize;
 use super::residuals::{prepare_with, Prepared};
 use super::selection::{confounded, estimate, select, Estimates, Selection};
+use super::series_joints::name_compliance_at_play;
 use super::signal::{noise_floor, rms};
 use super::transmission::PlayPlace;
 use super::verdict::{verdict, verdict_text};
@@ -173,13 +174,20 @@ fn diagnose_folds(
         filled.library.speed_scales = speed_scales(model, fit);
     }
     let opts = &filled;
-    let first = diagnose_once(model, fit, holdout, opts, None, &mut |s, f| progress(s, 0.5 * f))?;
+    let mut first = diagnose_once(model, fit, holdout, opts, None, &mut |s, f| progress(s, 0.5 * f))?;
+    // Shift the model by the selected parameter and sensor-offset estimates.
+    let cands = library(model, &opts.library);
     if !opts.relinearize {
+        if opts.name_compliance_at_play {
+            name_compliance_at_play(&mut first, &cands);
+            if first.series_naming.is_some() {
+                adequacy::refresh(&mut first);
+                first.verdict = verdict_text(model, &first, &cands);
+            }
+        }
         progress("done", 1.0);
         return Ok(first);
     }
-    // Shift the model by the selected parameter and sensor-offset estimates.
-    let cands = library(model, &opts.library);
     // Each estimate moves the model only as far as the point stays near linear (a
     // departure from the nominal residual would be fitted as if it were data).
     let floors: Vec<f64> = first.channels.iter().map(|c| c.noise_floor).collect();
@@ -234,6 +242,10 @@ fn diagnose_folds(
         let mut d = first;
         d.play_probe = probe;
         d.relinearization_steps = steps;
+        if opts.name_compliance_at_play {
+            name_compliance_at_play(&mut d, &cands);
+            adequacy::refresh(&mut d);
+        }
         d.play_dynamics =
             play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, None, &mut *progress)?;
         d.verdict = verdict_text(model, &d, &cands);
@@ -540,6 +552,9 @@ fn diagnose_folds(
             &d.dynamic_play_size_cv,
             opts.confound_tolerance,
         );
+    }
+    if opts.name_compliance_at_play {
+        name_compliance_at_play(&mut d, &cands2);
     }
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
     adequacy::refresh(&mut d);
@@ -1223,6 +1238,7 @@ fn diagnose_once(
         correlations,
         confounded,
         unresolved_play,
+        series_naming: None,
         channels,
         explained_fraction: adequacy.explained_fraction,
         unexplained: adequacy.unexplained,

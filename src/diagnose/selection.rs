@@ -489,26 +489,29 @@ pub(super) fn confounded(
             }
             let ratio = (prep.cv_rss(&s) / cv_cur).sqrt();
             if ratio < 1.0 + opts.confound_tolerance {
-                let equivalent = match (
+                let equivalent_value = match (
                     prep.cols_of[c].as_slice(),
                     prep.cols_of[d].as_slice(),
                     x.get(col0),
                 ) {
-                    ([a], [b], Some(&xa)) if g[(*b, *b)] > 0.0 => {
-                        let v = xa * g[(*a, *b)] / g[(*b, *b)];
-                        cands[d]
-                            .parameters
-                            .first()
-                            .map(|p| format!("{p} = {}", super::format::number(v)))
+                    ([a], [b], Some(&xa)) if g[(*b, *b)] > 0.0 && !cands[d].parameters.is_empty() => {
+                        Some(xa * g[(*a, *b)] / g[(*b, *b)])
                     }
                     _ => None,
                 };
+                let equivalent = equivalent_value.and_then(|v| {
+                    cands[d]
+                        .parameters
+                        .first()
+                        .map(|p| format!("{p} = {}", super::format::number(v)))
+                });
                 confounded.push(Confound {
                     selected: cands[c].name.clone(),
                     alternative: cands[d].name.clone(),
                     cv_ratio: ratio,
                     experiment: separating_experiment(&cands[c], &cands[d], joints),
                     equivalent,
+                    equivalent_value,
                 });
             }
         }

@@ -33,10 +33,14 @@ pub(super) fn verdict_text(model: &dyn InverseDynamicsModel, d: &Diagnosis, cand
         d.dynamic_play_reference.is_some() || d.dynamic_axial_play_reference.is_some(),
         &d.unresolved_play,
     ) + &d
-        .play_dynamics
+        .series_naming
         .as_ref()
-        .map(play_dynamics_check)
+        .map(super::series_joints::sentence)
         .unwrap_or_default()
+        + &d.play_dynamics
+            .as_ref()
+            .map(play_dynamics_check)
+            .unwrap_or_default()
         + &backlash_place(d)
         + &play_damping(
             d.dynamic_play_damping_identified,
@@ -677,6 +681,7 @@ mod tests {
             cv_ratio,
             experiment: "a slower motion would separate them".into(),
             equivalent: None,
+            equivalent_value: None,
         };
         let mut list: Vec<Confound> = (0..10)
             .map(|k| {
