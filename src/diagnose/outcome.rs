@@ -149,7 +149,9 @@ pub struct Confound {
     /// The recording that would separate them.
     pub experiment: String,
     /// The selected estimate expressed as the alternative's parameter, where both have one
-    /// (e.g. a force-sensor scale error as a mass error), e.g. "delta \[kg\] = -0.3016".
+    /// (e.g. a force-sensor scale error as a mass error), e.g. "delta \[kg\] = -0.3016": the
+    /// selected column's fit projected on the alternative's column; for a pair turned round
+    /// by the series naming ([`SeriesNaming`]), the estimate the selection held.
     pub equivalent: Option<String>,
     /// The number in `equivalent`, in the alternative's parameter's unit.
     pub equivalent_value: Option<f64>,

@@ -177,9 +177,10 @@ fn diagnose_folds(
     let mut first = diagnose_once(model, fit, holdout, opts, None, &mut |s, f| progress(s, 0.5 * f))?;
     // Shift the model by the selected parameter and sensor-offset estimates.
     let cands = library(model, &opts.library);
+    let series = series_sites(model);
     if !opts.relinearize {
         if opts.name_compliance_at_play {
-            name_compliance_at_play(&mut first, &cands);
+            name_compliance_at_play(&mut first, &cands, &series);
             if first.series_naming.is_some() {
                 adequacy::refresh(&mut first);
                 first.verdict = verdict_text(model, &first, &cands);
@@ -242,12 +243,13 @@ fn diagnose_folds(
         let mut d = first;
         d.play_probe = probe;
         d.relinearization_steps = steps;
-        if opts.name_compliance_at_play {
-            name_compliance_at_play(&mut d, &cands);
-            adequacy::refresh(&mut d);
-        }
         d.play_dynamics =
             play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, None, &mut *progress)?;
+        // (After the check, which refits the selection's own columns.)
+        if opts.name_compliance_at_play {
+            name_compliance_at_play(&mut d, &cands, &series);
+            adequacy::refresh(&mut d);
+        }
         d.verdict = verdict_text(model, &d, &cands);
         progress("done", 1.0);
         return Ok(d);
@@ -553,9 +555,6 @@ fn diagnose_folds(
             opts.confound_tolerance,
         );
     }
-    if opts.name_compliance_at_play {
-        name_compliance_at_play(&mut d, &cands2);
-    }
     // "Before" is now the nominal model's: the explained fractions follow, and the verdict.
     adequacy::refresh(&mut d);
     let set: Vec<usize> = d
@@ -579,9 +578,24 @@ fn diagnose_folds(
             &mut *progress,
         )?;
     }
+    // (After the check, which refits the selection's own columns.)
+    if opts.name_compliance_at_play {
+        name_compliance_at_play(&mut d, &cands2, &series);
+        if d.series_naming.is_some() {
+            adequacy::refresh(&mut d);
+        }
+    }
     d.verdict = verdict_text(model, &d, &cands2);
     progress("done", 1.0);
     Ok(d)
+}
+
+/// Per play site of `model`, the parameters that are its joint's contact compliance: two
+/// sites sharing one are in series ([`name_compliance_at_play`]).
+fn series_sites(model: &dyn InverseDynamicsModel) -> Vec<Vec<usize>> {
+    (0..model.play_sites().len())
+        .map(|s| model.play_site_compliance(s))
+        .collect()
 }
 
 /// The nominal model's walks along the fit and the held-out recordings at one linearisation
