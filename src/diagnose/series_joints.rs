@@ -113,7 +113,7 @@ fn rename(d: Selected<'_>, cands: &[Candidate], series: &[Vec<usize>]) -> Option
     if d.selected.contains(&named) {
         return None;
     }
-    let (held_cand, named_cand) = (by_name(&held)?, by_name(&named)?);
+    let named_cand = by_name(&named)?;
     let value = confound.equivalent_value?;
     let parameter = named_cand.parameters.first()?.clone();
     let (lo, hi) = named_cand
@@ -174,29 +174,24 @@ fn rename(d: Selected<'_>, cands: &[Candidate], series: &[Vec<usize>]) -> Option
                 )),
                 equivalent_value: Some(old.value),
             });
-        } else if c.selected == held {
-            let experiment = by_name(&c.alternative)
-                .map(|a| separating_experiment(named_cand, a, joints))
+        } else if c.selected == held || c.alternative == named {
+            // The named compliance in the held one's place.
+            let (selected, alternative) = if c.selected == held {
+                (named.clone(), c.alternative)
+            } else {
+                (c.selected, held.clone())
+            };
+            let experiment = by_name(&selected)
+                .zip(by_name(&alternative))
+                .map(|(a, b)| separating_experiment(a, b, joints))
                 .unwrap_or(c.experiment);
             d.confounded.push(Confound {
-                selected: named.clone(),
+                selected,
+                alternative,
                 cv_ratio: c.cv_ratio / confound.cv_ratio,
                 experiment,
                 equivalent: None,
                 equivalent_value: None,
-                ..c
-            });
-        } else if c.alternative == named {
-            let experiment = by_name(&c.selected)
-                .map(|a| separating_experiment(a, held_cand, joints))
-                .unwrap_or(c.experiment);
-            d.confounded.push(Confound {
-                alternative: held.clone(),
-                cv_ratio: c.cv_ratio / confound.cv_ratio,
-                experiment,
-                equivalent: None,
-                equivalent_value: None,
-                ..c
             });
         } else {
             d.confounded.push(c);
