@@ -175,20 +175,15 @@ fn diagnose_folds(
     }
     let opts = &filled;
     let mut first = diagnose_once(model, fit, holdout, opts, None, &mut |s, f| progress(s, 0.5 * f))?;
-    // Shift the model by the selected parameter and sensor-offset estimates.
     let cands = library(model, &opts.library);
-    let series = series_sites(model);
     if !opts.relinearize {
-        if opts.name_compliance_at_play {
-            name_compliance_at_play(&mut first, &cands, &series);
-            if first.series_naming.is_some() {
-                adequacy::refresh(&mut first);
-                first.verdict = verdict_text(model, &first, &cands);
-            }
+        if series_naming(model, &mut first, &cands, opts) {
+            first.verdict = verdict_text(model, &first, &cands);
         }
         progress("done", 1.0);
         return Ok(first);
     }
+    // Shift the model by the selected parameter and sensor-offset estimates.
     // Each estimate moves the model only as far as the point stays near linear (a
     // departure from the nominal residual would be fitted as if it were data).
     let floors: Vec<f64> = first.channels.iter().map(|c| c.noise_floor).collect();
@@ -246,10 +241,7 @@ fn diagnose_folds(
         d.play_dynamics =
             play_dynamics_check(model, model, &d, fit, holdout, opts, &cands, None, &mut *progress)?;
         // (After the check, which refits the selection's own columns.)
-        if opts.name_compliance_at_play {
-            name_compliance_at_play(&mut d, &cands, &series);
-            adequacy::refresh(&mut d);
-        }
+        series_naming(model, &mut d, &cands, opts);
         d.verdict = verdict_text(model, &d, &cands);
         progress("done", 1.0);
         return Ok(d);
@@ -579,23 +571,34 @@ fn diagnose_folds(
         )?;
     }
     // (After the check, which refits the selection's own columns.)
-    if opts.name_compliance_at_play {
-        name_compliance_at_play(&mut d, &cands2, &series);
-        if d.series_naming.is_some() {
-            adequacy::refresh(&mut d);
-        }
-    }
+    series_naming(model, &mut d, &cands2, opts);
     d.verdict = verdict_text(model, &d, &cands2);
     progress("done", 1.0);
     Ok(d)
 }
 
-/// Per play site of `model`, the parameters that are its joint's contact compliance: two
-/// sites sharing one are in series ([`name_compliance_at_play`]).
-fn series_sites(model: &dyn InverseDynamicsModel) -> Vec<Vec<usize>> {
-    (0..model.play_sites().len())
+/// Where `opts` ask for it, names a contact compliance at the joint in series whose play is
+/// selected ([`name_compliance_at_play`]; two play sites of `model` sharing a contact-compliance
+/// parameter are in series) and refreshes what follows from the names (`found`, the unstable
+/// list); the caller writes the verdict. Returns whether a name changed.
+fn series_naming(
+    model: &dyn InverseDynamicsModel,
+    d: &mut Diagnosis,
+    cands: &[super::candidates::Candidate],
+    opts: &DiagnoseOptions,
+) -> bool {
+    if !opts.name_compliance_at_play {
+        return false;
+    }
+    let series: Vec<Vec<usize>> = (0..model.play_sites().len())
         .map(|s| model.play_site_compliance(s))
-        .collect()
+        .collect();
+    name_compliance_at_play(d, cands, &series);
+    let named = d.series_naming.is_some();
+    if named {
+        adequacy::refresh(d);
+    }
+    named
 }
 
 /// The nominal model's walks along the fit and the held-out recordings at one linearisation
