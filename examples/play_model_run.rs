@@ -13,10 +13,13 @@
 //!
 //! The contact damping may be given too (constant N·s/m, then s/m per newton of the ball's
 //! load; default 20 and 500): lighter dampings (say 1 and 50) let the substeps take them
-//! explicitly, the path most of a diagnosis's damping searches take.
+//! explicitly, the path most of a diagnosis's damping searches take. Then `stiff` or
+//! `stiff:N` steps the model in stiff substeps ([`Stepping::Stiff`], at least N per sample
+//! interval, default [`STIFF_SUBSTEPS`]) instead of resolved ones.
 //!
 //! ```text
-//! cargo run --release --example play_model_run -- [REPETITIONS [DAMPING LOAD_DAMPING]]
+//! cargo run --release --example play_model_run -- [REPETITIONS [DAMPING LOAD_DAMPING [stiff[:N]]]]
+//! cargo run --release --example play_model_run -- 3 20 500 stiff:40
 //! perf record -g target/release/examples/play_model_run 3
 //! ```
 
@@ -24,7 +27,8 @@ use lash::contact::play::UniversalPlay;
 use lash::contact::BearingDesign;
 use lash::diagnose::model::PlayDynamics;
 use lash::diagnose::play_dynamics::{
-    respond, BallContact, HertzBalls, Interpolation, JointPlay, PlaySample, BALL_CONTACT,
+    respond_stepped, BallContact, HertzBalls, Interpolation, JointPlay, PlaySample, Stepping, BALL_CONTACT,
+    STIFF_SUBSTEPS,
 };
 use lash::diagnose::transmission::TransmissionDynamics;
 use lash::mechanisms::mr2120::clearance::DEFAULT_DAMPING;
@@ -77,6 +81,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let arg = |k: usize| std::env::args().nth(k).and_then(|s| s.parse::<f64>().ok());
     let repetitions = arg(1).map_or(1, |r| r as usize);
     let (damping, load_damping) = (arg(2).unwrap_or(20.0), arg(3).unwrap_or(500.0));
+    let stepping = match std::env::args().nth(4) {
+        None => Stepping::Resolved,
+        Some(s) if s == "stiff" => Stepping::Stiff {
+            per_sample: STIFF_SUBSTEPS,
+        },
+        Some(s) => match s.strip_prefix("stiff:").map(str::parse::<usize>) {
+            Some(Ok(per_sample)) if per_sample > 0 => Stepping::Stiff { per_sample },
+            _ => {
+                return Err(format!("the fourth argument is `stiff` or `stiff:N` (N ≥ 1), not `{s}`").into())
+            }
+        },
+    };
     let transmission = TransmissionDynamics {
         mass: DMatrix::from_diagonal_element(3, 3, 0.01),
         compliance: vec![1e-4; 3],
@@ -110,7 +126,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     for rep in 0..repetitions {
         let start = Instant::now();
-        let out = respond(&samples, &play, &contact, Interpolation::Linear);
+        let out = respond_stepped(&samples, &play, &contact, Interpolation::Linear, stepping);
         let wall = start.elapsed().as_secs_f64();
         let answered = out.iter().flatten().count();
         let checksum = out.iter().flatten().fold(0u64, |acc, r| {

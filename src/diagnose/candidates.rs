@@ -42,8 +42,8 @@ use super::model::{
     PlayData, PlayDynamics, PlayPoint,
 };
 use super::play_dynamics::{
-    expanded_about, respond, BallContact, ContactDamping, ExpansionPoint, HertzBalls, Interpolation,
-    JointPlay, PlayResponse, PlaySample, BALL_CONTACT,
+    expanded_about, respond_stepped, BallContact, ContactDamping, ExpansionPoint, HertzBalls, Interpolation,
+    JointPlay, PlayResponse, PlaySample, Stepping, BALL_CONTACT,
 };
 use super::signal::derivative;
 use super::transmission::{self, TransmissionDynamics};
@@ -160,6 +160,11 @@ pub struct LibraryOptions {
     /// the truth"), and with Hertz balls and a load-proportional damping not better either
     /// (diagnosis log "The rattle reproduced at the truth's play").
     pub play_interpolation: Interpolation,
+    /// How the reduced dynamic play model steps through each sample interval
+    /// ([`Stepping`]): resolved substeps by default, stiff ones with `lash diagnose
+    /// --play-stiff-substeps` (about 4× less time in the model at 40 per interval; not the
+    /// default until the suite's bearing cases have been run with it at every seed).
+    pub play_stepping: Stepping,
     /// Whether the play candidates that take drive-torque rows from the reduced dynamic play
     /// model ([`dynamic_play_clearance`](Self::dynamic_play_clearance),
     /// [`dynamic_axial_play`](Self::dynamic_axial_play)) take their tracker rows from it too:
@@ -308,6 +313,7 @@ impl Default for LibraryOptions {
             play_axial_stiffness: None,
             play_relinearize: false,
             play_interpolation: Interpolation::Held,
+            play_stepping: Stepping::Resolved,
             dynamic_play_tracker: true,
             only: vec![],
         }
@@ -999,7 +1005,13 @@ pub fn columns_with(
                 _ => None,
             })
             .collect();
-        let first = respond(&samples, play, &contact, opts.play_interpolation);
+        let first = respond_stepped(
+            &samples,
+            play,
+            &contact,
+            opts.play_interpolation,
+            opts.play_stepping,
+        );
         if !opts.play_relinearize {
             return first;
         }
@@ -1022,7 +1034,13 @@ pub fn columns_with(
             return first;
         }
         let about = expanded_about(&samples, &points);
-        respond(&about, play, &contact, opts.play_interpolation)
+        respond_stepped(
+            &about,
+            play,
+            &contact,
+            opts.play_interpolation,
+            opts.play_stepping,
+        )
     };
     // Per sample, the play's effect in the reduced model: drive torques, play coordinates
     // and the transmissions' extra wind-up.

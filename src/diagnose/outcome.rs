@@ -425,6 +425,11 @@ pub struct Diagnosis {
     /// JSON `dynamic_play_interpolation` (`"held"` or `"linear"`; null where no reduced
     /// dynamic play model ran).
     pub dynamic_play_interpolation: Option<super::play_dynamics::Interpolation>,
+    /// How the reduced dynamic play model stepped through each sample interval
+    /// ([`LibraryOptions::play_stepping`](super::candidates::LibraryOptions)); JSON
+    /// `dynamic_play_stepping` (`{"kind": "resolved"}` or `{"kind": "stiff", "per_sample":
+    /// 40}`; null where no reduced dynamic play model ran).
+    pub dynamic_play_stepping: Option<super::play_dynamics::Stepping>,
     /// The reference plays tried at the kept damping — (radial clearance, axial play) in m,
     /// `None` where that direction's candidates were quasi-static — and the selection's
     /// leave-one-recording-out RMS with them (noise units): the first pass's estimates, then,

@@ -310,7 +310,7 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
         };
         let _ = writeln!(
             m,
-            "- The reduced dynamic play model's contact damping: {c}, chosen by cross-validation (leave-one-recording-out RMS in noise units at the reference play: {}{}); the balls {}; {}; {}.",
+            "- The reduced dynamic play model's contact damping: {c}, chosen by cross-validation (leave-one-recording-out RMS in noise units at the reference play: {}{}); the balls {}; {}; {}; {}.",
             if tried.is_empty() { "one value given".into() } else { tried.join(", ") },
             if searched_damping(d) {
                 "; at the searched play size the size search's refits chose it, below"
@@ -330,7 +330,8 @@ fn adequacy_lines(m: &mut String, d: &Diagnosis) {
             match d.dynamic_play_interpolation {
                 Some(Interpolation::Linear) => "its forces blended from sample to sample",
                 Some(Interpolation::Held) | None => "its forces held at each sample interval's end",
-            }
+            },
+            d.dynamic_play_stepping.unwrap_or_default()
         );
     }
     if let Some(h) = d.dynamic_axial_play_reference {

@@ -1245,6 +1245,7 @@ fn diagnose_once(
         dynamic_play_damping_identified: None,
         dynamic_play_relinearized: opts.library.play_relinearize && dynamic_model,
         dynamic_play_interpolation: dynamic_model.then_some(opts.library.play_interpolation),
+        dynamic_play_stepping: dynamic_model.then_some(opts.library.play_stepping),
         dynamic_play_reference_cv: vec![],
         dynamic_play_size_cv: vec![],
         play_probe: None,
