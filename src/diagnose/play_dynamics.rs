@@ -169,7 +169,7 @@
 //! cross's modes on its balls (a 50 g cross, 1e-6 kg·m², on Hertz contacts under hundreds
 //! of newtons), which the torques barely see. The stiff substeps take the contacts'
 //! stiffness and damping into the step's matrix, the Rosenbrock method ROS2 (second order,
-//! L-stable; [`advance_stiff`]) with at least [`STIFF_SUBSTEPS`] per interval, and take a
+//! L-stable; `advance_stiff`) with at least [`STIFF_SUBSTEPS`] per interval, and take a
 //! substep again in halves, down to the resolved substeps' length, where a ball starts or
 //! stops touching or a contact's load is far from linear over it (a ball that barely
 //! touched and is pressed hard: Hertz's stiffness is nearly zero at the start). Tried on
