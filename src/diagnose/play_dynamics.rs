@@ -796,7 +796,8 @@ impl Damping {
     }
 }
 
-/// [`contact_load`], and the contacts' damping there into `damp` (reused from substep to
+/// [`contact_load`] at the state (x, ẋ) (drives, then play and cross: its last [`NP`]
+/// coordinates), and the contacts' damping there into `damp` (reused from substep to
 /// substep: cleared only when a contact had added to it).
 fn contact_load_and_damping(
     ks: &[Contact; 8],
@@ -806,6 +807,7 @@ fn contact_load_and_damping(
     c: &BallContact,
     damp: &mut Damping,
 ) -> [f64; NP] {
+    let (x, xd) = (&x[x.len() - NP..], &xd[xd.len() - NP..]);
     if damp.added {
         *damp = Damping::weighted(damp.stiffness_weight);
     }
@@ -1165,13 +1167,7 @@ pub const SUBSTEPS_PER_PERIOD: f64 = 5.0;
 /// At least 1, at most 100 000. None if the mass matrix is not positive definite.
 fn substeps(sys: &System, ks: &[Contact; 8], contact: &BallContact, load: f64, h: f64) -> Option<Substeps> {
     let jtj = contact_gram(ks, sys.mass.nrows());
-    let sym = |m: &DMatrix<f64>| (m + m.transpose()) * 0.5;
-    let l = sym(&sys.mass).cholesky()?.l();
-    let linv = l.try_inverse()?;
-    let largest = |m: DMatrix<f64>| {
-        let a = sym(&(&linv * m * linv.transpose()));
-        a.symmetric_eigenvalues().iter().fold(0.0f64, |x, &v| x.max(v))
-    };
+    let largest = largest_by_mass(&sys.mass)?;
     let k_contact = contact.tangent_stiffness(4.0 * load.max(100.0));
     let c_contact = contact.damping + contact.load_damping * 4.0 * load.max(100.0);
     let omega = largest(sym(&sys.stiffness) + &jtj * k_contact).sqrt();
@@ -1195,17 +1191,27 @@ fn substeps(sys: &System, ks: &[Contact; 8], contact: &BallContact, load: f64, h
     })
 }
 
+/// The symmetric part of `m`.
+fn sym(m: &DMatrix<f64>) -> DMatrix<f64> {
+    (m + m.transpose()) * 0.5
+}
+
+/// The largest eigenvalue of M⁻¹·A for a symmetric A (of the symmetric part of the mass
+/// `mass`, through its Cholesky factor L: of L⁻¹·A·L⁻ᵀ), as a function of A; None if the
+/// mass is not positive definite.
+fn largest_by_mass(mass: &DMatrix<f64>) -> Option<impl Fn(DMatrix<f64>) -> f64> {
+    let linv = sym(mass).cholesky()?.l().try_inverse()?;
+    Some(move |m: DMatrix<f64>| {
+        let a = sym(&(&linv * m * linv.transpose()));
+        a.symmetric_eigenvalues().iter().fold(0.0f64, |x, &v| x.max(v))
+    })
+}
+
 /// Stiff substeps (ROS2, [`advance_stiff`]) for one sample interval of `h` s: at least
 /// `per_sample`, and [`SUBSTEPS_PER_PERIOD`] per period of the fastest mode without the
 /// contacts (the largest eigenvalue of M⁻¹·K). None if the mass matrix is not positive definite.
 fn stiff_substeps(sys: &System, per_sample: usize, h: f64) -> Option<usize> {
-    let sym = |m: &DMatrix<f64>| (m + m.transpose()) * 0.5;
-    let l = sym(&sys.mass).cholesky()?.l();
-    let linv = l.try_inverse()?;
-    let largest = |m: DMatrix<f64>| {
-        let a = sym(&(&linv * m * linv.transpose()));
-        a.symmetric_eigenvalues().iter().fold(0.0f64, |x, &v| x.max(v))
-    };
+    let largest = largest_by_mass(&sys.mass)?;
     let omega = largest(sym(&sys.stiffness)).sqrt();
     let growing = largest(-sym(&sys.damping));
     let dt = (2.0 * std::f64::consts::PI / SUBSTEPS_PER_PERIOD / omega.max(1e-300))
@@ -1417,14 +1423,7 @@ fn advance(
     // In place, as above: dt·(g − K·x − C·v + loads), then Δv.
     let (mut rhs, mut dv) = (DVector::zeros(x.len()), DVector::zeros(x.len()));
     for j in 0..steps.n {
-        let lc = contact_load_and_damping(
-            ks,
-            &x.as_slice()[nj..],
-            &v.as_slice()[nj..],
-            play,
-            contact,
-            &mut damp,
-        );
+        let lc = contact_load_and_damping(ks, x.as_slice(), v.as_slice(), play, contact, &mut damp);
         let cc = &damp.matrix;
         forces_into(&mut rhs, sys, prev, (j as f64 + 0.5) / steps.n as f64, x, v, &lc);
         rhs.as_mut_slice().iter_mut().for_each(|r| *r *= dt);
@@ -1438,11 +1437,7 @@ fn advance(
                 0.0,
             );
         } else {
-            let s = match &mut schur {
-                Some(s) => s,
-                None => schur.insert(PlaySchur::new(&base, nj)?),
-            };
-            s.solve(cc, dt, &rhs, &mut dv)?;
+            PlaySchur::of(&mut schur, &base, nj)?.solve(cc, dt, &rhs, &mut dv)?;
         }
         for (vi, &d) in v.as_mut_slice().iter_mut().zip(dv.as_slice()) {
             *vi += d;
@@ -1564,22 +1559,11 @@ fn advance_stiff(
         v0.copy_from(v);
         // Stage 1 at (x, v), the matrix from there.
         damp.stiffness_weight = lv.g;
-        let lc = contact_load_and_damping(
-            ks,
-            &x.as_slice()[nj..],
-            &v.as_slice()[nj..],
-            play,
-            contact,
-            &mut damp,
-        );
+        let lc = contact_load_and_damping(ks, x.as_slice(), v.as_slice(), play, contact, &mut damp);
         let contact_on = damp.added && damp.matrix.iter().flatten().any(|&c| c != 0.0);
         if contact_on {
-            let s = match &mut lv.schur {
-                Some(s) => s,
-                None => lv.schur.insert(PlaySchur::new(&lv.base, nj)?),
-            };
             // (S as the implicit substeps', with C_c + g·K_c and the weight g.)
-            s.factor(&damp.matrix, lv.g);
+            PlaySchur::of(&mut lv.schur, &lv.base, nj)?.factor(&damp.matrix, lv.g);
         }
         forces_into(&mut f, sys, prev, t1, x, v, &lc);
         solve(lv, &f, v, &damp, contact_on, &mut rhs, &mut k1v)?;
@@ -1673,6 +1657,14 @@ struct PlaySchur {
 }
 
 impl PlaySchur {
+    /// The elimination in `slot`, made there from `b` on first use ([`new`](Self::new)).
+    fn of<'a>(slot: &'a mut Option<Self>, b: &DMatrix<f64>, nj: usize) -> Option<&'a mut Self> {
+        if slot.is_none() {
+            *slot = Some(Self::new(b, nj)?);
+        }
+        slot.as_mut()
+    }
+
     /// The elimination of `b`'s first `nj` unknowns; None if their block is singular.
     fn new(b: &DMatrix<f64>, nj: usize) -> Option<Self> {
         let b11_inv = b.view((0, 0), (nj, nj)).clone_owned().try_inverse()?;
@@ -1702,22 +1694,8 @@ impl PlaySchur {
         rhs: &DVector<f64>,
         dv: &mut DVector<f64>,
     ) -> Option<()> {
-        let nj = self.b11_inv.nrows();
-        let (r1, r2) = rhs.as_slice().split_at(nj);
-        gemv(self.z.as_mut_slice(), 1.0, self.b11_inv.as_slice(), r1, 0.0);
-        // S by columns.
-        let mut s: [[f64; NP]; NP] =
-            std::array::from_fn(|c| std::array::from_fn(|r| self.s0[(r, c)] + dt * cc[r][c]));
-        let mut y: [f64; NP] = std::array::from_fn(|r| r2[r]);
-        gemv(&mut y, -1.0, self.b21.as_slice(), self.z.as_slice(), 1.0);
-        if !lu_solve(&mut s, &mut y) {
-            return None;
-        }
-        let (x1, x2) = dv.as_mut_slice().split_at_mut(nj);
-        x1.copy_from_slice(self.z.as_slice());
-        gemv(x1, -1.0, self.q.as_slice(), &y, 1.0);
-        x2.copy_from_slice(&y);
-        Some(())
+        self.factor(cc, dt);
+        self.solve_factored(rhs, dv)
     }
 
     /// Factorises S = B₂₂ − B₂₁·B₁₁⁻¹·B₁₂ + w·`cc` for [`solve_factored`](Self::solve_factored).
@@ -1751,6 +1729,7 @@ impl PlaySchur {
 /// scaled by the pivot's reciprocal), so the result is theirs to the bit, without their
 /// generic views — the implicit substep's solve, in the play model's innermost loop. False
 /// where a pivot is zero.
+#[cfg(test)]
 fn lu_solve(a: &mut [[f64; NP]; NP], b: &mut [f64; NP]) -> bool {
     let swaps = lu_factor(a);
     lu_apply(a, &swaps, b)
