@@ -2887,9 +2887,7 @@ mod tests {
                 "{:?}",
                 d.found
             );
-            d.estimates
-                .iter()
-                .find(|e| e.candidate.starts_with("radial clearance in joint F"))
+            d.estimate_named("radial clearance in joint F")
                 .expect("the play's estimate")
                 .value
         };

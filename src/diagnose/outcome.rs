@@ -517,6 +517,13 @@ pub struct PlayDynamicsChannel {
 }
 
 impl Diagnosis {
+    /// The estimate of the first selected candidate whose name starts with `prefix` (a
+    /// candidate's name carries its joint and, where it has several, its scale: "Coulomb
+    /// friction in joint 2" matches each velocity scale's).
+    pub fn estimate_named(&self, prefix: &str) -> Option<&Estimate> {
+        self.estimates.iter().find(|e| e.candidate.starts_with(prefix))
+    }
+
     /// What to say when no candidate joined the model (None when one did): no significant
     /// mismatch, or — when a mismatch stays unexplained — that no library candidate explains it.
     pub fn nothing_selected(&self) -> Option<&'static str> {

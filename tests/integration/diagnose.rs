@@ -106,10 +106,7 @@ fn first_is_coulomb_in_joint_2(d: &lash::diagnose::Diagnosis) -> &lash::diagnose
         "{:?}",
         d.steps
     );
-    d.estimates
-        .iter()
-        .find(|e| e.candidate.starts_with("Coulomb friction in joint 2"))
-        .unwrap()
+    d.estimate_named("Coulomb friction in joint 2").unwrap()
 }
 
 #[test]
