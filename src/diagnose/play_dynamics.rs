@@ -1544,6 +1544,8 @@ fn advance_stiff(
     let unit = |k: usize| 1u64 << (MAX_DEPTH - k);
     let end = n as u64 * unit(0);
     let (mut pos, mut k) = (0u64, 0usize);
+    // The balls touching at the substep's start (the last kept substep's end).
+    let mut start = touching(ks, &x.as_slice()[nj..], play);
     while pos < end {
         while levels.len() <= k {
             levels.push(None);
@@ -1555,7 +1557,6 @@ fn advance_stiff(
         let span = unit(k);
         let dt = h * span as f64 / end as f64;
         let (t1, t2) = (pos as f64 / end as f64, (pos + span) as f64 / end as f64);
-        let start = touching(ks, &x.as_slice()[nj..], play);
         x0.copy_from(x);
         v0.copy_from(v);
         // Stage 1 at (x, v), the matrix from there.
@@ -1606,9 +1607,8 @@ fn advance_stiff(
         x.axpy(0.5 * dt * lv.g, &k2v, 1.0);
         v.axpy(1.5 * dt, &k1v, 1.0);
         v.axpy(0.5 * dt, &k2v, 1.0);
-        let changed = nonlinear
-            || touching(ks, &x2.as_slice()[nj..], play) != start
-            || touching(ks, &x.as_slice()[nj..], play) != start;
+        let at_end = touching(ks, &x.as_slice()[nj..], play);
+        let changed = nonlinear || touching(ks, &x2.as_slice()[nj..], play) != start || at_end != start;
         if changed {
             let deepest = match deepest {
                 Some(d) => d,
@@ -1626,6 +1626,7 @@ fn advance_stiff(
                 continue;
             }
         }
+        start = at_end;
         pos += span;
         // Longer again where the grid allows.
         while k > 0 && pos % unit(k - 1) == 0 && !changed {
