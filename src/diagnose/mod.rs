@@ -11,7 +11,7 @@
 //! | `mr2120.rs` | the MR2120's multibody nominal model (the diagnosis' nominal for the MR2120) |
 //! | `transmission.rs` | the drive transmissions' wind-up dynamics: one Newmark integrator for the nominal model's wind-up and the candidates' linear response to a joint-side torque |
 //! | `model_file.rs` | a TOML model file as the nominal model (`lash diagnose --model FILE.toml`): its sensors make the channels |
-//! | `play_dynamics.rs` | a reduced dynamic model of a universal joint's play along a recording (the drives' transmissions and the joint's play coordinates, linearised about the nominal, the trunnion balls' contact nonlinear): what the quasi-static play candidates leave out; the diagnosis' play-dynamics check refits its selection with it |
+//! | `play_dynamics/` | a reduced dynamic model of a universal joint's play along a recording (the drives' transmissions and the joint's play coordinates, linearised about the nominal, the trunnion balls' contact nonlinear): what the quasi-static play candidates leave out; the diagnosis' play-dynamics check refits its selection with it (files: the balls, the system at a sample, the static start, resolved and stiff substeps, small dense algebra) |
 //! | `data.rs` | measured motion and torques of one recording, checked against the model |
 //! | `candidates.rs` | the library of candidate physics and their regressors |
 //! | `stats.rs` | least squares on Gram matrices, cross-validation folds, χ² tail |
