@@ -163,9 +163,11 @@ pub struct LibraryOptions {
     /// How the reduced dynamic play model steps through each sample interval
     /// ([`Stepping`]): resolved substeps by default, stiff ones with `lash diagnose
     /// --play-stiff-substeps` (about 4× less time in the model at 40 per interval). Not the
-    /// default: at seed 2026 clearance-F held out at 1.302× with them against 1.169× resolved,
-    /// its lightly damped ringing in the rattle damped by substeps that do not resolve it
-    /// (diagnosis log, "Stiff substeps for the reduced play model").
+    /// default until the bearing cases have been run with them at every seed: at seed 2026
+    /// clearance-F held out at 1.302× with them against 1.169× resolved, the diagnosis
+    /// having chosen another of the contact dampings the fit recordings cannot tell apart
+    /// (diagnosis log, "Stiff substeps for the reduced play model" and "The clearance-F miss
+    /// with stiff substeps").
     pub play_stepping: Stepping,
     /// Whether the play candidates that take drive-torque rows from the reduced dynamic play
     /// model ([`dynamic_play_clearance`](Self::dynamic_play_clearance),

@@ -179,6 +179,19 @@
 //! rattle), ROS2 without the halving (it blew up where balls start touching), and the time
 //! derivative of the blended forces in ROS2's stages (the same numbers). Measured: see
 //! [`STIFF_SUBSTEPS`] and the test `stiff_substeps_follow_the_resolved_ones_across_the_play`.
+//! Where the balls' contact is undamped the stiff substeps damp its ringing (the unit tests'
+//! undamped landing rings 8.4 µm RMS resolved, 7e-22 m stiff); under the contact dampings a
+//! diagnosis chooses they leave what the resolved substeps leave (session 78, example
+//! `play_dynamics`, joint F, 6 µm, recording 5, drives A/B/C RMS 0.6–5 s in torque-noise
+//! units, stiff against resolved: 11.2 N·s/m + 275 s/m × F 0.81 / 0.48 / 1.21 against
+//! 0.82 / 0.50 / 1.24; 3.5 + 341 0.57 / 0.38 / 0.89 against 0.58 / 0.40 / 0.93; the truth's own
+//! law 1 + 450 0.35 / 0.28 / 0.54 against 0.35 / 0.28 / 0.57). Also tried and dropped in
+//! session 78: ROS2 with γ below 1 (1 − 1/√2, 1/2), whose second stage takes the contacts at
+//! y + dt·k₁, 1 − 1/γ times a stiff displacement — across the wall (the model failed on the
+//! unit tests' landing); and the cross's inertia scaled up for the resolved substeps (its
+//! rotational inertia × 4: the rattle within 0.02, the model's two runs 7.6 → 4.7 s; × 16, or its mass × 4,
+//! lose the rattle, drive C 2.27–2.54 against 1.91) — a change of its physics the stiff
+//! substeps do not need.
 //!
 //! Measured on the suite's truth (diagnosis log, "What the play leaves in the torques"; example
 //! `play_dynamics`): with 6 µm of radial clearance in joint F, the play's effect on drive A's
@@ -360,9 +373,13 @@ pub enum Stepping {
 }
 
 impl Default for Stepping {
-    /// [`Stepping::Resolved`]: the stiff substeps are an option (at seed 2026 the suite's
-    /// clearance-F case held out at 1.302× the noise with them, 1.169× resolved: the play's
-    /// lightly damped ringing in the rattle, which they do not resolve, damped numerically).
+    /// [`Stepping::Resolved`]: the stiff substeps are an option until the suite's bearing
+    /// cases have been run with them at every seed. At seed 2026 its clearance-F case held
+    /// out at 1.302× the noise with them, 1.169× resolved, because the diagnosis chose
+    /// another contact damping among those the fit recordings cannot tell apart
+    /// (11.2 N·s/m + 275 s/m × F against 3.5 + 341), not because of the substeps: at each the
+    /// stiff substeps leave what the resolved ones leave, to 0.04 torque-noise units (example
+    /// `play_dynamics`; diagnosis log, "The clearance-F miss with stiff substeps").
     fn default() -> Self {
         Stepping::Resolved
     }
