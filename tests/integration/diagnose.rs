@@ -187,17 +187,9 @@ fn hidden_rotor_inertia_and_viscous_friction_are_both_found() {
             d.selected
         );
     }
-    let j = d
-        .estimates
-        .iter()
-        .find(|e| e.candidate.starts_with("reflected rotor inertia in joint 2"))
-        .unwrap();
+    let j = d.estimate_named("reflected rotor inertia in joint 2").unwrap();
     assert!((j.value / 0.004 - 1.0).abs() < 0.25, "J = {}", j.value);
-    let b = d
-        .estimates
-        .iter()
-        .find(|e| e.candidate.starts_with("viscous friction in joint 2"))
-        .unwrap();
+    let b = d.estimate_named("viscous friction in joint 2").unwrap();
     assert!((b.value / 0.03 - 1.0).abs() < 0.25, "b = {}", b.value);
 }
 
