@@ -38,8 +38,8 @@
 //! | output-sensor delay | −d·dy_k/dt on output k |
 use super::data::{Channel, MotionData};
 use super::model::{
-    on_copies, DeclaredCandidate, InverseDynamicsModel, JointMotion, OutputSensitivities, ParameterFamily,
-    PlayData, PlayDynamics, PlayPoint,
+    on_copies, on_forks, DeclaredCandidate, InverseDynamicsModel, JointMotion, OutputSensitivities,
+    ParameterFamily, PlayData, PlayDynamics, PlayPoint,
 };
 use super::play_dynamics::{
     expanded_about, respond_stepped, BallContact, ContactDamping, ExpansionPoint, HertzBalls, Interpolation,
@@ -825,6 +825,34 @@ pub struct NominalWalk {
 pub struct NominalWalkCache {
     with_play: std::sync::OnceLock<NominalWalk>,
     without_play: std::sync::OnceLock<NominalWalk>,
+    /// The columns of the model passes made on the recording, kept for the later assemblies
+    /// on the same recording and model ([`KeptPasses`]).
+    passes: std::sync::Mutex<KeptPasses>,
+}
+
+/// Columns of whole model passes over one recording ([`pass_column`]: a parameter's
+/// difference, an arm's lag), each made on a fresh copy of the model, with the nominal
+/// channels they were made about. A pass's column depends only on the recording, the model
+/// and those channels, so an assembly about the same channels (to the bit) takes it from
+/// here rather than walking the recording twice more: the passes of a linearisation point's
+/// contact dampings, end-face stiffnesses and resized reference plays, and their refits, are
+/// then made once.
+#[derive(Debug, Default)]
+struct KeptPasses {
+    nominal: Vec<Vec<f64>>,
+    columns: std::collections::HashMap<Pass, Vec<f64>>,
+}
+
+impl KeptPasses {
+    /// Whether the columns were made about `nominal` (the same numbers to the bit).
+    fn about(&self, nominal: &[Vec<f64>]) -> bool {
+        self.nominal.len() == nominal.len()
+            && self
+                .nominal
+                .iter()
+                .zip(nominal)
+                .all(|(a, b)| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()))
+    }
 }
 
 impl NominalWalkCache {
@@ -845,6 +873,35 @@ impl NominalWalkCache {
     /// Whether the walk with the play sites' dynamics is in the cache.
     pub fn has_play_walk(&self) -> bool {
         self.with_play.get().is_some()
+    }
+
+    /// How many model passes' columns (a parameter's difference, an arm's lag) are kept for the
+    /// later assemblies on the same recording and model.
+    pub fn passes_kept(&self) -> usize {
+        self.passes.lock().map_or(0, |k| k.columns.len())
+    }
+
+    /// The column of `pass` kept from an assembly about `nominal`, if any.
+    fn kept_pass(&self, pass: Pass, nominal: &[Vec<f64>]) -> Option<Vec<f64>> {
+        let kept = self.passes.lock().ok()?;
+        if !kept.about(nominal) {
+            return None;
+        }
+        kept.columns.get(&pass).cloned()
+    }
+
+    /// Keeps the columns `made` about `nominal` (those kept about other channels dropped).
+    fn keep_passes<'a>(&self, nominal: &[Vec<f64>], made: impl Iterator<Item = (Pass, &'a Vec<f64>)>) {
+        let Ok(mut kept) = self.passes.lock() else {
+            return;
+        };
+        if !kept.about(nominal) {
+            kept.nominal = nominal.to_vec();
+            kept.columns.clear();
+        }
+        for (pass, col) in made {
+            kept.columns.insert(pass, col.clone());
+        }
     }
 }
 
@@ -878,6 +935,31 @@ pub fn columns_with(
     tight: Option<&[TightRun]>,
     walk: Option<&NominalWalkCache>,
 ) -> Columns {
+    columns_needed(cands, d, model, opts, tight, walk, None)
+}
+
+/// [`columns_with`], where `needed` is given (one flag per candidate), without computing the
+/// columns of the parameter, play and contact-compliance candidates not needed: they come
+/// out zero (and their compressions None). A parameter's column is a difference of two whole
+/// passes of the model over the recording, a play's a run of the reduced play model (most of
+/// a recording's columns' time), and each is finite at every sample (a non-finite value is
+/// set to zero), so leaving them out changes neither which samples a
+/// [`Prepared`](super::residuals::Prepared) leaves out nor, to the bit, any other column but
+/// a play's re-linearised about its own motion ([`LibraryOptions::play_relinearize`]): that
+/// run evaluates the model, whose position analyses start from the configuration it last
+/// evaluated, so it may move within their tolerance (1e-12 m; on the suite's axial-D case the
+/// held-out residuals moved by at most 8e-12 N·m and m). The held-out residual, which reads
+/// only the selected candidates' columns, uses this.
+pub(super) fn columns_needed(
+    cands: &[Candidate],
+    d: &MotionData,
+    model: &dyn InverseDynamicsModel,
+    opts: &LibraryOptions,
+    tight: Option<&[TightRun]>,
+    walk: Option<&NominalWalkCache>,
+    needed: Option<&[bool]>,
+) -> Columns {
+    let needed = |c: usize| needed.is_none_or(|m| m.get(c).copied().unwrap_or(true));
     let chans = d.channels();
     let nc = chans.len();
     let n = d.len();
@@ -1143,10 +1225,34 @@ pub fn columns_with(
     } else {
         &compliant_drives
     };
-    let passes = passes_of(cands, &declared_groups, drive_lags);
-    let mut passed = on_copies(&passes, model, &|&pass, m| {
-        pass_column(pass, d, m, &theta0, &nom_channels)
-    });
+    let passes = passes_of(cands, &needed, &declared_groups, drive_lags);
+    // (Those a walk cache kept from an assembly on the same recording and model taken from
+    // it; the others made, each on a fresh copy of the model as a whole batch's are, and
+    // kept there.)
+    let kept: Vec<Option<Vec<f64>>> = passes
+        .iter()
+        .map(|&p| walk.and_then(|w| w.kept_pass(p, &nom_channels)))
+        .collect();
+    let missing: Vec<Pass> = passes
+        .iter()
+        .zip(&kept)
+        .filter(|(_, k)| k.is_none())
+        .map(|(p, _)| *p)
+        .collect();
+    let column = |&pass: &Pass, m: &dyn InverseDynamicsModel| pass_column(pass, d, m, &theta0, &nom_channels);
+    let made = if missing.len() == passes.len() {
+        on_copies(&missing, model, &column)
+    } else {
+        on_forks(&missing, model, &column)
+    };
+    if let Some(w) = walk {
+        w.keep_passes(&nom_channels, missing.iter().copied().zip(&made));
+    }
+    let mut made = made.into_iter();
+    let mut passed: Vec<Vec<f64>> = kept
+        .into_iter()
+        .map(|k| k.or_else(|| made.next()).unwrap_or_default())
+        .collect();
     let lag: Vec<std::cell::OnceCell<Vec<f64>>> =
         (0..model.joints()).map(|_| std::cell::OnceCell::new()).collect();
     let mut parameter_columns = std::collections::HashMap::new();
@@ -1302,7 +1408,16 @@ pub fn columns_with(
     };
     let cols = cands
         .iter()
-        .map(|c| match (c.effect, c.joint) {
+        .enumerate()
+        .map(|(ci, c)| match (c.effect, c.joint) {
+            // (Zeros, as many columns as the candidate has.)
+            _ if !needed(ci) && finite_everywhere(c) => match c.effect {
+                Effect::Declared { group } => declared_groups
+                    .get(group)
+                    .map(|g| vec![vec![0.0; nc * n]; g.parameters.len()])
+                    .unwrap_or_default(),
+                _ => vec![vec![0.0; nc * n]],
+            },
             (Effect::Parameter { index, .. }, _) => vec![parameter_column(index)],
             (Effect::Declared { group }, _) => declared_groups
                 .get(group)
@@ -1496,7 +1611,9 @@ pub fn columns_with(
     // Hertz's law, or axially, the response is taken less the joint's without play).
     let compression = cands
         .iter()
-        .map(|c| match c.effect {
+        .enumerate()
+        .map(|(ci, c)| match c.effect {
+            _ if !needed(ci) => None,
             Effect::Play {
                 site,
                 direction: PlayDirection::Radial,
@@ -1514,6 +1631,21 @@ pub fn columns_with(
     }
 }
 
+/// Whether a candidate's columns are finite at every sample (where the model or the reduced
+/// play model gives no number, zero), so that leaving them out of an assembly changes no
+/// sample it leaves out ([`columns_needed`]): a parameter's differences ([`pass_column`]), a
+/// play's and a contact compliance's responses. These are also the costly ones: whole
+/// passes of the model, or runs of the reduced play model, over the recording.
+fn finite_everywhere(c: &Candidate) -> bool {
+    matches!(
+        c.effect,
+        Effect::Parameter { .. }
+            | Effect::Declared { .. }
+            | Effect::Play { .. }
+            | Effect::ContactCompliance { .. }
+    )
+}
+
 /// A sensitivity column that takes whole passes of the model over a recording.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum Pass {
@@ -1526,10 +1658,15 @@ enum Pass {
 /// Step of the lag's central difference, rad (or m).
 const LAG_STEP: f64 = 1e-6;
 
-/// The passes the candidates' columns will ask for: every parameter a candidate perturbs,
-/// every arm whose encoder offset or backlash is a candidate, and — where friction or play
-/// acts through the drives — the lags of `drive_lags`.
-fn passes_of(cands: &[Candidate], declared: &[DeclaredCandidate], drive_lags: &[usize]) -> Vec<Pass> {
+/// The passes the candidates' columns will ask for: every parameter a `needed` candidate
+/// perturbs, every arm whose encoder offset or backlash is a candidate, and — where friction
+/// or play acts through the drives — the lags of `drive_lags`.
+fn passes_of(
+    cands: &[Candidate],
+    needed: &dyn Fn(usize) -> bool,
+    declared: &[DeclaredCandidate],
+    drive_lags: &[usize],
+) -> Vec<Pass> {
     let mut out: Vec<Pass> = vec![];
     let mut add = |p: Pass| {
         if !out.contains(&p) {
@@ -1537,8 +1674,9 @@ fn passes_of(cands: &[Candidate], declared: &[DeclaredCandidate], drive_lags: &[
         }
     };
     let mut through_drives = false;
-    for c in cands {
+    for (ci, c) in cands.iter().enumerate() {
         match (c.effect, c.joint) {
+            _ if !needed(ci) && finite_everywhere(c) => {}
             (Effect::Parameter { index, .. }, _) => add(Pass::Parameter(index)),
             (Effect::Declared { group }, _) => {
                 for &index in declared.get(group).map_or(&[][..], |g| &g.parameters[..]) {

@@ -271,8 +271,29 @@ pub fn on_copies<I: Sync, T: Send>(
     model: &dyn InverseDynamicsModel,
     f: &(dyn Fn(&I, &dyn InverseDynamicsModel) -> T + Sync),
 ) -> Vec<T> {
+    copies(items, model, f, 2)
+}
+
+/// [`on_copies`], on a copy of the model also for a single item (a copy starts afresh,
+/// where the model itself carries the state its last evaluation left: the items' results
+/// are then those they have within a batch of several).
+pub(crate) fn on_forks<I: Sync, T: Send>(
+    items: &[I],
+    model: &dyn InverseDynamicsModel,
+    f: &(dyn Fn(&I, &dyn InverseDynamicsModel) -> T + Sync),
+) -> Vec<T> {
+    copies(items, model, f, 1)
+}
+
+/// `f` over `items`, on copies of `model` side by side from `fork_from` items on.
+fn copies<I: Sync, T: Send>(
+    items: &[I],
+    model: &dyn InverseDynamicsModel,
+    f: &(dyn Fn(&I, &dyn InverseDynamicsModel) -> T + Sync),
+    fork_from: usize,
+) -> Vec<T> {
     use rayon::prelude::*;
-    let forks: Option<Vec<Box<dyn InverseDynamicsModel + Send>>> = if items.len() > 1 {
+    let forks: Option<Vec<Box<dyn InverseDynamicsModel + Send>>> = if items.len() >= fork_from {
         items.iter().map(|_| model.fork()).collect()
     } else {
         None

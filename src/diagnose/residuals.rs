@@ -7,7 +7,7 @@
 //! re-linearisation (`DiagnoseOptions::shift`) is undone in the residual, so estimates stay
 //! totals relative to the nominal model.
 
-use super::candidates::{columns_with, Candidate, NominalWalkCache, TightRuns};
+use super::candidates::{columns_needed, Candidate, NominalWalkCache, TightRuns};
 use super::data::MotionData;
 use super::error::DiagnoseError;
 use super::model::{on_copies, InverseDynamicsModel};
@@ -109,6 +109,25 @@ pub(super) fn prepare_with(
     tight: Option<&[TightRuns]>,
     walks: Option<&[NominalWalkCache]>,
 ) -> Result<Prepared, DiagnoseError> {
+    prepare_needed(model, data, sigma, cands, opts, tight, walks, None)
+}
+
+/// [`prepare_with`], the parameter candidates not `needed` (one flag per candidate, where
+/// given) with zero columns and no model passes
+/// ([`columns_needed`](super::candidates::columns_needed)): the residual and the samples left
+/// out are those of [`prepare_with`], and so is [`Prepared::residual`] over needed
+/// candidates.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn prepare_needed(
+    model: &dyn InverseDynamicsModel,
+    data: &[MotionData],
+    sigma: &[f64],
+    cands: &[Candidate],
+    opts: &DiagnoseOptions,
+    tight: Option<&[TightRuns]>,
+    walks: Option<&[NominalWalkCache]>,
+    needed: Option<&[bool]>,
+) -> Result<Prepared, DiagnoseError> {
     let mut cols_of = vec![];
     let mut blocks = vec![];
     let mut left_out = vec![];
@@ -116,13 +135,14 @@ pub(super) fn prepare_with(
     let recordings: Vec<usize> = (0..data.len()).collect();
     let all = on_copies(&recordings, model, &|&r, m| {
         let cache = tight.and_then(|t| t.get(r)).map(Vec::as_slice);
-        columns_with(
+        columns_needed(
             cands,
             &data[r],
             m,
             &opts.library,
             cache,
             walks.and_then(|w| w.get(r)),
+            needed,
         )
     });
     // The play candidates' compressions over all recordings (RMS, weighted by samples).
@@ -339,7 +359,7 @@ impl Prepared {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diagnose::candidates::{library, LibraryOptions};
+    use crate::diagnose::candidates::{library, Effect, LibraryOptions, NominalWalkCache};
     use crate::diagnose::model::{DeclaredCandidate, InverseDynamicsModel, ModelParameter, ParameterFamily};
 
     /// One joint whose torque is linear in two parameters a user's model file declares
@@ -423,5 +443,182 @@ mod tests {
         let scale = b0.iter().map(|v| v.abs()).fold(0.0, f64::max);
         let worst = b0.iter().zip(b1).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
         assert!(worst < 1e-6 * scale, "{worst} against {scale}");
+    }
+
+    /// [`Declares`] with its two parameters left undeclared: each its own candidate.
+    struct Loose(Declares);
+
+    impl InverseDynamicsModel for Loose {
+        fn name(&self) -> String {
+            "loose".into()
+        }
+        fn joints(&self) -> usize {
+            1
+        }
+        fn joint_name(&self, j: usize) -> String {
+            self.0.joint_name(j)
+        }
+        fn parameters(&self) -> Vec<ModelParameter> {
+            self.0.parameters()
+        }
+        fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
+            self.0.torques(theta, q, qd, qdd, tau)
+        }
+    }
+
+    /// The held-out residual's assembly without the columns it does not read
+    /// ([`prepare_needed`]): the residual, the samples left out and every needed candidate's
+    /// columns are those of the whole library's assembly to the bit, the left-out parameter
+    /// candidates' columns (a parameter's, a declared pair's) are zero, and the residual after
+    /// a fit of needed candidates is the same.
+    #[test]
+    fn an_assembly_of_the_needed_columns_leaves_the_residual_and_its_samples_as_they_were() {
+        let t: Vec<f64> = (0..300).map(|i| i as f64 * 0.01).collect();
+        let mut data = MotionData {
+            name: "sine".into(),
+            t: t.clone(),
+            q: vec![t.iter().map(|t| (2.0 * t).sin()).collect()],
+            qd: vec![t.iter().map(|t| 2.0 * (2.0 * t).cos()).collect()],
+            qdd: vec![t.iter().map(|t| -4.0 * (2.0 * t).sin()).collect()],
+            qdd_noise: vec![],
+            tau: vec![t.iter().map(|t| 0.3 * (3.0 * t).cos()).collect()],
+            y: vec![],
+            ends_dropped: 0,
+        };
+        // A sample the columns cannot use (a rate missing): left out of both assemblies.
+        data.qd[0][150] = f64::NAN;
+        let data = std::slice::from_ref(&data);
+        let (opts, sigma) = (DiagnoseOptions::default(), [0.02]);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let loose = Loose(Declares { a: 0.02, b: 0.1 });
+        let declares = Declares { a: 0.02, b: 0.1 };
+        for model in [&loose as &dyn InverseDynamicsModel, &declares] {
+            let cands = library(model, &LibraryOptions::default());
+            let costly =
+                |c: &Candidate| matches!(c.effect, Effect::Parameter { .. } | Effect::Declared { .. });
+            let viscous = cands
+                .iter()
+                .position(|c| matches!(c.effect, Effect::Viscous))
+                .expect("a viscous candidate");
+            // The viscous friction and, where there are two, the first parameter needed.
+            let parameters: Vec<usize> = (0..cands.len()).filter(|&c| costly(&cands[c])).collect();
+            let set: Vec<usize> = std::iter::once(viscous)
+                .chain(
+                    parameters
+                        .iter()
+                        .copied()
+                        .filter(|_| parameters.len() > 1)
+                        .take(1),
+                )
+                .collect();
+            let needed: Vec<bool> = (0..cands.len()).map(|c| set.contains(&c)).collect();
+            assert!(
+                parameters.iter().any(|&c| !needed[c]),
+                "{}: a parameter left out",
+                model.name()
+            );
+            let all = prepare_with(model, data, &sigma, &cands, &opts, None, None).unwrap();
+            let some = prepare_needed(model, data, &sigma, &cands, &opts, None, None, Some(&needed)).unwrap();
+            assert!(all.left_out[0][150] && all.left_out == some.left_out);
+            assert_eq!(bits(&all.blocks[0].1), bits(&some.blocks[0].1));
+            for (c, cand) in cands.iter().enumerate() {
+                for &k in &all.cols_of[c] {
+                    let (a, b) = (&all.blocks[0].0[k], &some.blocks[0].0[k]);
+                    if !needed[c] && costly(cand) {
+                        assert!(b.iter().all(|v| *v == 0.0), "{}", cand.name);
+                        assert!(a.iter().any(|v| *v != 0.0), "{}", cand.name);
+                    } else {
+                        assert_eq!(bits(a), bits(b), "{}", cand.name);
+                    }
+                }
+            }
+            let x: Vec<f64> = (0..set.iter().map(|&c| all.cols_of[c].len()).sum())
+                .map(|k| 0.01 * (k as f64 + 1.0))
+                .collect();
+            assert_eq!(
+                bits(&all.residual(0, &set, &x)),
+                bits(&some.residual(0, &set, &x))
+            );
+        }
+    }
+
+    /// [`Loose`], counting its torque evaluations.
+    struct Counted(Loose, std::sync::atomic::AtomicUsize);
+
+    impl InverseDynamicsModel for Counted {
+        fn name(&self) -> String {
+            "counted".into()
+        }
+        fn joints(&self) -> usize {
+            1
+        }
+        fn joint_name(&self, j: usize) -> String {
+            self.0.joint_name(j)
+        }
+        fn parameters(&self) -> Vec<ModelParameter> {
+            self.0.parameters()
+        }
+        fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
+            self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            self.0.torques(theta, q, qd, qdd, tau)
+        }
+    }
+
+    /// A recording's walk cache keeps the model passes' columns (here the parameters'
+    /// differences): a second assembly on it makes none of them again and gives the first's
+    /// columns to the bit, which are a fresh assembly's; an assembly on other data (another
+    /// nominal motion) does not take them.
+    #[test]
+    fn a_walk_cache_makes_each_model_pass_once_per_recording() {
+        let t: Vec<f64> = (0..200).map(|i| i as f64 * 0.01).collect();
+        let recording = |w: f64| MotionData {
+            name: "sine".into(),
+            t: t.clone(),
+            q: vec![t.iter().map(|t| (w * t).sin()).collect()],
+            qd: vec![t.iter().map(|t| w * (w * t).cos()).collect()],
+            qdd: vec![t.iter().map(|t| -w * w * (w * t).sin()).collect()],
+            qdd_noise: vec![],
+            tau: vec![t.iter().map(|t| 0.3 * (3.0 * t).cos()).collect()],
+            y: vec![],
+            ends_dropped: 0,
+        };
+        let model = Counted(Loose(Declares { a: 0.02, b: 0.1 }), Default::default());
+        let calls = || model.1.load(std::sync::atomic::Ordering::Relaxed);
+        let cands = library(&model, &LibraryOptions::default());
+        let (opts, sigma) = (DiagnoseOptions::default(), [0.02]);
+        let bits = |p: &Prepared| -> Vec<Vec<u64>> {
+            p.blocks[0]
+                .0
+                .iter()
+                .map(|c| c.iter().map(|x| x.to_bits()).collect())
+                .collect()
+        };
+        let data = [recording(2.0)];
+        let walks = [NominalWalkCache::new()];
+        let assemble = |data: &[MotionData], walks: Option<&[NominalWalkCache]>| {
+            let before = calls();
+            let p = prepare_with(&model, data, &sigma, &cands, &opts, None, walks).unwrap();
+            (p, calls() - before)
+        };
+        let (fresh, fresh_calls) = assemble(&data, None);
+        let (first, first_calls) = assemble(&data, Some(&walks));
+        let kept = walks[0].passes_kept();
+        let (second, second_calls) = assemble(&data, Some(&walks));
+        // Two parameters, each a central difference: four passes of the 200 samples that the
+        // second assembly does not make.
+        assert_eq!(kept, 2);
+        assert_eq!(first_calls, fresh_calls);
+        assert_eq!(
+            second_calls + 4 * 200,
+            first_calls,
+            "{second_calls} against {first_calls}"
+        );
+        assert!(bits(&first) == bits(&fresh) && bits(&second) == bits(&fresh));
+        // Other data on the same cache: its own passes, as a fresh assembly's.
+        let other = [recording(2.5)];
+        let (moved, moved_calls) = assemble(&other, Some(&walks));
+        let (moved_fresh, _) = assemble(&other, None);
+        assert_eq!(moved_calls, first_calls);
+        assert!(bits(&moved) == bits(&moved_fresh) && bits(&moved) != bits(&fresh));
     }
 }

@@ -20,7 +20,7 @@ use super::play_size::{
 };
 use super::recording::{Recording, RecordingError, MIN_SAMPLES};
 use super::relinearize;
-use super::residuals::{prepare_with, Prepared};
+use super::residuals::{prepare_needed, prepare_with, Prepared};
 use super::selection::{confounded, estimate, select, Estimates, Selection};
 use super::series_joints::name_compliance_at_play;
 use super::signal::{noise_floor, rms};
@@ -1402,7 +1402,17 @@ fn channel_fits(
     let mut ho_a = vec![vec![]; nj];
     let mut traces = vec![];
     if !holdout.is_empty() {
-        let hp = prepare_with(
+        // Only the selected candidates' columns are read here, and the shifted ones' move
+        // the residual: the other parameters' passes and plays' runs over the held-out
+        // recordings are left out (the same residual, samples and selected columns, a
+        // re-linearised play's to the position analyses' tolerance; `prepare_needed`).
+        let needed: Vec<bool> = prep
+            .cands
+            .iter()
+            .enumerate()
+            .map(|(c, cand)| set.contains(&c) || opts.shift.iter().any(|(name, _)| *name == cand.name))
+            .collect();
+        let hp = prepare_needed(
             model,
             holdout,
             sigma,
@@ -1410,6 +1420,7 @@ fn channel_fits(
             opts,
             None,
             walks.map(|w| w.holdout.as_slice()),
+            Some(&needed),
         )?;
         for r in 0..holdout.len() {
             let n = holdout[r].len();
