@@ -401,23 +401,29 @@ mod tests {
         }
     }
 
+    /// A recording of `n` samples at 100 Hz of one joint moving as sin(w·t) (rad, w in
+    /// rad/s), its torque 0.3·cos(3t) N·m.
+    fn sine(n: usize, w: f64) -> MotionData {
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
+        MotionData {
+            name: "sine".into(),
+            q: vec![t.iter().map(|t| (w * t).sin()).collect()],
+            qd: vec![t.iter().map(|t| w * (w * t).cos()).collect()],
+            qdd: vec![t.iter().map(|t| -w * w * (w * t).sin()).collect()],
+            qdd_noise: vec![],
+            tau: vec![t.iter().map(|t| 0.3 * (3.0 * t).cos()).collect()],
+            y: vec![],
+            ends_dropped: 0,
+            t,
+        }
+    }
+
     /// The second pass's residual "as if from the nominal model" at a point a declared
     /// candidate moved (one shift entry per parameter) is the nominal residual when the
     /// model is linear in them: each entry goes with its own column.
     #[test]
     fn a_declared_candidates_shift_pairs_each_value_with_its_own_column() {
-        let t: Vec<f64> = (0..300).map(|i| i as f64 * 0.01).collect();
-        let data = MotionData {
-            name: "sine".into(),
-            t: t.clone(),
-            q: vec![t.iter().map(|t| (2.0 * t).sin()).collect()],
-            qd: vec![t.iter().map(|t| 2.0 * (2.0 * t).cos()).collect()],
-            qdd: vec![t.iter().map(|t| -4.0 * (2.0 * t).sin()).collect()],
-            qdd_noise: vec![],
-            tau: vec![t.iter().map(|t| 0.3 * (3.0 * t).cos()).collect()],
-            y: vec![],
-            ends_dropped: 0,
-        };
+        let data = sine(300, 2.0);
         let pair = |m: &dyn InverseDynamicsModel| -> Vec<Candidate> {
             library(m, &LibraryOptions::default())
                 .into_iter()
@@ -445,8 +451,9 @@ mod tests {
         assert!(worst < 1e-6 * scale, "{worst} against {scale}");
     }
 
-    /// [`Declares`] with its two parameters left undeclared: each its own candidate.
-    struct Loose(Declares);
+    /// [`Declares`] with its two parameters left undeclared, each its own candidate; its
+    /// torque evaluations counted.
+    struct Loose(Declares, std::sync::atomic::AtomicUsize);
 
     impl InverseDynamicsModel for Loose {
         fn name(&self) -> String {
@@ -462,6 +469,7 @@ mod tests {
             self.0.parameters()
         }
         fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
+            self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             self.0.torques(theta, q, qd, qdd, tau)
         }
     }
@@ -473,24 +481,13 @@ mod tests {
     /// a fit of needed candidates is the same.
     #[test]
     fn an_assembly_of_the_needed_columns_leaves_the_residual_and_its_samples_as_they_were() {
-        let t: Vec<f64> = (0..300).map(|i| i as f64 * 0.01).collect();
-        let mut data = MotionData {
-            name: "sine".into(),
-            t: t.clone(),
-            q: vec![t.iter().map(|t| (2.0 * t).sin()).collect()],
-            qd: vec![t.iter().map(|t| 2.0 * (2.0 * t).cos()).collect()],
-            qdd: vec![t.iter().map(|t| -4.0 * (2.0 * t).sin()).collect()],
-            qdd_noise: vec![],
-            tau: vec![t.iter().map(|t| 0.3 * (3.0 * t).cos()).collect()],
-            y: vec![],
-            ends_dropped: 0,
-        };
+        let mut data = sine(300, 2.0);
         // A sample the columns cannot use (a rate missing): left out of both assemblies.
         data.qd[0][150] = f64::NAN;
         let data = std::slice::from_ref(&data);
         let (opts, sigma) = (DiagnoseOptions::default(), [0.02]);
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        let loose = Loose(Declares { a: 0.02, b: 0.1 });
+        let loose = Loose(Declares { a: 0.02, b: 0.1 }, Default::default());
         let declares = Declares { a: 0.02, b: 0.1 };
         for model in [&loose as &dyn InverseDynamicsModel, &declares] {
             let cands = library(model, &LibraryOptions::default());
@@ -542,47 +539,14 @@ mod tests {
         }
     }
 
-    /// [`Loose`], counting its torque evaluations.
-    struct Counted(Loose, std::sync::atomic::AtomicUsize);
-
-    impl InverseDynamicsModel for Counted {
-        fn name(&self) -> String {
-            "counted".into()
-        }
-        fn joints(&self) -> usize {
-            1
-        }
-        fn joint_name(&self, j: usize) -> String {
-            self.0.joint_name(j)
-        }
-        fn parameters(&self) -> Vec<ModelParameter> {
-            self.0.parameters()
-        }
-        fn torques(&self, theta: &[f64], q: &[f64], qd: &[f64], qdd: &[f64], tau: &mut [f64]) {
-            self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            self.0.torques(theta, q, qd, qdd, tau)
-        }
-    }
-
     /// A recording's walk cache keeps the model passes' columns (here the parameters'
     /// differences): a second assembly on it makes none of them again and gives the first's
     /// columns to the bit, which are a fresh assembly's; an assembly on other data (another
     /// nominal motion) does not take them.
     #[test]
     fn a_walk_cache_makes_each_model_pass_once_per_recording() {
-        let t: Vec<f64> = (0..200).map(|i| i as f64 * 0.01).collect();
-        let recording = |w: f64| MotionData {
-            name: "sine".into(),
-            t: t.clone(),
-            q: vec![t.iter().map(|t| (w * t).sin()).collect()],
-            qd: vec![t.iter().map(|t| w * (w * t).cos()).collect()],
-            qdd: vec![t.iter().map(|t| -w * w * (w * t).sin()).collect()],
-            qdd_noise: vec![],
-            tau: vec![t.iter().map(|t| 0.3 * (3.0 * t).cos()).collect()],
-            y: vec![],
-            ends_dropped: 0,
-        };
-        let model = Counted(Loose(Declares { a: 0.02, b: 0.1 }), Default::default());
+        let recording = |w: f64| sine(200, w);
+        let model = Loose(Declares { a: 0.02, b: 0.1 }, Default::default());
         let calls = || model.1.load(std::sync::atomic::Ordering::Relaxed);
         let cands = library(&model, &LibraryOptions::default());
         let (opts, sigma) = (DiagnoseOptions::default(), [0.02]);
