@@ -881,13 +881,13 @@ impl NominalWalkCache {
         self.passes.lock().map_or(0, |k| k.columns.len())
     }
 
-    /// The column of `pass` kept from an assembly about `nominal`, if any.
-    fn kept_pass(&self, pass: Pass, nominal: &[Vec<f64>]) -> Option<Vec<f64>> {
-        let kept = self.passes.lock().ok()?;
-        if !kept.about(nominal) {
-            return None;
+    /// The columns of `passes` kept from an assembly about `nominal` (None where not kept),
+    /// the channels compared once.
+    fn kept_passes(&self, passes: &[Pass], nominal: &[Vec<f64>]) -> Vec<Option<Vec<f64>>> {
+        match self.passes.lock() {
+            Ok(kept) if kept.about(nominal) => passes.iter().map(|p| kept.columns.get(p).cloned()).collect(),
+            _ => vec![None; passes.len()],
         }
-        kept.columns.get(&pass).cloned()
     }
 
     /// Keeps the columns `made` about `nominal` (those kept about other channels dropped).
@@ -1229,10 +1229,10 @@ pub(super) fn columns_needed(
     // (Those a walk cache kept from an assembly on the same recording and model taken from
     // it; the others made, each on a fresh copy of the model as a whole batch's are, and
     // kept there.)
-    let kept: Vec<Option<Vec<f64>>> = passes
-        .iter()
-        .map(|&p| walk.and_then(|w| w.kept_pass(p, &nom_channels)))
-        .collect();
+    let kept = walk.map_or_else(
+        || vec![None; passes.len()],
+        |w| w.kept_passes(&passes, &nom_channels),
+    );
     let missing: Vec<Pass> = passes
         .iter()
         .zip(&kept)
