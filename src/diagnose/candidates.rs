@@ -36,10 +36,10 @@
 //! | the same play, with its dynamics (the selection's second pass, or the play-dynamics check) | drive torques too: h·Δτ(h_ref)/h_ref, Δτ the reduced dynamic play model's response ([`super::play_dynamics`]) at a reference play h_ref of the same direction ([`LibraryOptions::dynamic_play_clearance`], [`LibraryOptions::dynamic_axial_play`]); in the second pass the tracker too, h·Δy(h_ref)/h_ref from the model's play coordinates and extra wind-up ([`LibraryOptions::dynamic_play_tracker`]) |
 //! | output-sensor offset | o_k on output k |
 //! | output-sensor delay | −d·dy_k/dt on output k |
-use super::data::{Channel, MotionData};
+use super::data::{Channel, ModelValues, MotionData};
 use super::model::{
     on_copies, on_forks, DeclaredCandidate, InverseDynamicsModel, JointMotion, OutputSensitivities,
-    ParameterFamily, PlayData, PlayDynamics, PlayPoint,
+    ParameterFamily, PlayData, PlayDynamics, PlayPoint, SampleState,
 };
 use super::play_dynamics::{
     expanded_about, respond_stepped, BallContact, ContactDamping, ExpansionPoint, HertzBalls, Interpolation,
@@ -815,6 +815,27 @@ pub struct NominalWalk {
     sens: Vec<Option<OutputSensitivities>>,
     dynamics: Vec<Option<TransmissionDynamics>>,
     play_dyn: Vec<Option<Vec<PlayDynamics>>>,
+    /// Per sample, the model's state after it ([`InverseDynamicsModel::sample_state`]), where
+    /// a re-linearised play's run will ask about samples along the recording
+    /// ([`LibraryOptions::play_relinearize`]) and the model gives it: the run then puts the
+    /// model at each sample it asks about instead of walking the recording again (empty
+    /// otherwise).
+    states: std::sync::Arc<Vec<Option<SampleState>>>,
+}
+
+/// A fingerprint of a recording's motion (times, joint positions, rates and accelerations)
+/// and a model's parameter values, to the bit: what the nominal channels depend on.
+fn motion_key(d: &MotionData, theta: &[f64]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    let series = std::iter::once(&d.t[..])
+        .chain(d.q.iter().chain(&d.qd).chain(&d.qdd).map(|v| &v[..]))
+        .chain(std::iter::once(theta));
+    for v in series {
+        v.len().hash(&mut h);
+        v.iter().for_each(|x| x.to_bits().hash(&mut h));
+    }
+    h.finish()
 }
 
 /// The [`NominalWalk`]s of one recording, each made on first use: one with the play sites'
@@ -823,6 +844,10 @@ pub struct NominalWalk {
 /// a walk made without them.
 #[derive(Debug, Default)]
 pub struct NominalWalkCache {
+    /// The model's torques and outputs at every sample (the nominal channels), with the
+    /// fingerprint of the motion and parameter values they were walked for
+    /// ([`nominal_of`](Self::nominal_of)).
+    nominal: std::sync::Mutex<Option<(u64, std::sync::Arc<ModelValues>)>>,
     with_play: std::sync::OnceLock<NominalWalk>,
     without_play: std::sync::OnceLock<NominalWalk>,
     /// The columns of the model passes made on the recording, kept for the later assemblies
@@ -868,6 +893,21 @@ impl NominalWalkCache {
         } else {
             &self.without_play
         }
+    }
+
+    /// The nominal channels kept under `key` ([`motion_key`]), else `make`'s, kept under it
+    /// (in place of any kept under another key).
+    fn nominal_of(&self, key: u64, make: impl FnOnce() -> ModelValues) -> std::sync::Arc<ModelValues> {
+        if let Ok(kept) = self.nominal.lock() {
+            if let Some((_, v)) = kept.as_ref().filter(|(k, _)| *k == key) {
+                return v.clone();
+            }
+        }
+        let made = std::sync::Arc::new(make());
+        if let Ok(mut kept) = self.nominal.lock() {
+            *kept = Some((key, made.clone()));
+        }
+        made
     }
 
     /// Whether the walk with the play sites' dynamics is in the cache.
@@ -966,7 +1006,13 @@ pub(super) fn columns_needed(
     let params = model.parameters();
     let theta0: Vec<f64> = params.iter().map(|p| p.nominal).collect();
     let declared_groups = model.declared_candidates();
-    let (tau_nom, y_nom) = d.model_all(model, &theta0);
+    // (The same on every assembly on this recording and model: walked once where a cache
+    // is given.)
+    let nominal = match walk {
+        Some(w) => w.nominal_of(motion_key(d, &theta0), || d.model_all(model, &theta0)),
+        None => std::sync::Arc::new(d.model_all(model, &theta0)),
+    };
+    let (tau_nom, y_nom) = (&nominal.0, &nominal.1);
     let torque_row = |j: usize| chans.iter().position(|&c| c == Channel::Torque(j));
     let output_rows: Vec<(usize, usize)> = chans
         .iter()
@@ -1026,10 +1072,16 @@ pub(super) fn columns_needed(
             sens: vec![],
             dynamics: vec![],
             play_dyn: vec![],
+            states: Default::default(),
         };
+        let keep_states = play_needed && opts.play_relinearize;
+        let mut states = vec![];
         if !output_rows.is_empty() || compliant {
             for i in 0..n {
                 let (q, qd, qdd, y) = model_at(i);
+                if keep_states {
+                    states.push(model.sample_state());
+                }
                 // (In this order: the play's derivatives perturb the model's cached sample.)
                 w.sens.push(if output_rows.is_empty() {
                     None
@@ -1044,6 +1096,10 @@ pub(super) fn columns_needed(
                 w.dynamics.push(td);
             }
         }
+        // (Kept only where the model gave a state at every sample.)
+        if states.len() == n && states.iter().all(Option::is_some) {
+            w.states = std::sync::Arc::new(states);
+        }
         w
     };
     let fresh: NominalWalk;
@@ -1054,7 +1110,8 @@ pub(super) fn columns_needed(
             &fresh
         }
     };
-    let (sens, dynamics, play_dyn) = (&walked.sens, &walked.dynamics, &walked.play_dyn);
+    let (sens, dynamics, play_dyn, states) =
+        (&walked.sens, &walked.dynamics, &walked.play_dyn, &walked.states);
     // Per play site and direction, the play's effect on the drive torques in the reduced
     // dynamic play model at the reference play along the recording. Radial: its response
     // (the balls' compliance comes with the clearance: a ball that fits its bore is a
@@ -1107,12 +1164,23 @@ pub(super) fn columns_needed(
         if !(largest > 0.0 && largest.is_finite()) {
             return first;
         }
+        // The model at each sample asked about: put there from the walk's states where it
+        // kept them, else walked there from the recording's start.
+        let restored = states.len() == n;
         let points: Vec<Option<PlayPoint>> = (0..n)
             .map(|i| {
-                let (q, qd, qdd, _) = model_at(i);
+                let (q, qd, qdd) = if restored {
+                    d.motion_at(i)
+                } else {
+                    let (q, qd, qdd, _) = model_at(i);
+                    (q, qd, qdd)
+                };
                 let r = first[i]
                     .as_ref()
                     .filter(|r| size(r) >= RELINEARIZE_FRACTION * largest)?;
+                if restored && !states[i].as_ref().is_some_and(|s| model.restore_sample(s)) {
+                    return None;
+                }
                 model.play_dynamics_at(&theta0, &q, &qd, &qdd, site, &r.windup, r.offset)
             })
             .collect();

@@ -66,7 +66,7 @@
 use super::error::DiagnoseError;
 use super::model::{
     ArmTorque, ColumnDefaults, DeclaredCandidate, InverseDynamicsModel, JointMotion, ModelParameter,
-    OutputSensitivities, PlayData, PlayDynamics, PlayPoint,
+    OutputSensitivities, PlayData, PlayDynamics, PlayPoint, SampleState,
 };
 use super::transmission::{self, TransmissionDynamics};
 use crate::contact::play::UniversalPlay;
@@ -249,6 +249,21 @@ struct Windup {
     /// Quasi-static samples so far at the start of the recording (the dynamics runs from the
     /// fourth sample on: 3).
     started: usize,
+}
+
+/// What [`InverseDynamicsModel::sample_state`] keeps of the cache after a sample along a
+/// recording: the parameter values it was built for, its assembled state, the drive
+/// positions and the transmissions' wind-up. Everything else a later question about the
+/// sample reads (the joints' loads, the play's differences) is computed from these again.
+#[derive(Debug, Clone)]
+struct Checkpoint {
+    theta: Vec<f64>,
+    q: Vec<f64>,
+    w: Vec<f64>,
+    last: Vec<f64>,
+    windup: [Vec<f64>; 2],
+    last_encoder: Vec<f64>,
+    dynamic: Option<Windup>,
 }
 
 /// Largest joint-position change (rad or m) assembled in one Newton solve; larger jumps
@@ -1034,36 +1049,52 @@ impl MechanismModel {
         let qa: Vec<f64> = qa0.iter().zip(&base.lag).map(|(q, l)| q - l).collect();
         let (q0, w0) = (built.q.clone(), built.w.clone());
         let mut out = vec![vec![]; 2 * (nr + n)];
-        // Positions: central differences.
-        for p in (0..nr).chain(2 * nr..2 * nr + n) {
-            let mut column = [vec![], vec![]];
-            for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
-                let (mut x, mut offsets) = (qa.clone(), base.offsets.clone());
-                if p < nr {
-                    offsets[p] += sign * PLAY_OFFSET_STEP;
-                } else {
-                    x[p - 2 * nr] += sign * PLAY_OFFSET_STEP;
-                }
-                built.q.clone_from(&q0);
-                built.w.clone_from(&w0);
-                Self::set_offsets(built, rows, &offsets)?;
-                match Self::joint_torques(built, &x, qda, qdda) {
-                    Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = Self::with_loads(built, t),
-                    _ => return None,
-                }
+        // The point first. Every perturbation below starts from its configuration: one of
+        // the positions assembles in a chord step or two, one of the rates in none (the
+        // residual there is already within the tolerance), and the rates' velocity and
+        // acceleration analyses solve with the factors of B made at the point
+        // ([`Analysis::state_at`] keeps them for the same positions).
+        Self::set_offsets(built, rows, &base.offsets)?;
+        let tau = Self::joint_torques(built, &qa, qda, qdda)?;
+        let at_point = Self::with_outputs(sensors, built, Self::with_loads(built, tau));
+        let (qp, wp) = (built.q.clone(), built.w.clone());
+        // Accelerations: exact, at the point.
+        let lay = built.model.layout();
+        let drivers: Vec<usize> = built
+            .drivers
+            .iter()
+            .map(|&h| lay.driver_lambda(h))
+            .collect::<Option<_>>()?;
+        let joints: Vec<(&crate::multibody::Joint, usize)> = built
+            .play_joints
+            .iter()
+            .map(|&jh| Some((built.model.joint(jh)?, lay.joint_lambda(jh).start)))
+            .collect::<Option<_>>()?;
+        let accelerated: Vec<usize> = rows.iter().chain(&drivers).copied().collect();
+        let dl = built
+            .analysis
+            .acceleration_offset_sensitivity(&built.model, &mut built.data, 0.0, &qp, &wp, &accelerated)
+            .ok()?;
+        for (m, dl) in dl.iter().enumerate() {
+            // A driver's effort is −λ of its row.
+            let mut v: Vec<f64> = drivers.iter().map(|&k| -dl[k]).collect();
+            for &(joint, k0) in &joints {
+                let (r, _) = crate::multibody::analysis::joint_reaction(joint, k0, 0.0, &qp, dl);
+                v.extend(r.force.iter().chain(r.torque.iter()));
             }
-            out[p] = (0..column[0].len())
-                .map(|j| (column[0][j] - column[1][j]) / (2.0 * PLAY_OFFSET_STEP))
-                .collect();
+            if !v.iter().all(|x| x.is_finite()) {
+                return None;
+            }
+            out[if m < nr { nr + m } else { 2 * nr + n + (m - nr) }] = v;
         }
-        // Rates: central differences too (the velocity products are quadratic in them), after
+        // Rates: central differences (the velocity products are quadratic in them), after
         // the accelerations' columns.
         for p in 0..nr + n {
             let mut column = [vec![], vec![]];
             for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
                 let mut rates = qda.clone();
-                built.q.clone_from(&q0);
-                built.w.clone_from(&w0);
+                built.q.clone_from(&qp);
+                built.w.clone_from(&wp);
                 Self::set_offsets(built, rows, &base.offsets)?;
                 if p < nr {
                     let x = [base.offsets[p], sign * PLAY_RATE_STEP, 0.0];
@@ -1082,6 +1113,28 @@ impl MechanismModel {
                     .collect(),
             );
         }
+        // Positions: central differences.
+        for p in (0..nr).chain(2 * nr..2 * nr + n) {
+            let mut column = [vec![], vec![]];
+            for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
+                let (mut x, mut offsets) = (qa.clone(), base.offsets.clone());
+                if p < nr {
+                    offsets[p] += sign * PLAY_OFFSET_STEP;
+                } else {
+                    x[p - 2 * nr] += sign * PLAY_OFFSET_STEP;
+                }
+                built.q.clone_from(&qp);
+                built.w.clone_from(&wp);
+                Self::set_offsets(built, rows, &offsets)?;
+                match Self::joint_torques(built, &x, qda, qdda) {
+                    Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = Self::with_loads(built, t),
+                    _ => return None,
+                }
+            }
+            out[p] = (0..column[0].len())
+                .map(|j| (column[0][j] - column[1][j]) / (2.0 * PLAY_OFFSET_STEP))
+                .collect();
+        }
         // The sample itself, where the point is off it.
         let off_sample = base.offsets.iter().chain(&base.lag).any(|&v| v != 0.0);
         let at_sample = if off_sample {
@@ -1093,41 +1146,6 @@ impl MechanismModel {
         } else {
             vec![]
         };
-        // Accelerations: exact, at the point.
-        built.q.clone_from(&q0);
-        built.w.clone_from(&w0);
-        Self::set_offsets(built, rows, &base.offsets)?;
-        let tau = Self::joint_torques(built, &qa, qda, qdda)?;
-        let at_point = Self::with_outputs(sensors, built, Self::with_loads(built, tau));
-        let lay = built.model.layout();
-        let drivers: Vec<usize> = built
-            .drivers
-            .iter()
-            .map(|&h| lay.driver_lambda(h))
-            .collect::<Option<_>>()?;
-        let joints: Vec<(&crate::multibody::Joint, usize)> = built
-            .play_joints
-            .iter()
-            .map(|&jh| Some((built.model.joint(jh)?, lay.joint_lambda(jh).start)))
-            .collect::<Option<_>>()?;
-        let accelerated: Vec<usize> = rows.iter().chain(&drivers).copied().collect();
-        let (q, w) = (built.q.clone(), built.w.clone());
-        let dl = built
-            .analysis
-            .acceleration_offset_sensitivity(&built.model, &mut built.data, 0.0, &q, &w, &accelerated)
-            .ok()?;
-        for (m, dl) in dl.iter().enumerate() {
-            // A driver's effort is −λ of its row.
-            let mut v: Vec<f64> = drivers.iter().map(|&k| -dl[k]).collect();
-            for &(joint, k0) in &joints {
-                let (r, _) = crate::multibody::analysis::joint_reaction(joint, k0, 0.0, &q, dl);
-                v.extend(r.force.iter().chain(r.torque.iter()));
-            }
-            if !v.iter().all(|x| x.is_finite()) {
-                return None;
-            }
-            out[if m < nr { nr + m } else { 2 * nr + n + (m - nr) }] = v;
-        }
         Some((out, at_point, at_sample))
     }
 
@@ -1777,6 +1795,50 @@ impl InverseDynamicsModel for MechanismModel {
                 .chain(point.mass.iter())
                 .all(|v| v.is_finite()))
         .then_some(point)
+    }
+    /// The cache after the last sample of a recording's walk (its assembled state, drive
+    /// positions and the transmissions' wind-up); None where
+    /// the last evaluation was not along a recording with compliant transmissions (nothing
+    /// then carries over from sample to sample).
+    fn sample_state(&self) -> Option<SampleState> {
+        let b = self.built.borrow();
+        let x = b.as_ref()?;
+        x.dynamic.as_ref()?;
+        Some(SampleState::new(Checkpoint {
+            theta: x.theta.clone(),
+            q: x.q.clone(),
+            w: x.w.clone(),
+            last: x.last.clone(),
+            windup: x.windup.clone(),
+            last_encoder: x.last_encoder.clone(),
+            dynamic: x.dynamic.clone(),
+        }))
+    }
+    /// Puts such a state back (the mechanism built for its parameter values first, if the
+    /// cache holds other ones), the bodies placed at its assembled positions.
+    fn restore_sample(&self, state: &SampleState) -> bool {
+        let Some(c) = state.get::<Checkpoint>() else {
+            return false;
+        };
+        if self.ensure(&c.theta).is_err() {
+            return false;
+        }
+        let mut b = self.built.borrow_mut();
+        let Some(x) = b.as_mut() else {
+            return false;
+        };
+        if x.q.len() != c.q.len() || x.w.len() != c.w.len() {
+            return false;
+        }
+        x.q.clone_from(&c.q);
+        x.w.clone_from(&c.w);
+        x.last.clone_from(&c.last);
+        x.windup.clone_from(&c.windup);
+        x.last_encoder.clone_from(&c.last_encoder);
+        x.dynamic.clone_from(&c.dynamic);
+        x.data.q.clone_from(&c.q);
+        x.data.w.clone_from(&c.w);
+        true
     }
     fn configuration_tag(&self, _theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
         self.tagger.as_ref().and_then(|t| t(q, y))

@@ -308,6 +308,28 @@ fn copies<I: Sync, T: Send>(
     }
 }
 
+/// A model's state along a recording after one sample ([`InverseDynamicsModel::sample_state`]):
+/// opaque to the diagnosis, which keeps it with the nominal walk and hands it back
+/// ([`InverseDynamicsModel::restore_sample`]).
+pub struct SampleState(Box<dyn std::any::Any + Send + Sync>);
+
+impl SampleState {
+    /// Wraps a model's own state.
+    pub fn new<T: std::any::Any + Send + Sync>(state: T) -> Self {
+        Self(Box::new(state))
+    }
+    /// The state, if it is a `T`.
+    pub fn get<T: std::any::Any>(&self) -> Option<&T> {
+        self.0.downcast_ref()
+    }
+}
+
+impl std::fmt::Debug for SampleState {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SampleState")
+    }
+}
+
 /// A nominal model in equation-error form: τ = ID(θ; q, q̇, q̈).
 pub trait InverseDynamicsModel {
     /// Model name for reports.
@@ -485,6 +507,21 @@ pub trait InverseDynamicsModel {
         _offset: [f64; 4],
     ) -> Option<PlayPoint> {
         None
+    }
+    /// The state a model with dynamics of its own (a compliant transmission's wind-up)
+    /// carries along a recording, as the sample it last evaluated with
+    /// [`evaluate_at`](Self::evaluate_at) left it: [`restore_sample`](Self::restore_sample)
+    /// puts it back, so that a later question about that sample
+    /// ([`play_dynamics_at`](Self::play_dynamics_at)) needs no walk from the recording's
+    /// start to it. Default None (no such state, or none the model can give).
+    fn sample_state(&self) -> Option<SampleState> {
+        None
+    }
+    /// Puts back a state [`sample_state`](Self::sample_state) gave: the model then answers as
+    /// at that sample of the walk it was taken on (to its analyses' tolerance: their warm
+    /// starts differ). False where it cannot (another model's state; the default).
+    fn restore_sample(&self, _state: &SampleState) -> bool {
+        false
     }
     /// Joints with play (names), in the order of [`OutputSensitivities::play`]. Default:
     /// none.

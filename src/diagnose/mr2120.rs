@@ -588,6 +588,98 @@ mod tests {
         }
     }
 
+    /// A sample's state kept along a walk and put back later ([`InverseDynamicsModel::sample_state`],
+    /// `restore_sample`) answers a question about that sample as the walk did: a play site
+    /// re-linearised off the sample while the transmissions ring after a jerk gives the same
+    /// point (to the analyses' tolerance) whether the model walked there or was put back there
+    /// after walking on, also in a copy of the model that never walked. A lone sample keeps no
+    /// state, and another model's state is refused.
+    #[test]
+    fn a_sample_state_put_back_answers_as_the_walk_did() {
+        let (g, mp) = (Geometry::default(), MassProperties::default());
+        let model = mr2120_model(&g, &mp).unwrap();
+        let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
+        let q0 = inverse(&g, Vector3::new(0.02, 0.01, 0.5)).unwrap();
+        let (dt, jerk_at, acc) = (2e-3, 270, [20.0, -15.0, 10.0]);
+        let motion = |i: usize| {
+            let s = (i.saturating_sub(jerk_at)) as f64 * dt;
+            let on = if i >= jerk_at { 1.0 } else { 0.0 };
+            let q: Vec<f64> = (0..3).map(|j| q0[j] + 0.5 * acc[j] * s * s).collect();
+            let qd: Vec<f64> = (0..3).map(|j| acc[j] * s).collect();
+            let qdd: Vec<f64> = (0..3).map(|j| on * acc[j]).collect();
+            (q, qd, qdd)
+        };
+        let (site, w, e) = (2, [2e-5, -1e-5, 1e-5], [1e-6, -2e-6, 1.5e-6, 3e-5]);
+        let asked = [jerk_at + 5, jerk_at + 12];
+        let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
+        let (mut walked, mut states) = (vec![], vec![]);
+        for i in 0..jerk_at + 20 {
+            let (q, qd, qdd) = motion(i);
+            model.evaluate_at(i as f64 * dt, &theta, &q, &qd, &qdd, &mut tau, &mut y);
+            if asked.contains(&i) {
+                states.push(model.sample_state().expect("a state along the recording"));
+                walked.push(
+                    model
+                        .play_dynamics_at(&theta, &q, &qd, &qdd, site, &w, e)
+                        .expect("the point"),
+                );
+            }
+        }
+        let copy = model.clone();
+        for m in [&model, &copy] {
+            for ((&i, state), want) in asked.iter().zip(&states).zip(&walked) {
+                assert!(m.restore_sample(state));
+                let (q, qd, qdd) = motion(i);
+                let got = m
+                    .play_dynamics_at(&theta, &q, &qd, &qdd, site, &w, e)
+                    .expect("the point");
+                let close = |a: f64, b: f64| (a - b).abs() <= 1e-7 * (1.0 + b.abs());
+                for j in 0..3 {
+                    assert!(
+                        close(got.torque[j], want.torque[j]),
+                        "sample {i}: {:?} vs {:?}",
+                        got.torque,
+                        want.torque
+                    );
+                    for k in 0..3 {
+                        let (a, b) = (got.load_stiffness[(j, k)], want.load_stiffness[(j, k)]);
+                        // (Differences over 1e-6 rad of positions assembled to 1e-12: their
+                        // round-off follows the warm start, ~1e-6 of S.)
+                        assert!(
+                            (a - b).abs() <= 1e-5 * want.load_stiffness.amax(),
+                            "S[{j},{k}] {a} vs {b}"
+                        );
+                    }
+                }
+                for r in 0..4 {
+                    assert!(
+                        close(got.dynamics.reaction[r], want.dynamics.reaction[r]),
+                        "sample {i}, Λ{r}"
+                    );
+                }
+                // The ringing moves the arms off the encoders: the state carries what a lone
+                // sample would not know.
+                assert!(got.windup.iter().zip(&w).all(|(a, b)| a == b));
+            }
+        }
+        // Without the state, a copy answers for a lone sample (its wind-up quasi-static),
+        // which the ringing moves off the walk's answer by newtons: the check discriminates.
+        let lone = model.clone();
+        let (q, qd, qdd) = motion(asked[1]);
+        let alone = lone
+            .play_dynamics_at(&theta, &q, &qd, &qdd, site, &w, e)
+            .expect("a lone point");
+        let apart = (0..4)
+            .map(|r| (alone.dynamics.reaction[r] - walked[1].dynamics.reaction[r]).abs())
+            .fold(0.0f64, f64::max);
+        assert!(
+            apart > 0.1,
+            "a lone sample's reaction is {apart} N off the walk's"
+        );
+        assert!(lone.sample_state().is_none(), "a lone sample keeps no state");
+        assert!(!model.restore_sample(&crate::diagnose::model::SampleState::new(5u8)));
+    }
+
     /// The play's load and the load stiffness follow the arms, not the encoders: while the
     /// transmissions ring after a jerk of the encoders, every play joint's reaction is the
     /// inverse dynamics' at the arms' motion, and S = ∂τ_s/∂q_arm the derivative of the

@@ -708,6 +708,12 @@ impl<B: Base> InverseDynamicsModel for Shifted<B> {
         self.base()
             .play_dynamics_at(theta, &self.q(q), qd, qdd, site, windup, offset)
     }
+    fn sample_state(&self) -> Option<super::model::SampleState> {
+        self.base().sample_state()
+    }
+    fn restore_sample(&self, state: &super::model::SampleState) -> bool {
+        self.base().restore_sample(state)
+    }
     fn clearance_sites(&self) -> Vec<String> {
         self.base().clearance_sites()
     }

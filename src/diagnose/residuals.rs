@@ -540,7 +540,7 @@ mod tests {
     }
 
     /// A recording's walk cache keeps the model passes' columns (here the parameters'
-    /// differences): a second assembly on it makes none of them again and gives the first's
+    /// differences) and the nominal channels: a second assembly on it makes none of them again and gives the first's
     /// columns to the bit, which are a fresh assembly's; an assembly on other data (another
     /// nominal motion) does not take them.
     #[test]
@@ -569,11 +569,11 @@ mod tests {
         let kept = walks[0].passes_kept();
         let (second, second_calls) = assemble(&data, Some(&walks));
         // Two parameters, each a central difference: four passes of the 200 samples that the
-        // second assembly does not make.
+        // second assembly does not make, nor the nominal pass.
         assert_eq!(kept, 2);
         assert_eq!(first_calls, fresh_calls);
         assert_eq!(
-            second_calls + 4 * 200,
+            second_calls + 5 * 200,
             first_calls,
             "{second_calls} against {first_calls}"
         );

@@ -414,8 +414,10 @@ impl Analysis {
         q: &[f64],
         guess: &[f64],
     ) -> Result<Vec<f64>, ModelError> {
-        self.velocities_factorised(model, data, t, q, guess)
-            .map(|(w, _)| w)
+        let (w, lu) = self.velocities_factorised(model, data, t, q, guess)?;
+        // (Kept for a later analysis at the same positions, as `state_at` keeps it.)
+        data.velocity_lu = lu.map(|lu| VelocityLu { t, q: q.to_vec(), lu });
+        Ok(w)
     }
 
     /// [`velocities`](Self::velocities), and the LU of the velocity Jacobian B(q, t) where it
@@ -443,7 +445,16 @@ impl Analysis {
         let (bm, phit) = Self::velocity_system(&data.ev);
         let w0 = DVector::from_column_slice(guess);
         let r = &bm * &w0 + phit;
-        if let Some(lu) = DenseLu::new(&bm) {
+        // B depends on the positions alone (a driver's or an offset constraint's motion moves
+        // Φ_t, not B): the factors the last analysis made at these very (t, q) are the ones a
+        // new factorisation would give, bit for bit (a position-level sensitivity's rate
+        // differences solve at one configuration many times).
+        let stored = data
+            .velocity_lu
+            .take()
+            .filter(|f| f.t == t && f.q == q)
+            .map(|f| f.lu);
+        if let Some(lu) = stored.or_else(|| DenseLu::new(&bm)) {
             if let Some(dw) = lu.solve(&r).filter(|dw| Self::backward_stable(&bm, dw, &r)) {
                 return Ok(((w0 - dw).iter().copied().collect(), Some(lu)));
             }
@@ -635,7 +646,16 @@ impl Analysis {
         let mass = Self::mass_matrix(model);
         let singular = || ModelError::Output(format!("singular acceleration system at t = {t} s"));
         if nc == n {
-            let lu = DenseLu::new(&bm).ok_or_else(singular)?;
+            // (The factors of B the last analysis made at these positions, if it did.)
+            let kept = data.velocity_lu.as_ref().filter(|f| f.t == t && f.q == q);
+            let made;
+            let lu = match kept {
+                Some(f) => &f.lu,
+                None => {
+                    made = DenseLu::new(&bm).ok_or_else(singular)?;
+                    &made
+                }
+            };
             return rows
                 .iter()
                 .map(|&k| {

@@ -45,7 +45,7 @@ pub struct MechanismData {
     pub(crate) model_version: u64,
     /// The LU of the velocity Jacobian B that the last [`Analysis::state_at`](super::Analysis::state_at)
     /// factorised, with the time and positions it holds at (the driver mass matrix at that
-    /// state solves with it again).
+    /// state, and a velocity analysis at the same positions, solve with it again).
     pub(crate) velocity_lu: Option<VelocityLu>,
     /// The LU of the assembly Jacobian that the last position assembly ended with: the next
     /// assembly (the next sample along a trajectory, or the same sample with the drivers
