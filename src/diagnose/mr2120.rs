@@ -469,6 +469,23 @@ mod tests {
 
     /// The MR2120's model with rigid drives (the arms follow the encoders), its parameters
     /// and the encoder angles of a pose, rad.
+    /// Sample interval (s) and sample of the jerk in [`jerk_motion`].
+    const JERK_DT: f64 = 2e-3;
+    const JERK_AT: usize = 270;
+
+    /// The encoders at rest at `q0` past the model's start transient (`WINDUP_SETTLING`),
+    /// then accelerating at 20, −15 and 10 rad/s² from sample [`JERK_AT`] on: positions, rates
+    /// and accelerations at sample i.
+    fn jerk_motion(q0: &[f64], i: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let acc = [20.0, -15.0, 10.0];
+        let s = (i.saturating_sub(JERK_AT)) as f64 * JERK_DT;
+        let on = if i >= JERK_AT { 1.0 } else { 0.0 };
+        let q: Vec<f64> = (0..3).map(|j| q0[j] + 0.5 * acc[j] * s * s).collect();
+        let qd: Vec<f64> = (0..3).map(|j| acc[j] * s).collect();
+        let qdd: Vec<f64> = (0..3).map(|j| on * acc[j]).collect();
+        (q, qd, qdd)
+    }
+
     fn rigid_at_a_pose() -> (MechanismModel, Vec<f64>, Vec<f64>) {
         let (g, mp) = (Geometry::default(), MassProperties::default());
         let model = mr2120_model(&g, &mp).unwrap();
@@ -600,15 +617,8 @@ mod tests {
         let model = mr2120_model(&g, &mp).unwrap();
         let theta: Vec<f64> = model.parameters().iter().map(|p| p.nominal).collect();
         let q0 = inverse(&g, Vector3::new(0.02, 0.01, 0.5)).unwrap();
-        let (dt, jerk_at, acc) = (2e-3, 270, [20.0, -15.0, 10.0]);
-        let motion = |i: usize| {
-            let s = (i.saturating_sub(jerk_at)) as f64 * dt;
-            let on = if i >= jerk_at { 1.0 } else { 0.0 };
-            let q: Vec<f64> = (0..3).map(|j| q0[j] + 0.5 * acc[j] * s * s).collect();
-            let qd: Vec<f64> = (0..3).map(|j| acc[j] * s).collect();
-            let qdd: Vec<f64> = (0..3).map(|j| on * acc[j]).collect();
-            (q, qd, qdd)
-        };
+        let (dt, jerk_at) = (JERK_DT, JERK_AT);
+        let motion = |i: usize| jerk_motion(&q0, i);
         let (site, w, e) = (2, [2e-5, -1e-5, 1e-5], [1e-6, -2e-6, 1.5e-6, 3e-5]);
         let asked = [jerk_at + 5, jerk_at + 12];
         let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
@@ -701,15 +711,8 @@ mod tests {
         }
         let q0 = inverse(&g, Vector3::new(0.02, 0.01, 0.5)).unwrap();
         // At rest past the model's start transient (`WINDUP_SETTLING`), then a jerk.
-        let (dt, jerk_at, acc) = (2e-3, 270, [20.0, -15.0, 10.0]);
-        let motion = |i: usize| {
-            let s = (i.saturating_sub(jerk_at)) as f64 * dt;
-            let on = if i >= jerk_at { 1.0 } else { 0.0 };
-            let q: Vec<f64> = (0..3).map(|j| q0[j] + 0.5 * acc[j] * s * s).collect();
-            let qd: Vec<f64> = (0..3).map(|j| acc[j] * s).collect();
-            let qdd: Vec<f64> = (0..3).map(|j| on * acc[j]).collect();
-            (q, qd, qdd)
-        };
+        let (dt, jerk_at) = (JERK_DT, JERK_AT);
+        let motion = |i: usize| jerk_motion(&q0, i);
         let (mut tau, mut y) = (vec![0.0; 3], vec![0.0; 3]);
         let mut arm_rate = vec![];
         let mut arm_at = vec![];
