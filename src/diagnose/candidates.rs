@@ -1169,15 +1169,15 @@ pub(super) fn columns_needed(
         let restored = states.len() == n;
         let points: Vec<Option<PlayPoint>> = (0..n)
             .map(|i| {
-                let (q, qd, qdd) = if restored {
-                    d.motion_at(i)
-                } else {
-                    let (q, qd, qdd, _) = model_at(i);
-                    (q, qd, qdd)
-                };
+                // (Walked through every sample; put back at those asked about only.)
+                let walked = (!restored).then(|| model_at(i));
                 let r = first[i]
                     .as_ref()
                     .filter(|r| size(r) >= RELINEARIZE_FRACTION * largest)?;
+                let (q, qd, qdd) = match walked {
+                    Some((q, qd, qdd, _)) => (q, qd, qdd),
+                    None => d.motion_at(i),
+                };
                 if restored && !states[i].as_ref().is_some_and(|s| model.restore_sample(s)) {
                     return None;
                 }
