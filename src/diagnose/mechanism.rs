@@ -189,7 +189,18 @@ struct Built {
     play_joints: Vec<JointHandle>,
     /// The output sensors' bodies.
     sensor_bodies: Vec<BodyHandle>,
+    /// Where the walk along a recording stands.
+    walk: WalkState,
+}
+
+/// Where a [`Built`] mechanism's walk along a recording stands after the last sample it
+/// evaluated: what the next sample warm-starts from and carries on (a
+/// [`Checkpoint`] keeps a copy to put back).
+#[derive(Debug, Clone)]
+struct WalkState {
+    /// Assembled positions (7 per body: position, unit quaternion).
     q: Vec<f64>,
+    /// Body velocities (6 per body).
     w: Vec<f64>,
     /// Joint positions of the last assembled configuration.
     last: Vec<f64>,
@@ -258,12 +269,7 @@ struct Windup {
 #[derive(Debug, Clone)]
 struct Checkpoint {
     theta: Vec<f64>,
-    q: Vec<f64>,
-    w: Vec<f64>,
-    last: Vec<f64>,
-    windup: [Vec<f64>; 2],
-    last_encoder: Vec<f64>,
-    dynamic: Option<Windup>,
+    walk: WalkState,
 }
 
 /// Largest joint-position change (rad or m) assembled in one Newton solve; larger jumps
@@ -692,12 +698,14 @@ impl MechanismModel {
             drivers,
             play_joints,
             sensor_bodies,
-            q,
-            w,
-            last: vec![0.0; n],
-            windup: [vec![0.0; n], vec![0.0; n]],
-            last_encoder: vec![f64::NAN; n],
-            dynamic: None,
+            walk: WalkState {
+                q,
+                w,
+                last: vec![0.0; n],
+                windup: [vec![0.0; n], vec![0.0; n]],
+                last_encoder: vec![f64::NAN; n],
+                dynamic: None,
+            },
         });
         Ok(())
     }
@@ -711,11 +719,11 @@ impl MechanismModel {
         }
         let q_new = built
             .analysis
-            .assemble(&built.model, &mut built.data, 0.0, &built.q)
+            .assemble(&built.model, &mut built.data, 0.0, &built.walk.q)
             .ok()?;
         built.data.q.clone_from(&q_new);
-        built.q = q_new;
-        built.last = qa.to_vec();
+        built.walk.q = q_new;
+        built.walk.last = qa.to_vec();
         Some(())
     }
 
@@ -725,9 +733,9 @@ impl MechanismModel {
     /// the joints are placed back afterwards. None where the last
     /// sample was not a dynamic step or a difference fails.
     fn load_stiffness(built: &mut Built) -> Option<nalgebra::DMatrix<f64>> {
-        let [qa, qda, qdda] = built.dynamic.as_ref()?.arm.clone()?;
+        let [qa, qda, qdda] = built.walk.dynamic.as_ref()?.arm.clone()?;
         let n = qa.len();
-        let (q0, last0) = (built.q.clone(), built.last.clone());
+        let (q0, last0) = (built.walk.q.clone(), built.walk.last.clone());
         let mut g = nalgebra::DMatrix::zeros(n, n);
         let mut ok = true;
         'columns: for k in 0..n {
@@ -747,8 +755,8 @@ impl MechanismModel {
                 g[(j, k)] = (column[0][j] - column[1][j]) / (2.0 * LOAD_STIFFNESS_STEP);
             }
         }
-        built.q = q0;
-        built.last = last0;
+        built.walk.q = q0;
+        built.walk.last = last0;
         Self::place_joints(built, &qa, &qda, &qdda)?;
         ok.then_some(g)
     }
@@ -772,7 +780,7 @@ impl MechanismModel {
     }
 
     /// Every drive's compliance at the configuration the cache holds (drive positions
-    /// `built.last`, the outputs of its state): the transmission's own plus the series
+    /// `built.walk.last`, the outputs of its state): the transmission's own plus the series
     /// compliances'.
     fn compliances_at(&self, theta: &[f64], built: &Built) -> Vec<f64> {
         let n = self.joints.len();
@@ -786,7 +794,7 @@ impl MechanismModel {
                 Self::outputs_of(&self.sensors, built, &mut y);
                 y
             });
-            let g = (s.gain)(&built.last, y);
+            let g = (s.gain)(&built.walk.last, y);
             if g.is_finite() {
                 c[s.drive] += theta[s.parameter] * g;
             }
@@ -800,7 +808,9 @@ impl MechanismModel {
         let current = {
             let b = self.built.borrow();
             b.as_ref().is_some_and(|x| {
-                x.theta == theta && x.dynamic.is_some() && (0..q.len()).all(|j| x.last_encoder[j] == q[j])
+                x.theta == theta
+                    && x.walk.dynamic.is_some()
+                    && (0..q.len()).all(|j| x.walk.last_encoder[j] == q[j])
             })
         };
         if !current {
@@ -838,13 +848,14 @@ impl MechanismModel {
 
     /// The arms' motion of the cached sample: positions, rates and accelerations (the
     /// encoders' less the wind-up's, where the model integrates one; else the encoders'
-    /// motion, `built.last`).
+    /// motion, `built.walk.last`).
     fn arm_motion(built: &Built, qd: &[f64], qdd: &[f64]) -> [Vec<f64>; 3] {
         built
+            .walk
             .dynamic
             .as_ref()
             .and_then(|d| d.arm.clone())
-            .unwrap_or_else(|| [built.last.clone(), qd.to_vec(), qdd.to_vec()])
+            .unwrap_or_else(|| [built.walk.last.clone(), qd.to_vec(), qdd.to_vec()])
     }
 
     /// Runs `f` on the cache, then puts the cached sample back: its assembled positions and
@@ -855,11 +866,15 @@ impl MechanismModel {
         arm: &[Vec<f64>; 3],
         f: impl FnOnce(&mut Built) -> T,
     ) -> Option<T> {
-        let (q0, w0, last0) = (built.q.clone(), built.w.clone(), built.last.clone());
+        let (q0, w0, last0) = (
+            built.walk.q.clone(),
+            built.walk.w.clone(),
+            built.walk.last.clone(),
+        );
         let out = f(built);
-        built.q = q0;
-        built.w = w0;
-        built.last = last0;
+        built.walk.q = q0;
+        built.walk.w = w0;
+        built.walk.last = last0;
         Self::place_joints(built, &arm[0], &arm[1], &arm[2])?;
         Some(out)
     }
@@ -1047,7 +1062,7 @@ impl MechanismModel {
         let [qa0, qda, qdda] = arm;
         let (n, nr) = (qa0.len(), rows.len());
         let qa: Vec<f64> = qa0.iter().zip(&base.lag).map(|(q, l)| q - l).collect();
-        let (q0, w0) = (built.q.clone(), built.w.clone());
+        let (q0, w0) = (built.walk.q.clone(), built.walk.w.clone());
         let mut out = vec![vec![]; 2 * (nr + n)];
         // The point first. Every perturbation below starts from its configuration: one of
         // the positions assembles in a chord step or two, one of the rates in none (the
@@ -1057,7 +1072,7 @@ impl MechanismModel {
         Self::set_offsets(built, rows, &base.offsets)?;
         let tau = Self::joint_torques(built, &qa, qda, qdda)?;
         let at_point = Self::with_outputs(sensors, built, Self::with_loads(built, tau));
-        let (qp, wp) = (built.q.clone(), built.w.clone());
+        let (qp, wp) = (built.walk.q.clone(), built.walk.w.clone());
         // Accelerations: exact, at the point.
         let lay = built.model.layout();
         let drivers: Vec<usize> = built
@@ -1093,8 +1108,8 @@ impl MechanismModel {
             let mut column = [vec![], vec![]];
             for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
                 let mut rates = qda.clone();
-                built.q.clone_from(&qp);
-                built.w.clone_from(&wp);
+                built.walk.q.clone_from(&qp);
+                built.walk.w.clone_from(&wp);
                 Self::set_offsets(built, rows, &base.offsets)?;
                 if p < nr {
                     let x = [base.offsets[p], sign * PLAY_RATE_STEP, 0.0];
@@ -1123,8 +1138,8 @@ impl MechanismModel {
                 } else {
                     x[p - 2 * nr] += sign * PLAY_OFFSET_STEP;
                 }
-                built.q.clone_from(&qp);
-                built.w.clone_from(&wp);
+                built.walk.q.clone_from(&qp);
+                built.walk.w.clone_from(&wp);
                 Self::set_offsets(built, rows, &offsets)?;
                 match Self::joint_torques(built, &x, qda, qdda) {
                     Some(t) if t.iter().all(|v| v.is_finite()) => column[k] = Self::with_loads(built, t),
@@ -1138,8 +1153,8 @@ impl MechanismModel {
         // The sample itself, where the point is off it.
         let off_sample = base.offsets.iter().chain(&base.lag).any(|&v| v != 0.0);
         let at_sample = if off_sample {
-            built.q.clone_from(&q0);
-            built.w.clone_from(&w0);
+            built.walk.q.clone_from(&q0);
+            built.walk.w.clone_from(&w0);
             built.data.clear_constraint_offsets();
             let tau = Self::joint_torques(built, qa0, qda, qdda)?;
             Self::with_outputs(sensors, built, Self::with_loads(built, tau))
@@ -1156,21 +1171,23 @@ impl MechanismModel {
         let n = qa.len();
         // Walk large jumps (the first sample, or a new recording) from the last assembled
         // configuration (the built one at first: drive coordinates 0).
-        let jump = (0..n).map(|j| (qa[j] - built.last[j]).abs()).fold(0.0, f64::max);
+        let jump = (0..n)
+            .map(|j| (qa[j] - built.walk.last[j]).abs())
+            .fold(0.0, f64::max);
         let steps = (jump / CONTINUATION_STEP).ceil().min(1000.0) as usize;
         for k in 1..steps {
             let f = k as f64 / steps as f64;
             for j in 0..n {
-                let x = built.last[j] + f * (qa[j] - built.last[j]);
+                let x = built.walk.last[j] + f * (qa[j] - built.walk.last[j]);
                 // The sample's motion as a local quadratic in time about t = 0 (the analyses
                 // differentiate driver laws in time).
                 let _ = built.data.prescribe_driver(built.drivers[j], 0.0, [x, 0.0, 0.0]);
             }
             match built
                 .analysis
-                .assemble(&built.model, &mut built.data, 0.0, &built.q)
+                .assemble(&built.model, &mut built.data, 0.0, &built.walk.q)
             {
-                Ok(x) => built.q = x,
+                Ok(x) => built.walk.q = x,
                 Err(_) => break,
             }
         }
@@ -1187,7 +1204,7 @@ impl MechanismModel {
             analysis,
             ..
         } = built;
-        let snap = match analysis.state_at(model, data, 0.0, &built.q, &built.w) {
+        let snap = match analysis.state_at(model, data, 0.0, &built.walk.q, &built.walk.w) {
             Ok(s) => Ok(s),
             Err(_) => {
                 let (q0, w0) = model.initial_guess();
@@ -1198,9 +1215,9 @@ impl MechanismModel {
         let tau: Vec<f64> = (0..n)
             .map(|j| data.driver_effort(built.drivers[j]).unwrap_or(f64::NAN))
             .collect();
-        built.q = s.q;
-        built.w = s.w;
-        built.last = qa.to_vec();
+        built.walk.q = s.q;
+        built.walk.w = s.w;
+        built.walk.last = qa.to_vec();
         Some(tau)
     }
 
@@ -1220,12 +1237,12 @@ impl MechanismModel {
         }
         // Warm start from the previous samples' wind-up when this sample is near them
         // (linear extrapolation: the wind-up follows the torque smoothly in time).
-        let near = (0..n).all(|j| (q[j] - built.last_encoder[j]).abs() < CONTINUATION_STEP);
+        let near = (0..n).all(|j| (q[j] - built.walk.last_encoder[j]).abs() < CONTINUATION_STEP);
         if !near {
-            built.windup = [vec![0.0; n], vec![0.0; n]];
+            built.walk.windup = [vec![0.0; n], vec![0.0; n]];
         }
         let mut qa: Vec<f64> = (0..n)
-            .map(|j| q[j] - (2.0 * built.windup[1][j] - built.windup[0][j]))
+            .map(|j| q[j] - (2.0 * built.walk.windup[1][j] - built.walk.windup[0][j]))
             .collect();
         let mut tau = self.loads(built, &qa, qd, qdd)?;
         if c.iter().any(|&v| v != 0.0) {
@@ -1245,11 +1262,11 @@ impl MechanismModel {
             Self::place_joints(built, &qa, qd, qdd)?;
         }
         let now: Vec<f64> = (0..n).map(|j| q[j] - qa[j]).collect();
-        built.windup = [std::mem::take(&mut built.windup[1]), now];
+        built.walk.windup = [std::mem::take(&mut built.walk.windup[1]), now];
         if !near {
-            built.windup[0] = built.windup[1].clone();
+            built.walk.windup[0] = built.walk.windup[1].clone();
         }
-        built.last_encoder = q[..n].to_vec();
+        built.walk.last_encoder = q[..n].to_vec();
         for (j, x) in tau.iter_mut().enumerate() {
             if let Some(EncoderPlacement::MotorSide { rotor_inertia, .. }) = self.sensors.encoders.get(j) {
                 *x += rotor_inertia * qdd[j];
@@ -1260,7 +1277,7 @@ impl MechanismModel {
         // the wind-up, −K⁻¹(M_d·ẅ + D·ẇ), which a slowly forced, damped mode follows (a start
         // at rest would ring through the first few tenths of a second).
         let w = nalgebra::DVector::from_iterator(n, (0..n).map(|j| q[j] - qa[j]));
-        let prev = built.dynamic.clone();
+        let prev = built.walk.dynamic.clone();
         let next = match (prev, t) {
             (Some(p), Some(t)) if p.started >= 1 && p.started < 3 && t > p.t && t - p.t <= WINDUP_MAX_GAP => {
                 let h = t - p.t;
@@ -1322,7 +1339,7 @@ impl MechanismModel {
             _ => None,
         };
         // Only compliant transmissions have a state to carry (and a start transient).
-        built.dynamic = if c.iter().any(|&v| v > 0.0) { next } else { None };
+        built.walk.dynamic = if c.iter().any(|&v| v > 0.0) { next } else { None };
         Some(tau)
     }
 
@@ -1373,8 +1390,8 @@ impl MechanismModel {
         qdd: &[f64],
     ) -> Option<Vec<f64>> {
         let n = c.len();
-        let prev = built.dynamic.clone()?;
-        let same = (0..n).all(|j| q[j] == built.last_encoder[j]);
+        let prev = built.walk.dynamic.clone()?;
+        let same = (0..n).all(|j| q[j] == built.walk.last_encoder[j]);
         if t == prev.t && same {
             return Some(prev.tau);
         }
@@ -1416,7 +1433,7 @@ impl MechanismModel {
         let qa: Vec<f64> = (0..n).map(|j| q[j] - w[j]).collect();
         let (qda, qdda): (Vec<f64>, Vec<f64>) = (0..n).map(|j| (qd[j] - wd[j], qdd[j] - wdd[j])).unzip();
         Self::place_joints(built, &qa, &qda, &qdda)?;
-        built.last_encoder = q[..n].to_vec();
+        built.walk.last_encoder = q[..n].to_vec();
         let tau: Vec<f64> = (0..n)
             .map(|j| {
                 let rotor = match self.sensors.encoders.get(j) {
@@ -1426,7 +1443,7 @@ impl MechanismModel {
                 k[j] * w[j] + d[j] * wd[j] + rotor
             })
             .collect();
-        built.dynamic = Some(Windup {
+        built.walk.dynamic = Some(Windup {
             t,
             start: prev.start,
             w,
@@ -1473,7 +1490,7 @@ impl MechanismModel {
     fn settling(&self) -> bool {
         let b = self.built.borrow();
         b.as_ref()
-            .and_then(|x| x.dynamic.as_ref())
+            .and_then(|x| x.walk.dynamic.as_ref())
             .is_some_and(|d| d.t - d.start < WINDUP_SETTLING)
     }
 
@@ -1603,7 +1620,7 @@ impl InverseDynamicsModel for MechanismModel {
             .driver_mass_matrix(&built.model, &mut built.data)
             .ok()?;
         let load_stiffness = Self::load_stiffness(built);
-        let (windup, windup_rate) = match &built.dynamic {
+        let (windup, windup_rate) = match &built.walk.dynamic {
             Some(w)
                 if w.wd.len() == n
                     && w.w.len() == n
@@ -1803,15 +1820,10 @@ impl InverseDynamicsModel for MechanismModel {
     fn sample_state(&self) -> Option<SampleState> {
         let b = self.built.borrow();
         let x = b.as_ref()?;
-        x.dynamic.as_ref()?;
+        x.walk.dynamic.as_ref()?;
         Some(SampleState::new(Checkpoint {
             theta: x.theta.clone(),
-            q: x.q.clone(),
-            w: x.w.clone(),
-            last: x.last.clone(),
-            windup: x.windup.clone(),
-            last_encoder: x.last_encoder.clone(),
-            dynamic: x.dynamic.clone(),
+            walk: x.walk.clone(),
         }))
     }
     /// Puts such a state back (the mechanism built for its parameter values first, if the
@@ -1827,17 +1839,12 @@ impl InverseDynamicsModel for MechanismModel {
         let Some(x) = b.as_mut() else {
             return false;
         };
-        if x.q.len() != c.q.len() || x.w.len() != c.w.len() {
+        if x.walk.q.len() != c.walk.q.len() || x.walk.w.len() != c.walk.w.len() {
             return false;
         }
-        x.q.clone_from(&c.q);
-        x.w.clone_from(&c.w);
-        x.last.clone_from(&c.last);
-        x.windup.clone_from(&c.windup);
-        x.last_encoder.clone_from(&c.last_encoder);
-        x.dynamic.clone_from(&c.dynamic);
-        x.data.q.clone_from(&c.q);
-        x.data.w.clone_from(&c.w);
+        x.walk.clone_from(&c.walk);
+        x.data.q.clone_from(&c.walk.q);
+        x.data.w.clone_from(&c.walk.w);
         true
     }
     fn configuration_tag(&self, _theta: &[f64], q: &[f64], y: &[f64]) -> Option<String> {
