@@ -467,8 +467,6 @@ mod tests {
         }
     }
 
-    /// The MR2120's model with rigid drives (the arms follow the encoders), its parameters
-    /// and the encoder angles of a pose, rad.
     /// Sample interval (s) and sample of the jerk in [`jerk_motion`].
     const JERK_DT: f64 = 2e-3;
     const JERK_AT: usize = 270;
@@ -486,6 +484,8 @@ mod tests {
         (q, qd, qdd)
     }
 
+    /// The MR2120's model with rigid drives (the arms follow the encoders), its parameters
+    /// and the encoder angles of a pose, rad.
     fn rigid_at_a_pose() -> (MechanismModel, Vec<f64>, Vec<f64>) {
         let (g, mp) = (Geometry::default(), MassProperties::default());
         let model = mr2120_model(&g, &mp).unwrap();
