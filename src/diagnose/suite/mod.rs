@@ -182,6 +182,12 @@ impl SuiteOptions {
 }
 
 impl SuiteOptions {
+    /// Whether the suite runs the case named `case`: every case when [`only`](Self::only) is
+    /// empty, else those whose names contain one of its names.
+    pub fn runs(&self, case: &str) -> bool {
+        self.only.is_empty() || self.only.iter().any(|o| case.contains(o.as_str()))
+    }
+
     /// The reduced multibody run for CI: three 4 s recordings to fit, one held out, on the
     /// cases of [`multibody::REDUCED_CASES`].
     pub fn reduced() -> Self {
@@ -777,11 +783,7 @@ fn run_suite_dyn(
             cases: all.join(", "),
         });
     }
-    let chosen: Vec<(usize, &String)> = all
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| opts.only.is_empty() || opts.only.iter().any(|o| c.contains(o.as_str())))
-        .collect();
+    let chosen: Vec<(usize, &String)> = all.iter().enumerate().filter(|(_, c)| opts.runs(c)).collect();
     // Cases run side by side, one per core (each builds its own model), from a shared queue:
     // a worker that finishes takes the next case at once (in fixed batches the short cases
     // waited for the longest of their batch). Reports and results stay in case order.
